@@ -1,0 +1,97 @@
+#include "app/cli.h"
+
+#include <CLI/CLI.hpp>
+#include <exception>
+#include <functional>
+#include <iostream>
+
+#include "app/commands.h"
+#include "core/error.h"
+
+namespace curvecheck::app {
+namespace {
+
+constexpr int kExitFailure = 1;
+constexpr int kExitUsage = 2;
+
+// Subcommands whose work is tracked by an open issue: they parse, explain, and fail honestly.
+struct Planned {
+  const char* name;
+  const char* summary;
+  const char* issue;
+};
+constexpr Planned kPlanned[] = {
+    {"render", "render a corrected checkerboard/AprilTag pattern and its pattern.json ground truth",
+     "issue 3 (renderer)"},
+    {"capture", "photograph the pattern: synthetic ray-traced camera, webcam, DSLR, or a folder",
+     "issue 4 (capture)"},
+    {"calibrate", "calibrate the camera with mrcal from chessboard photos", "issue 5 (calibrate)"},
+    {"analyze", "detect, verify the correction, fit the screen model, write result.json",
+     "issue 6 (analysis)"},
+    {"bench", "speed against accuracy benchmarks", "issues 3 and 7"},
+    {"sweep", "stability sweeps over scene factors", "issue 7"},
+};
+
+}  // namespace
+
+int Main(int argc, char** argv) {
+  CLI::App app{"curvecheck: photogrammetric validation of curved (and flat) monitors", "curvecheck"};
+  app.require_subcommand(1);
+  app.fallthrough(false);
+
+  std::function<int()> run;
+
+  InfoOptions info;
+  CLI::App* info_cmd = app.add_subcommand(
+      "info", "Print a monitor's derived geometry and, from a viewpoint, its fields of view and pixel density");
+  info_cmd->add_option("--monitor,-m", info.monitor, "Monitor preset name, 'default', or a YAML/JSON spec file")
+      ->capture_default_str();
+  info_cmd->add_option("--viewpoint,-v", info.viewpoint,
+                       "Viewpoint x,y,z in mm in the screen frame (origin on the cylinder axis; the screen centre "
+                       "is at 0,0,-R; for a flat monitor the screen is z = 0)");
+  info_cmd->add_flag("--json", info.json, "Print JSON instead of text");
+  info_cmd->add_flag("--list-presets", info.list_presets, "List the monitor presets and exit");
+  info_cmd->callback([&] { run = [&] { return RunInfo(info); }; });
+
+  DemoOptions demo;
+  CLI::App* demo_cmd = app.add_subcommand(
+      "demo", "Run the pipeline on the embedded default (49\" 1000R monitor, camera 1.5 m in front): for now the "
+              "stages that exist");
+  demo_cmd->callback([&] { run = [&] { return RunDemo(demo); }; });
+
+  for (const Planned& p : kPlanned) {
+    CLI::App* cmd = app.add_subcommand(p.name, std::string(p.summary) + " [not implemented yet: " + p.issue + "]");
+    cmd->allow_extras();
+    cmd->callback([&, p] {
+      run = [p] {
+        std::cerr << "curvecheck " << p.name << ": not implemented yet (" << p.issue << "); nothing was done\n";
+        return kExitFailure;
+      };
+    });
+  }
+
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::CallForHelp& e) {
+    return app.exit(e);
+  } catch (const CLI::CallForAllHelp& e) {
+    return app.exit(e);
+  } catch (const CLI::CallForVersion& e) {
+    return app.exit(e);
+  } catch (const CLI::ParseError& e) {
+    std::cerr << "curvecheck: usage: " << e.what() << "; see 'curvecheck --help'\n";
+    return kExitUsage;
+  }
+
+  try {
+    return run ? run() : kExitUsage;
+  } catch (const Error& e) {
+    std::cerr << "curvecheck: error: " << e.what() << "\n";
+    return kExitFailure;
+  } catch (const std::exception& e) {
+    std::cerr << "curvecheck: internal error: " << e.what() << "; please report it with the command line\n";
+    return kExitFailure;
+  }
+}
+
+}  // namespace curvecheck::app

@@ -1,0 +1,21 @@
+// One function per subcommand. Each returns the process exit code (0 success, 1 failure) and throws
+// curvecheck::Error for failures that main() reports as one line.
+#pragma once
+
+#include <optional>
+#include <string>
+
+namespace curvecheck::app {
+
+struct InfoOptions {
+  std::string monitor = "default";  // preset name, "default", or YAML/JSON file
+  std::optional<std::string> viewpoint;  // "x,y,z" in mm, screen frame
+  bool json = false;                 // machine-readable output
+  bool list_presets = false;
+};
+int RunInfo(const InfoOptions& options);
+
+struct DemoOptions {};
+int RunDemo(const DemoOptions& options);
+
+}  // namespace curvecheck::app

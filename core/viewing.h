@@ -1,0 +1,27 @@
+// What a viewer at a given point sees of a monitor: fields of view and angular pixel density.
+#pragma once
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+
+#include "core/monitor.h"
+
+namespace curvecheck {
+
+struct ViewingGeometry {
+  double distance_to_centre_mm = 0;  // |viewpoint - screen centre|
+  double front_clearance_mm = 0;     // FrontClearanceMm: > 0 when every display point faces the viewer
+  // Horizontal field of view: the angle swept, about the vertical axis through the viewpoint, by the
+  // direction to the screen's horizontal centre line from the left to the right edge (can exceed 180 deg).
+  double horizontal_fov_deg = 0;
+  // Vertical field of view at the centre column: angle between the directions to its top and bottom ends.
+  double vertical_fov_deg = 0;
+  // Display pixels per degree of visual angle at the screen centre, across one pixel centred there.
+  double pixels_per_degree_horizontal = 0;
+  double pixels_per_degree_vertical = 0;
+};
+
+// Throws Error if the viewpoint is invalid (CheckViewpoint).
+ViewingGeometry DescribeViewing(const Monitor& m, const Eigen::Vector3d& viewpoint_in_screen);
+
+}  // namespace curvecheck

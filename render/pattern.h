@@ -38,7 +38,8 @@ struct PatternSpec {
   int rows = 5;
   // Square edge in mm on the plane. 0 = fit: the largest square (tag, for kAprilTag) for which the whole
   // pattern lies inside the part of the plane visible through the display from the viewpoint, with `margin`
-  // left free.
+  // left free. kBoth: a square is 12 cells and its tag 8 of them, so tag_mm = square_mm * 8/12; give either
+  // (both only if they agree).
   double square_mm = 0;
   // AprilTag grid (kAprilTag): tags across and down, ids first_tag_id, first_tag_id + 1, ... row-major from
   // the top left. tag_mm is the outer edge of the black border (8 cells of tag36h11); 0 = fit.
@@ -46,9 +47,13 @@ struct PatternSpec {
   int tag_rows = 3;
   int first_tag_id = 0;
   double tag_mm = 0;
-  // Gap between neighbouring tags' black borders, in cells of tag_mm/8 (>= 2 keeps each tag's white border).
+  // Gap between neighbouring tags' black borders, in cells of tag_mm/8; at least 2, so that every tag keeps
+  // its own 1-cell white border. The grid also has 2 white cells around it.
   int tag_gap_cells = 4;
-  // Fraction of the visible extent left free around a fitted pattern (each side), 0..0.9.
+  // Fraction of the display left free around a fitted pattern on each side, in display pixels: the outline
+  // of the whole cell grid must map into [-0.5 + margin Nx, Nx - 0.5 - margin Nx] x [-0.5 + margin Ny,
+  // Ny - 0.5 - margin Ny]. On a flat monitor with the tangent plane the fitted square is therefore
+  // min((1 - 2 margin) W / cols, (1 - 2 margin) H / rows). In [0, 0.9).
   double margin = 0.05;
   // Pattern centre in plane coordinates (mm).
   Eigen::Vector2d centre_mm = Eigen::Vector2d::Zero();

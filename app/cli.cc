@@ -6,6 +6,7 @@
 #include <iostream>
 
 #include "app/commands.h"
+#include "app/render_command.h"
 #include "core/error.h"
 
 namespace curvecheck::app {
@@ -21,8 +22,6 @@ struct Planned {
   const char* issue;
 };
 constexpr Planned kPlanned[] = {
-    {"render", "render a corrected checkerboard/AprilTag pattern and its pattern.json ground truth",
-     "issue 3 (renderer)"},
     {"capture", "photograph the pattern: synthetic ray-traced camera, webcam, DSLR, or a folder",
      "issue 4 (capture)"},
     {"calibrate", "calibrate the camera with mrcal from chessboard photos", "issue 5 (calibrate)"},
@@ -58,6 +57,8 @@ int Main(int argc, char** argv) {
       "demo", "Run the pipeline on the embedded default (49\" 1000R monitor, camera 1.5 m in front): for now the "
               "stages that exist");
   demo_cmd->callback([&] { run = [&] { return RunDemo(demo); }; });
+
+  AddRenderCommand(app, run);
 
   for (const Planned& p : kPlanned) {
     CLI::App* cmd = app.add_subcommand(p.name, std::string(p.summary) + " [not implemented yet: " + p.issue + "]");

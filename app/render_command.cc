@@ -1,0 +1,104 @@
+// `curvecheck render`: render a corrected pattern and write PATTERN.png + PATTERN.json (ground truth).
+#include "app/render_command.h"
+
+#include <fmt/format.h>
+
+#include <filesystem>
+#include <iostream>
+
+#include "app/render_options.h"
+#include "core/error.h"
+#include "core/file_io.h"
+#include "core/image_io.h"
+#include "render/mapping_error.h"
+#include "render/pattern_json.h"
+#include "render/renderer.h"
+
+namespace curvecheck::app {
+namespace {
+namespace fs = std::filesystem;
+
+struct RenderArgs {
+  SceneArgs scene;
+  MethodArgs method;
+  std::string output;
+  std::optional<std::string> error_map;
+  bool accuracy = false;
+};
+
+// Refuses to write over a file the command reads.
+void CheckNotAnInput(const fs::path& out, const RenderArgs& a) {
+  std::error_code ec;
+  for (const std::optional<std::string>& in : {std::optional<std::string>(a.scene.monitor), a.scene.pattern_file}) {
+    if (in && fs::exists(*in, ec) && fs::equivalent(*in, out, ec)) {
+      throw Error(out.string(), "is an input of this command", "choose another output path");
+    }
+  }
+}
+
+int RunRender(const RenderArgs& a) {
+  const fs::path png = a.output;
+  if (png.extension() != ".png") throw Error("-o", fmt::format("'{}' does not end in .png", a.output), "write e.g. -o out.png");
+  const fs::path json = fs::path(png).replace_extension(".json");
+  CheckNotAnInput(png, a);
+  CheckNotAnInput(json, a);
+  const Scene scene = ResolveScene(a.scene, Eigen::Vector3d(0, 0, 1500));
+  const RenderOptions options = ResolveMethod(a.method);
+  const Pattern pattern = BuildPattern(scene.spec, scene.monitor, scene.viewpoint_in_screen,
+                                       TangentPlaneAtCentre(scene.monitor));
+  Renderer renderer;
+  RenderTiming timing;
+  const GrayImage image = renderer.Render(scene.monitor, scene.viewpoint_in_screen, pattern, options, &timing);
+
+  nlohmann::json doc = PatternToJson(pattern, scene.monitor, scene.viewpoint_in_screen, options.method.ToJson());
+  doc["render"] = {{"device", renderer.device_name()},
+                   {"display_gamma", options.display_gamma},
+                   {"surround_code", options.surround_code},
+                   {"render_ms", timing.render_ms},
+                   {"setup_ms", renderer.setup_ms()},
+                   {"image", png.filename().string()},
+                   {"command", "curvecheck render"}};
+  if (a.accuracy || a.error_map) {
+    const CoordinateImage coords =
+        renderer.RenderCoordinates(scene.monitor, scene.viewpoint_in_screen, pattern, options);
+    const MappingError err = MeasureMappingError(scene.monitor, scene.viewpoint_in_screen, pattern, coords);
+    doc["mapping_error_px"] = {{"rms", err.rms_px}, {"p99", err.p99_px}, {"max", err.max_px},
+                               {"pixels", err.pixels}, {"missing_pixels", err.missing_pixels}};
+    std::cout << fmt::format("mapping error vs exact: rms {:.4f} px, p99 {:.4f} px, max {:.4f} px over {} px{}\n",
+                             err.rms_px, err.p99_px, err.max_px, err.pixels,
+                             err.missing_pixels ? fmt::format(" ({} px not drawn)", err.missing_pixels) : "");
+    if (a.error_map) {
+      WriteHeatmapPng(*a.error_map, scene.monitor.width_px, scene.monitor.height_px, err.map_px,
+                      std::max(1e-3, err.max_px));
+      std::cout << fmt::format("error map (0 .. {:.3g} px, viridis) -> {}\n", std::max(1e-3, err.max_px), *a.error_map);
+    }
+  }
+  WritePng8(png, image.width, image.height, 1, image.pixels.data());
+  WriteFileAtomic(json, doc.dump(1) + "\n");
+  int visible = 0;
+  for (const Feature& f : pattern.features) visible += f.visible ? 1 : 0;
+  std::cout << fmt::format("{}: {} on {} ({} x {} px), {} features ({} visible); rendered in {:.1f} ms on {} "
+                           "(set-up {:.1f} ms)\nwrote {} and {}\n",
+                           options.method.Label(), PatternKindName(pattern.spec.kind), scene.monitor.name,
+                           image.width, image.height, pattern.features.size(), visible, timing.render_ms,
+                           renderer.device_name(), renderer.setup_ms(), png.string(), json.string());
+  return 0;
+}
+
+}  // namespace
+
+void AddRenderCommand(CLI::App& app, std::function<int()>& run) {
+  auto args = std::make_shared<RenderArgs>();
+  CLI::App* cmd = app.add_subcommand(
+      "render", "Render a corrected checkerboard/AprilTag pattern: writes OUT.png and OUT.json (pattern.json ground "
+                "truth: every feature's 3D point and exact display position)");
+  AddSceneOptions(*cmd, args->scene, "1.5 m in front of the screen centre");
+  AddMethodOptions(*cmd, args->method);
+  cmd->add_option("-o,--output", args->output, "Output PNG (the JSON is written beside it)")->required();
+  cmd->add_flag("--accuracy", args->accuracy,
+                "Also render the method's plane coordinates and report its mapping error against the exact mapping");
+  cmd->add_option("--error-map", args->error_map, "Write the mapping error map (PNG heatmap); implies --accuracy");
+  cmd->callback([&run, args] { run = [args] { return RunRender(*args); }; });
+}
+
+}  // namespace curvecheck::app

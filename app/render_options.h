@@ -1,0 +1,56 @@
+// Command-line options shared by `render` and `bench render`: monitor, viewpoint, pattern, method.
+#pragma once
+
+#include <CLI/CLI.hpp>
+#include <Eigen/Core>
+#include <optional>
+#include <string>
+
+#include "core/monitor.h"
+#include "render/method.h"
+#include "render/pattern.h"
+#include "render/renderer.h"
+
+namespace curvecheck::app {
+
+struct SceneArgs {
+  std::string monitor = "default";
+  std::string viewpoint;  // "x,y,z"; empty = the command's default
+  std::string pattern = "checkerboard";
+  std::optional<std::string> pattern_file;
+  std::optional<std::string> squares, tags;  // "CxR"
+  std::optional<double> square_mm, tag_mm, margin;
+  std::optional<int> first_tag_id;
+};
+
+struct MethodArgs {
+  std::string method = "exact";
+  std::string aa = "analytic";  // analytic | ssN
+  double warp_scale = 1.0;
+  std::string warp_filter = "cubic";
+  std::string warp_grid = "0x0";  // CxR cells, 0x0 = per fragment
+  std::string mesh_subdivision = "extended";
+  double mesh_patch_px = 256;
+  int mesh_level = 16;
+  double mesh_tolerance_px = 0.05;
+  int strips = 32;
+  double gamma = 2.2;
+  int surround = 128;
+};
+
+void AddSceneOptions(CLI::App& cmd, SceneArgs& args, const std::string& default_viewpoint_help);
+void AddMethodOptions(CLI::App& cmd, MethodArgs& args);
+
+struct Scene {
+  Monitor monitor;
+  Eigen::Vector3d viewpoint_in_screen;
+  PatternSpec spec;
+};
+// Validates and resolves the scene; default_viewpoint_from_centre is used when --viewpoint is empty (an
+// offset from the screen centre, e.g. 0,0,1500). Throws Error naming the option at fault.
+Scene ResolveScene(const SceneArgs& args, const Eigen::Vector3d& default_viewpoint_from_centre);
+RenderOptions ResolveMethod(const MethodArgs& args);
+// "16x5" -> {16, 5}; throws Error naming the option.
+std::pair<int, int> ParseCount2(const std::string& text, const std::string& option);
+
+}  // namespace curvecheck::app

@@ -1,0 +1,27 @@
+// Image files. PNG only for outputs (lossless, 8 or 16 bit); reading accepts what OpenCV decodes. Outputs are
+// written atomically (encoded in memory, then WriteFileAtomic).
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <vector>
+
+namespace curvecheck {
+
+// Writes an 8-bit image with 1 (gray), 3 (BGR) or 4 (BGRA) channels, rows top to bottom, tightly packed.
+void WritePng8(const std::filesystem::path& path, int width, int height, int channels, const uint8_t* data);
+
+struct Image8 {
+  int width = 0, height = 0, channels = 0;
+  std::vector<uint8_t> pixels;  // rows top to bottom, tightly packed; BGR(A) order for colour
+};
+// Reads an image as 8-bit (16-bit files are scaled down). Throws Error naming the file if it is missing,
+// truncated or not an image.
+Image8 ReadImage8(const std::filesystem::path& path);
+
+// Colour-maps a float map (NaN = no data, drawn dark grey) on [0, max_value] with a perceptual colour scale
+// (OpenCV's viridis) and writes it as PNG; values above max_value saturate.
+void WriteHeatmapPng(const std::filesystem::path& path, int width, int height, const std::vector<float>& values,
+                     double max_value);
+
+}  // namespace curvecheck

@@ -427,6 +427,16 @@ void Transition(vk::raii::CommandBuffer& cmd, const Image& img, vk::ImageLayout 
 void CheckMethodApplies(const Monitor& m, const Eigen::Vector3d& viewpoint, const RenderOptions& o, bool tess) {
   CheckViewpoint(m, viewpoint, "viewpoint");
   if (o.method.method == Method::kWarp) MakeOffAxisFrustum(m, viewpoint);  // throws beyond 180 deg
+  // Thesis 4.3.1 (after Eq 4.8): the cylindrical clip mapping of the tessellation method does not support
+  // fields of view of 180 deg or more (viewpoints in front of the plane of the screen's corners).
+  if (o.method.method == Method::kMesh && (viewpoint - ScreenCentreInScreen(m)).z() <= m.sagitta_mm()) {
+    throw Error("viewpoint",
+                fmt::format("the viewpoint is {:.1f} mm in front of the screen centre, inside the plane of its corners "
+                            "({:.1f} mm): the field of view reaches 180 deg, which the mesh method's cylindrical "
+                            "projection cannot render (thesis 4.3.1)",
+                            (viewpoint - ScreenCentreInScreen(m)).z(), m.sagitta_mm()),
+                "use the exact or strips method");
+  }
   if (o.method.method == Method::kMesh && !tess) {
     throw Error("Vulkan", "the device has no tessellation shaders, which the mesh method needs",
                 "use another method or device");
@@ -478,12 +488,25 @@ std::vector<uint8_t> Renderer::Impl::Draw(const Monitor& m, const Eigen::Vector3
   uint32_t inter_w = 1, inter_h = 1;
   Eigen::Matrix4d warp_clip_from_centre = Eigen::Matrix4d::Identity();
   if (mo.method == Method::kWarp) {
+    // The first pass covers the frustum of thesis Eq 4.6 (extents per 4.2.2) plus a guard band of 2 texels on
+    // each side, so that the cubic filter's taps at the display's edges read rendered texels, not clamped ones.
     const OffAxisFrustum fr = MakeOffAxisFrustum(m, viewpoint);
-    Eigen::Matrix4d screen_from_centre = Eigen::Matrix4d::Identity();
-    screen_from_centre.block<3, 1>(0, 3) = centre;
-    warp_clip_from_centre = FlipY() * fr.clip_from_screen * screen_from_centre;
-    inter_w = static_cast<uint32_t>(std::lround(mo.warp_scale * m.width_px));
-    inter_h = static_cast<uint32_t>(std::lround(mo.warp_scale * m.height_px));
+    constexpr int kGuard = 2;
+    const uint32_t core_w = static_cast<uint32_t>(std::lround(mo.warp_scale * m.width_px));
+    const uint32_t core_h = static_cast<uint32_t>(std::lround(mo.warp_scale * m.height_px));
+    inter_w = core_w + 2 * kGuard;
+    inter_h = core_h + 2 * kGuard;
+    const double gx = kGuard * (fr.right_mm - fr.left_mm) / core_w, gy = kGuard * (fr.top_mm - fr.bottom_mm) / core_h;
+    const double l = fr.left_mm - gx, r = fr.right_mm + gx, b = fr.bottom_mm - gy, t = fr.top_mm + gy;
+    const double n = fr.near_mm, f = fr.far_mm;
+    Eigen::Matrix4d proj;  // thesis Eq 4.6 with the widened extents
+    proj << 2 * n / (r - l), 0, (r + l) / (r - l), 0,  //
+        0, 2 * n / (t - b), (t + b) / (t - b), 0,       //
+        0, 0, -f / (f - n), -(f * n) / (f - n),         //
+        0, 0, -1, 0;
+    Eigen::Matrix4d view = Eigen::Matrix4d::Identity();  // translation by -O, in the centre frame
+    view.block<3, 1>(0, 3) = -eye;
+    warp_clip_from_centre = FlipY() * proj * view;
     params.warp[0] = static_cast<float>(inter_w);
     params.warp[1] = static_cast<float>(inter_h);
   }

@@ -6,6 +6,7 @@
 #include <iostream>
 
 #include "app/commands.h"
+#include "app/bench_command.h"
 #include "app/render_command.h"
 #include "core/error.h"
 
@@ -27,7 +28,6 @@ constexpr Planned kPlanned[] = {
     {"calibrate", "calibrate the camera with mrcal from chessboard photos", "issue 5 (calibrate)"},
     {"analyze", "detect, verify the correction, fit the screen model, write result.json",
      "issue 6 (analysis)"},
-    {"bench", "speed against accuracy benchmarks", "issues 3 and 7"},
     {"sweep", "stability sweeps over scene factors", "issue 7"},
 };
 
@@ -55,10 +55,12 @@ int Main(int argc, char** argv) {
   DemoOptions demo;
   CLI::App* demo_cmd = app.add_subcommand(
       "demo", "Run the pipeline on the embedded default (49\" 1000R monitor, camera 1.5 m in front): for now the "
-              "stages that exist");
+              "stages that exist (geometry, render)");
+  demo_cmd->add_option("-o,--output", demo.output_dir, "Output folder")->capture_default_str();
   demo_cmd->callback([&] { run = [&] { return RunDemo(demo); }; });
 
   AddRenderCommand(app, run);
+  AddBenchCommand(app, run);
 
   for (const Planned& p : kPlanned) {
     CLI::App* cmd = app.add_subcommand(p.name, std::string(p.summary) + " [not implemented yet: " + p.issue + "]");

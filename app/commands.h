@@ -15,7 +15,9 @@ struct InfoOptions {
 };
 int RunInfo(const InfoOptions& options);
 
-struct DemoOptions {};
+struct DemoOptions {
+  std::string output_dir = "curvecheck-demo";  // where the demo writes its outputs
+};
 int RunDemo(const DemoOptions& options);
 
 }  // namespace curvecheck::app

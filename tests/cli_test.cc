@@ -165,7 +165,7 @@ TEST_F(Cli, BadViewpoints) {
 }
 
 TEST_F(Cli, PlannedSubcommandsFailHonestly) {
-  for (const char* sub : {"capture", "calibrate", "analyze", "bench", "sweep"}) {
+  for (const char* sub : {"capture", "calibrate", "analyze", "sweep"}) {
     const CliRun r = Curvecheck({sub, "--monitor", "default"});
     ExpectFailure(r, {"not implemented yet", "nothing was done"});
     EXPECT_THAT(r.out, Not(HasSubstr("written")));
@@ -173,10 +173,94 @@ TEST_F(Cli, PlannedSubcommandsFailHonestly) {
 }
 
 TEST_F(Cli, DemoRunsWhatExists) {
-  const CliRun r = Curvecheck({"demo"});
+  const CliRun r = Curvecheck({"demo", "-o", (dir_ / "demo").string()});
   ASSERT_EQ(r.code, 0) << r.err;
   EXPECT_THAT(r.out, AllOf(HasSubstr("geometry self-check"), HasSubstr("not yet available"),
-                           HasSubstr("no files were written")));
+                           HasSubstr("mapping error max")));
+  for (const char* f : {"checkerboard.png", "checkerboard.json", "apriltag.png", "apriltag.json"}) {
+    EXPECT_TRUE(fs::exists(dir_ / "demo" / f)) << f;
+  }
+}
+
+}  // namespace
+
+namespace {
+
+// `curvecheck render` writes the PNG and the pattern.json for every method and both pattern kinds; the
+// features' display positions in the JSON agree with the geometry (checked in render/ tests) and the image has
+// the display's size.
+TEST_F(Cli, RenderEveryMethodAndPattern) {
+  for (const char* pattern : {"checkerboard", "apriltag", "both"}) {
+    for (const char* method : {"exact", "warp", "mesh", "strips", "none"}) {
+      SCOPED_TRACE(std::string(pattern) + " " + method);
+      const std::string out = (dir_ / (std::string(pattern) + "_" + method + ".png")).string();
+      const CliRun r = Curvecheck({"render", "--monitor", "34in-3440x1440-1900r", "--viewpoint", "0,0,-1000",
+                                   "--pattern", pattern, "--method", method, "-o", out});
+      ASSERT_EQ(r.code, 0) << r.err;
+      ASSERT_TRUE(fs::exists(out));
+      const fs::path json = fs::path(out).replace_extension(".json");
+      const nlohmann::json j = nlohmann::json::parse(Slurp(json));
+      EXPECT_EQ(j["format"], "curvecheck.pattern/1");
+      EXPECT_EQ(j["method"], method);
+      EXPECT_EQ(j["monitor"]["resolution"][0], 3440);
+      EXPECT_GT(j["features"].size(), 10u);
+      EXPECT_THAT(Slurp(out).substr(1, 3), ::testing::Eq("PNG"));
+    }
+  }
+}
+
+TEST_F(Cli, RenderAccuracyReportsMappingError) {
+  const std::string out = (dir_ / "strips.png").string();
+  const CliRun r = Curvecheck({"render", "--monitor", "34in-3440x1440-1900r", "--viewpoint", "0,0,-1300", "--method",
+                               "strips", "--strips", "16", "-o", out, "--error-map", (dir_ / "err.png").string()});
+  ASSERT_EQ(r.code, 0) << r.err;
+  const nlohmann::json j = nlohmann::json::parse(Slurp(fs::path(out).replace_extension(".json")));
+  const double max_px = j["mapping_error_px"]["max"].get<double>();
+  EXPECT_GT(max_px, 0.01);  // 16 strips on a 1900R panel: visibly approximate...
+  EXPECT_LT(max_px, 1.0);   // ...but within a pixel
+  EXPECT_TRUE(fs::exists(dir_ / "err.png"));
+}
+
+TEST_F(Cli, RenderBadInput) {
+  ExpectFailure(Curvecheck({"render", "--method", "magic", "-o", (dir_ / "x.png").string()}),
+                {"--method", "unknown method 'magic'"});
+  ExpectFailure(Curvecheck({"render", "-o", (dir_ / "x.jpg").string()}), {"does not end in .png"});
+  ExpectFailure(Curvecheck({"render", "--viewpoint", "0,0,-1500", "-o", (dir_ / "x.png").string()}),
+                {"--viewpoint", "on or behind the screen"});
+  ExpectFailure(Curvecheck({"render", "--method", "warp", "--viewpoint", "0,0,-900", "-o", (dir_ / "x.png").string()}),
+                {"180 deg"});
+  ExpectFailure(Curvecheck({"render", "--squares", "16by5", "-o", (dir_ / "x.png").string()}),
+                {"--squares", "not of the form CxR"});
+  ExpectFailure(Curvecheck({"render", "-o", (dir_ / "missing-folder" / "x.png").string()}), {"does not exist"});
+  EXPECT_FALSE(fs::exists(dir_ / "x.png"));
+  // The output may not overwrite an input.
+  const std::string monitor = Write("mon.png", "resolution: [1280, 720]\ndiagonal_in: 27\nradius_mm: flat\n");
+  ExpectFailure(Curvecheck({"render", "--monitor", monitor, "-o", monitor}), {"is an input of this command"});
+  EXPECT_THAT(Slurp(monitor), HasSubstr("radius_mm: flat"));
+}
+
+TEST_F(Cli, RenderWithoutVulkanDriverIsAClearError) {
+  const std::string cmd = "VK_DRIVER_FILES=/nonexistent/icd.json VK_ICD_FILENAMES=/nonexistent/icd.json " +
+                          Quote(CURVECHECK_BINARY) + " render -o " + Quote((dir_ / "x.png").string()) + " 2>" +
+                          Quote((dir_ / "err").string());
+  const int status = std::system(cmd.c_str());
+  EXPECT_EQ(WEXITSTATUS(status), 1);
+  const std::string err = Slurp(dir_ / "err");
+  EXPECT_THAT(err, HasSubstr("Vulkan"));
+  EXPECT_THAT(err, HasSubstr("install mesa-vulkan-drivers"));
+  EXPECT_FALSE(fs::exists(dir_ / "x.png"));
+}
+
+TEST_F(Cli, BenchRenderWritesCsvAndChart) {
+  const CliRun r = Curvecheck({"bench", "render", "--quick", "--runs", "1", "--monitor", "27in-2560x1440-flat",
+                               "--viewpoint", "0,0,600", "-o", (dir_ / "bench").string()});
+  ASSERT_EQ(r.code, 0) << r.err;
+  const std::string csv = Slurp(dir_ / "bench" / "render_bench.csv");
+  EXPECT_THAT(csv, HasSubstr("method,setting,median_ms"));
+  EXPECT_THAT(csv, HasSubstr("exact,\"exact analytic\""));
+  EXPECT_THAT(csv, HasSubstr(",1\n"));  // at least one Pareto point
+  EXPECT_TRUE(fs::exists(dir_ / "bench" / "render_bench.png"));
+  EXPECT_THAT(r.out, HasSubstr("Pareto front"));
 }
 
 }  // namespace

@@ -4,20 +4,14 @@
 #include <gtest/gtest.h>
 
 #include "core/error.h"
+#include "core/test_util.h"
 
 namespace curvecheck {
 namespace {
 
 using ::testing::HasSubstr;
 
-std::string MessageOf(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const Error& e) {
-    return e.what();
-  }
-  return "(no error)";
-}
+using testing::MessageOf;
 
 TEST(Config, NestedKeysAreNamedWithTheirPath) {
   const ConfigMap c = ConfigMap::Parse("camera:\n  pose:\n    distance_mm: -3\n", "scene.yaml");

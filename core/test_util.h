@@ -4,9 +4,23 @@
 #include <gmock/gmock.h>
 
 #include <Eigen/Core>
+#include <functional>
 #include <sstream>
+#include <string>
+
+#include "core/error.h"
 
 namespace curvecheck::testing {
+
+// The message of the curvecheck::Error that f throws, or "(no error)".
+inline std::string MessageOf(const std::function<void()>& f) {
+  try {
+    f();
+  } catch (const Error& e) {
+    return e.what();
+  }
+  return "(no error)";
+}
 
 // Matches an Eigen vector or matrix whose largest absolute element difference from `expected` is <= tol.
 MATCHER_P2(EigenNear, expected, tol, "") {

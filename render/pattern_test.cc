@@ -31,14 +31,7 @@ Monitor Flat27() { return MonitorFromDiagonal("27", 2560, 1440, 27, 0); }
 const Eigen::Vector3d kCentred(0, 0, 500);      // on the axis, 1.5 m in front of the 1000R screen centre
 const Eigen::Vector3d kOffAxis(350, 120, 150);  // inside the cylinder, right of and above the centre
 
-std::string MessageOf(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const Error& e) {
-    return e.what();
-  }
-  return "(no error)";
-}
+using testing::MessageOf;
 
 // How far the outline of the cell grid stays inside the margin rectangle of the display, in display pixels:
 // the smallest distance over `samples_per_edge` points per edge. 0 = touching, negative = crossing.

@@ -6,6 +6,7 @@
 #include <iostream>
 
 #include "app/commands.h"
+#include "app/present_command.h"
 #include "core/error.h"
 
 namespace curvecheck::app {
@@ -58,6 +59,9 @@ int Main(int argc, char** argv) {
       "demo", "Run the pipeline on the embedded default (49\" 1000R monitor, camera 1.5 m in front): for now the "
               "stages that exist");
   demo_cmd->callback([&] { run = [&] { return RunDemo(demo); }; });
+
+  // `present` (issue 3 item 8): the fullscreen presenter; app/present_command.cc.
+  AddPresentCommand(app, run);
 
   for (const Planned& p : kPlanned) {
     CLI::App* cmd = app.add_subcommand(p.name, std::string(p.summary) + " [not implemented yet: " + p.issue + "]");

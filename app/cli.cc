@@ -5,8 +5,9 @@
 #include <functional>
 #include <iostream>
 
-#include "app/commands.h"
 #include "app/bench_command.h"
+#include "app/commands.h"
+#include "app/present_command.h"
 #include "app/render_command.h"
 #include "core/error.h"
 
@@ -61,6 +62,8 @@ int Main(int argc, char** argv) {
 
   AddRenderCommand(app, run);
   AddBenchCommand(app, run);
+  // `present` (issue 3 item 8): the fullscreen presenter; app/present_command.cc.
+  AddPresentCommand(app, run);
 
   for (const Planned& p : kPlanned) {
     CLI::App* cmd = app.add_subcommand(p.name, std::string(p.summary) + " [not implemented yet: " + p.issue + "]");

@@ -6,6 +6,7 @@
 #include <filesystem>
 #include <iostream>
 
+#include "app/present_command.h"
 #include "app/render_options.h"
 #include "core/error.h"
 #include "core/file_io.h"
@@ -24,6 +25,9 @@ struct RenderArgs {
   std::string output;
   std::optional<std::string> error_map;
   bool accuracy = false;
+  bool present = false;  // then show the PNG fullscreen on output `display` (app/present_command.h)
+  int display = 0;
+  std::optional<int> hold_ms;
 };
 
 // Refuses to write over a file the command reads.
@@ -82,6 +86,13 @@ int RunRender(const RenderArgs& a) {
                            options.method.Label(), PatternKindName(pattern.spec.kind), scene.monitor.name,
                            image.width, image.height, pattern.features.size(), visible, timing.render_ms,
                            renderer.device_name(), renderer.setup_ms(), png.string(), json.string());
+  if (a.present) {
+    PresenterOptions present;
+    present.display = a.display;
+    present.images = {png};
+    present.hold_ms = a.hold_ms;
+    return RunPresent(present);
+  }
   return 0;
 }
 
@@ -98,6 +109,10 @@ void AddRenderCommand(CLI::App& app, std::function<int()>& run) {
   cmd->add_flag("--accuracy", args->accuracy,
                 "Also render the method's plane coordinates and report its mapping error against the exact mapping");
   cmd->add_option("--error-map", args->error_map, "Write the mapping error map (PNG heatmap); implies --accuracy");
+  cmd->add_flag("--present", args->present,
+                "Then show the PNG fullscreen, pixel for pixel, on output --display (see `curvecheck present`)");
+  cmd->add_option("--display", args->display, "Output for --present (0 = primary)")->capture_default_str();
+  cmd->add_option("--hold-ms", args->hold_ms, "With --present: show for this long, then exit");
   cmd->callback([&run, args] { run = [args] { return RunRender(*args); }; });
 }
 

@@ -1,0 +1,773 @@
+// GLFW + Vulkan implementation of the presenter (render/presenter.h). Each image is copied byte for byte from a
+// host-visible buffer into the acquired swapchain image with vkCmdCopyBufferToImage (no sampler, no blit, no
+// scaling) and presented. Every Vulkan call is checked: Vulkan-Hpp's RAII wrappers throw vk::SystemError on any
+// failing VkResult, which is turned into curvecheck::Error here.
+#include "render/presenter.h"
+
+#include <fmt/format.h>
+#include <unistd.h>
+
+#include <array>
+#include <atomic>
+#include <chrono>
+#include <csignal>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <deque>
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <vulkan/vulkan_raii.hpp>
+
+#include "core/error.h"
+#include "core/file_io.h"
+#define GLFW_INCLUDE_NONE
+#include <GLFW/glfw3.h>
+// Last: Xlib's macros (None, Success, Bool, ...) must not reach the headers above.
+#include <X11/Xlib.h>
+
+// From GLFW/glfw3native.h, declared here because that header also needs X11/extensions/Xrandr.h (libxrandr-dev)
+// for declarations we do not use. Weak, so that a GLFW built for Wayland only (no such function) still links and
+// the X11 round trip is skipped there.
+extern "C" __attribute__((weak)) Display* glfwGetX11Display(void);
+
+namespace curvecheck {
+namespace {
+
+namespace fs = std::filesystem;
+using Clock = std::chrono::steady_clock;
+
+constexpr uint64_t kVulkanTimeoutNs = 10'000'000'000;  // a present or copy that takes longer is an error
+constexpr double kPollSeconds = 0.01;                  // event wait granularity (signals are polled)
+constexpr double kWindowSettleSeconds = 2.0;           // time a window manager gets to place the window
+
+// ---------------------------------------------------------------------------------------------------------------
+// Signals: only flags are touched in the handlers; the event loop polls them.
+
+std::atomic<int> g_next_requests{0};
+std::atomic<bool> g_quit_requested{false};
+static_assert(std::atomic<int>::is_always_lock_free && std::atomic<bool>::is_always_lock_free,
+              "signal handlers need lock-free atomics");
+
+extern "C" void OnNextSignal(int) { g_next_requests.fetch_add(1); }
+extern "C" void OnQuitSignal(int) { g_quit_requested.store(true); }
+
+// Installs the presenter's handlers for SIGUSR1, SIGTERM and SIGINT; restores the previous ones when destroyed.
+class SignalScope {
+ public:
+  SignalScope() {
+    g_next_requests.store(0);
+    g_quit_requested.store(false);
+    Install(SIGUSR1, OnNextSignal, 0);
+    Install(SIGTERM, OnQuitSignal, 1);
+    Install(SIGINT, OnQuitSignal, 2);
+  }
+  ~SignalScope() {
+    for (int i = 0; i < 3; ++i) {
+      if (installed_[i]) sigaction(signals_[i], &previous_[i], nullptr);
+    }
+  }
+  SignalScope(const SignalScope&) = delete;
+  SignalScope& operator=(const SignalScope&) = delete;
+
+ private:
+  void Install(int signal, void (*handler)(int), int slot) {
+    struct sigaction action {};
+    action.sa_handler = handler;
+    sigemptyset(&action.sa_mask);
+    signals_[slot] = signal;
+    installed_[slot] = sigaction(signal, &action, &previous_[slot]) == 0;
+  }
+  std::array<int, 3> signals_{};
+  std::array<struct sigaction, 3> previous_{};
+  std::array<bool, 3> installed_{};
+};
+
+// ---------------------------------------------------------------------------------------------------------------
+// Images.
+
+// libpng (inside OpenCV) prints its errors to stderr; they are captured so that the one-line Error carries them
+// and nothing else reaches the terminal. Redirects the process-wide stderr for its lifetime.
+class StderrCapture {
+ public:
+  StderrCapture() {
+    std::fflush(stderr);
+    file_ = std::tmpfile();
+    saved_fd_ = file_ ? ::dup(STDERR_FILENO) : -1;
+    if (saved_fd_ >= 0 && ::dup2(::fileno(file_), STDERR_FILENO) < 0) {
+      ::close(saved_fd_);
+      saved_fd_ = -1;
+    }
+  }
+  ~StderrCapture() {
+    Restore();
+    if (file_) std::fclose(file_);
+  }
+  StderrCapture(const StderrCapture&) = delete;
+  StderrCapture& operator=(const StderrCapture&) = delete;
+
+  // Stops capturing; returns what was written, on one line.
+  std::string Finish() {
+    Restore();
+    std::string text;
+    if (!file_) return text;
+    std::rewind(file_);
+    char buffer[512];
+    size_t n = 0;
+    while ((n = std::fread(buffer, 1, sizeof(buffer), file_)) > 0) text.append(buffer, n);
+    std::string line;
+    for (char c : text) {
+      if (c == '\n' || c == '\r') {
+        if (!line.empty() && line.back() != ' ') line += "; ";
+      } else {
+        line += c;
+      }
+    }
+    while (!line.empty() && (line.back() == ' ' || line.back() == ';')) line.pop_back();
+    return line;
+  }
+
+ private:
+  void Restore() {
+    if (saved_fd_ < 0) return;
+    std::fflush(stderr);
+    ::dup2(saved_fd_, STDERR_FILENO);
+    ::close(saved_fd_);
+    saved_fd_ = -1;
+  }
+  std::FILE* file_ = nullptr;
+  int saved_fd_ = -1;
+};
+
+struct LoadedImage {
+  fs::path path;
+  cv::Mat pixels;  // CV_8UC1 (gray), CV_8UC3 (BGR) or CV_8UC4 (BGRA), as decoded
+};
+
+LoadedImage LoadImage(const fs::path& path) {
+  const std::string bytes = ReadFileToString(path);
+  const std::string fix = "the presenter shows 8-bit PNG images (gray, RGB or RGBA); re-render or re-export it";
+  if (bytes.empty()) throw Error(path.string(), "the file is empty", fix);
+  cv::Mat decoded;
+  std::string messages;
+  {
+    StderrCapture capture;
+    try {
+      const cv::Mat encoded(1, static_cast<int>(bytes.size()), CV_8U, const_cast<char*>(bytes.data()));
+      decoded = cv::imdecode(encoded, cv::IMREAD_UNCHANGED);
+    } catch (const cv::Exception& e) {
+      messages = e.err;
+    }
+    const std::string printed = capture.Finish();
+    if (!printed.empty()) messages += (messages.empty() ? "" : "; ") + printed;
+  }
+  if (decoded.empty()) {
+    throw Error(path.string(),
+                "cannot decode the image: corrupt, truncated or not an image" +
+                    (messages.empty() ? std::string() : " (" + messages + ")"),
+                fix);
+  }
+  if (decoded.depth() != CV_8U) {
+    throw Error(path.string(), fmt::format("the image has {}-bit samples", decoded.elemSize1() * 8),
+                "the presenter shows 8-bit code values unchanged; write the pattern as an 8-bit PNG");
+  }
+  if (decoded.channels() != 1 && decoded.channels() != 3 && decoded.channels() != 4) {
+    throw Error(path.string(), fmt::format("the image has {} channels", decoded.channels()), fix);
+  }
+  return {path, decoded};
+}
+
+// Writes the image as 4 bytes per pixel, tightly packed rows, in the swapchain's byte order: B, G, R, x when
+// bgra, else R, G, B, x. Code values are copied, never changed; the fourth byte is 255 (alpha is ignored).
+void PackPixels(const cv::Mat& image, bool bgra, uint8_t* out) {
+  const int channels = image.channels();
+  for (int y = 0; y < image.rows; ++y) {
+    const uint8_t* row = image.ptr<uint8_t>(y);
+    for (int x = 0; x < image.cols; ++x, out += 4) {
+      const uint8_t* px = row + static_cast<ptrdiff_t>(x) * channels;
+      uint8_t b = px[0], g = px[0], r = px[0];  // gray
+      if (channels >= 3) b = px[0], g = px[1], r = px[2];  // OpenCV order: B, G, R(, A)
+      out[0] = bgra ? b : r;
+      out[1] = g;
+      out[2] = bgra ? r : b;
+      out[3] = 255;
+    }
+  }
+}
+
+// ---------------------------------------------------------------------------------------------------------------
+// GLFW.
+
+std::string& GlfwLastError() {
+  static std::string message;
+  return message;
+}
+
+extern "C" void OnGlfwError(int code, const char* description) {
+  GlfwLastError() = fmt::format("{} (GLFW error 0x{:x})", description ? description : "?", code);
+}
+
+class GlfwSession {
+ public:
+  GlfwSession() {
+    GlfwLastError().clear();
+    glfwSetErrorCallback(OnGlfwError);
+    if (!glfwInit()) {
+      glfwSetErrorCallback(nullptr);
+      throw Error("", "no display: GLFW cannot open one (" + GlfwLastError() + ")",
+                  "run under X11 or Wayland (XWayland), or headless under Xvfb "
+                  "(e.g. xvfb-run -s '-screen 0 1920x1080x24' curvecheck present ...)");
+    }
+  }
+  ~GlfwSession() {
+    glfwTerminate();
+    glfwSetErrorCallback(nullptr);
+  }
+  GlfwSession(const GlfwSession&) = delete;
+  GlfwSession& operator=(const GlfwSession&) = delete;
+};
+
+std::string DescribeMonitor(GLFWmonitor* monitor, int index) {
+  int x = 0, y = 0;
+  glfwGetMonitorPos(monitor, &x, &y);
+  const GLFWvidmode* mode = glfwGetVideoMode(monitor);
+  const char* name = glfwGetMonitorName(monitor);
+  std::string text = fmt::format("{} '{}' at ({}, {})", index, name ? name : "?", x, y);
+  if (!mode) return text + " without a video mode";
+  text += fmt::format(" {}x{}", mode->width, mode->height);
+  if (mode->refreshRate > 0) text += fmt::format(" {} Hz", mode->refreshRate);
+  return text;
+}
+
+// What the event loop is asked to do, in order of arrival.
+enum class Action { kNext, kPrevious, kQuit };
+
+struct WindowState {
+  std::deque<Action> actions;
+  bool needs_redraw = false;  // the window system lost the window's contents (expose)
+};
+
+extern "C" void OnKey(GLFWwindow* window, int key, int /*scancode*/, int action, int /*mods*/) {
+  if (action != GLFW_PRESS) return;  // one step per press, not per auto-repeat
+  auto* state = static_cast<WindowState*>(glfwGetWindowUserPointer(window));
+  switch (key) {
+    case GLFW_KEY_SPACE:
+    case GLFW_KEY_RIGHT:
+    case GLFW_KEY_N: state->actions.push_back(Action::kNext); break;
+    case GLFW_KEY_LEFT:
+    case GLFW_KEY_P: state->actions.push_back(Action::kPrevious); break;
+    case GLFW_KEY_ESCAPE:
+    case GLFW_KEY_Q: state->actions.push_back(Action::kQuit); break;
+    default: break;
+  }
+}
+
+extern "C" void OnRefresh(GLFWwindow* window) {
+  static_cast<WindowState*>(glfwGetWindowUserPointer(window))->needs_redraw = true;
+}
+
+struct WindowDeleter {
+  void operator()(GLFWwindow* w) const { glfwDestroyWindow(w); }
+};
+using WindowPtr = std::unique_ptr<GLFWwindow, WindowDeleter>;
+
+// ---------------------------------------------------------------------------------------------------------------
+// Vulkan.
+
+std::string Join(const std::vector<std::string>& parts) {
+  std::string out;
+  for (const std::string& p : parts) out += (out.empty() ? "" : ", ") + p;
+  return out;
+}
+
+struct Presentation {
+  vk::raii::Context context;
+  vk::raii::Instance instance{nullptr};
+  vk::raii::SurfaceKHR surface{nullptr};
+  vk::raii::PhysicalDevice physical{nullptr};
+  std::string device_name;
+  uint32_t queue_family = 0;
+  vk::raii::Device device{nullptr};
+  vk::raii::Queue queue{nullptr};
+  vk::SurfaceFormatKHR format;
+  vk::raii::SwapchainKHR swapchain{nullptr};
+  std::vector<vk::Image> swapchain_images;
+  std::vector<vk::raii::Semaphore> copied;  // per swapchain image: the copy is done, present may read
+  vk::raii::Semaphore acquired{nullptr};
+  vk::raii::Fence copy_done{nullptr};
+  vk::raii::CommandPool pool{nullptr};
+  vk::raii::CommandBuffer cmd{nullptr};
+  vk::raii::Buffer staging{nullptr};
+  vk::raii::DeviceMemory staging_memory{nullptr};
+  uint8_t* staging_bytes = nullptr;
+  uint32_t width = 0, height = 0;
+
+  Presentation(GLFWwindow* window, uint32_t image_width, uint32_t image_height);
+  ~Presentation();
+  Presentation(const Presentation&) = delete;
+  Presentation& operator=(const Presentation&) = delete;
+
+  bool bgra() const { return format.format == vk::Format::eB8G8R8A8Unorm; }
+  void CheckSurfaceExtent() const;
+  void CreateSwapchain();
+  // Copies the staging buffer to the screen; returns when the present has returned and the queue is idle.
+  void Present();
+};
+
+Presentation::Presentation(GLFWwindow* window, uint32_t image_width, uint32_t image_height)
+    : width(image_width), height(image_height) {
+  uint32_t extension_count = 0;
+  const char** extensions = glfwGetRequiredInstanceExtensions(&extension_count);
+  if (!extensions) {
+    throw Error("Vulkan", "the Vulkan loader has no window-system surface support (" + GlfwLastError() + ")",
+                "install libvulkan1 and a driver with window-system support (mesa-vulkan-drivers for lavapipe)");
+  }
+  const vk::ApplicationInfo app("curvecheck present", 1, "curvecheck", 1, VK_API_VERSION_1_1);
+  instance = vk::raii::Instance(context, vk::InstanceCreateInfo({}, &app, 0, nullptr, extension_count, extensions));
+
+  VkSurfaceKHR raw_surface = VK_NULL_HANDLE;
+  const VkResult surface_result = glfwCreateWindowSurface(*instance, window, nullptr, &raw_surface);
+  if (surface_result != VK_SUCCESS) {
+    throw Error("Vulkan",
+                fmt::format("cannot create a Vulkan surface for the window ({}; {})",
+                            vk::to_string(static_cast<vk::Result>(surface_result)), GlfwLastError()),
+                "install a Vulkan driver with window-system support (mesa-vulkan-drivers for lavapipe)");
+  }
+  surface = vk::raii::SurfaceKHR(instance, raw_surface);
+
+  // Device: one that can present to this surface and has VK_KHR_swapchain; discrete GPU first.
+  // CURVECHECK_VULKAN_DEVICE (a substring of the device name) restricts the choice, as for the renderer.
+  const char* wanted = std::getenv("CURVECHECK_VULKAN_DEVICE");
+  vk::raii::PhysicalDevices devices(instance);
+  int best = -1, best_score = -1;
+  uint32_t best_family = 0;
+  std::vector<std::string> rejected;
+  for (size_t i = 0; i < devices.size(); ++i) {
+    const vk::PhysicalDeviceProperties props = devices[i].getProperties();
+    const std::string name = props.deviceName.data();
+    if (wanted && name.find(wanted) == std::string::npos) {
+      rejected.push_back(name + ": not CURVECHECK_VULKAN_DEVICE");
+      continue;
+    }
+    bool has_swapchain = false;
+    for (const vk::ExtensionProperties& e : devices[i].enumerateDeviceExtensionProperties()) {
+      has_swapchain = has_swapchain || std::strcmp(e.extensionName.data(), VK_KHR_SWAPCHAIN_EXTENSION_NAME) == 0;
+    }
+    if (!has_swapchain) {
+      rejected.push_back(name + ": no VK_KHR_swapchain");
+      continue;
+    }
+    const auto families = devices[i].getQueueFamilyProperties();
+    const vk::QueueFlags copy_capable =
+        vk::QueueFlagBits::eGraphics | vk::QueueFlagBits::eCompute | vk::QueueFlagBits::eTransfer;
+    int family = -1;
+    for (uint32_t f = 0; f < families.size() && family < 0; ++f) {
+      if ((families[f].queueFlags & copy_capable) && devices[i].getSurfaceSupportKHR(f, *surface)) {
+        family = static_cast<int>(f);
+      }
+    }
+    if (family < 0) {
+      rejected.push_back(name + ": cannot present to this window");
+      continue;
+    }
+    const int score = props.deviceType == vk::PhysicalDeviceType::eDiscreteGpu     ? 3
+                      : props.deviceType == vk::PhysicalDeviceType::eIntegratedGpu ? 2
+                                                                                    : 1;
+    if (score > best_score) best = static_cast<int>(i), best_score = score, best_family = static_cast<uint32_t>(family);
+  }
+  if (best < 0) {
+    throw Error("Vulkan",
+                "no Vulkan device can present to the window" +
+                    (rejected.empty() ? std::string(" (the loader found none)") : " (" + Join(rejected) + ")"),
+                "install the Vulkan driver of the GPU that drives this output, or mesa-vulkan-drivers (lavapipe)");
+  }
+  physical = std::move(devices[static_cast<size_t>(best)]);
+  device_name = physical.getProperties().deviceName.data();
+  queue_family = best_family;
+
+  const float priority = 1.0f;
+  const vk::DeviceQueueCreateInfo queue_info({}, queue_family, 1, &priority);
+  const std::array<const char*, 1> device_extensions = {VK_KHR_SWAPCHAIN_EXTENSION_NAME};
+  device = vk::raii::Device(physical, vk::DeviceCreateInfo({}, queue_info, {}, device_extensions));
+  queue = device.getQueue(queue_family, 0);
+
+  // Format: 8-bit UNORM, so that code values are stored and scanned out unchanged (an SRGB format would encode
+  // them). The colour space SRGB_NONLINEAR says the values are already display-encoded: no conversion.
+  const std::vector<vk::SurfaceFormatKHR> formats = physical.getSurfaceFormatsKHR(*surface);
+  bool found = false;
+  for (vk::Format wanted_format : {vk::Format::eB8G8R8A8Unorm, vk::Format::eR8G8B8A8Unorm}) {
+    for (const vk::SurfaceFormatKHR& f : formats) {
+      if (!found && f.format == wanted_format && f.colorSpace == vk::ColorSpaceKHR::eSrgbNonlinear) {
+        format = f;
+        found = true;
+      }
+    }
+  }
+  if (!found && formats.size() == 1 && formats[0].format == vk::Format::eUndefined) {
+    format = vk::SurfaceFormatKHR(vk::Format::eB8G8R8A8Unorm, vk::ColorSpaceKHR::eSrgbNonlinear);
+    found = true;
+  }
+  if (!found) {
+    std::vector<std::string> names;
+    for (const vk::SurfaceFormatKHR& f : formats) {
+      names.push_back(vk::to_string(f.format) + "/" + vk::to_string(f.colorSpace));
+    }
+    throw Error("Vulkan",
+                fmt::format("{} offers no B8G8R8A8_UNORM or R8G8B8A8_UNORM swapchain format for this output (only {})",
+                            device_name, Join(names)),
+                "set the output to 8 bits per channel (24-bit colour depth); 10-bit outputs are not supported");
+  }
+
+  pool = vk::raii::CommandPool(device, {vk::CommandPoolCreateFlagBits::eResetCommandBuffer, queue_family});
+  cmd = std::move(vk::raii::CommandBuffers(device, {*pool, vk::CommandBufferLevel::ePrimary, 1}).front());
+  acquired = vk::raii::Semaphore(device, vk::SemaphoreCreateInfo());
+  copy_done = vk::raii::Fence(device, vk::FenceCreateInfo());
+
+  const vk::DeviceSize bytes = vk::DeviceSize{width} * height * 4;
+  staging = vk::raii::Buffer(device, vk::BufferCreateInfo({}, bytes, vk::BufferUsageFlagBits::eTransferSrc));
+  const vk::MemoryRequirements req = staging.getMemoryRequirements();
+  const vk::MemoryPropertyFlags props =
+      vk::MemoryPropertyFlagBits::eHostVisible | vk::MemoryPropertyFlagBits::eHostCoherent;
+  const vk::PhysicalDeviceMemoryProperties mem = physical.getMemoryProperties();
+  uint32_t type = mem.memoryTypeCount;
+  for (uint32_t t = 0; t < mem.memoryTypeCount && type == mem.memoryTypeCount; ++t) {
+    if ((req.memoryTypeBits & (1u << t)) && (mem.memoryTypes[t].propertyFlags & props) == props) type = t;
+  }
+  if (type == mem.memoryTypeCount) {
+    throw Error("Vulkan", device_name + " has no host-visible coherent memory for the image upload",
+                "use another Vulkan device (CURVECHECK_VULKAN_DEVICE)");
+  }
+  staging_memory = vk::raii::DeviceMemory(device, vk::MemoryAllocateInfo(req.size, type));
+  staging.bindMemory(*staging_memory, 0);
+  staging_bytes = static_cast<uint8_t*>(staging_memory.mapMemory(0, bytes));
+
+  CreateSwapchain();
+}
+
+Presentation::~Presentation() {
+  if (*device) {
+    try {
+      device.waitIdle();
+    } catch (const vk::SystemError&) {
+      // Destruction proceeds regardless; the error, if any, was reported by the call that failed first.
+    }
+  }
+}
+
+void Presentation::CheckSurfaceExtent() const {
+  const vk::SurfaceCapabilitiesKHR caps = physical.getSurfaceCapabilitiesKHR(*surface);
+  const bool any_size = caps.currentExtent.width == 0xFFFFFFFFu;
+  if (!any_size && (caps.currentExtent.width != width || caps.currentExtent.height != height)) {
+    throw Error("window",
+                fmt::format("the window's surface is {}x{} px, not the image's {}x{} (the window system resized it)",
+                            caps.currentExtent.width, caps.currentExtent.height, width, height),
+                "the presenter never scales: disable desktop scaling for this output, or use exclusive fullscreen "
+                "(without --windowed)");
+  }
+}
+
+void Presentation::CreateSwapchain() {
+  CheckSurfaceExtent();
+  const vk::SurfaceCapabilitiesKHR caps = physical.getSurfaceCapabilitiesKHR(*surface);
+  if (caps.currentExtent.width == 0xFFFFFFFFu &&
+      (width < caps.minImageExtent.width || width > caps.maxImageExtent.width ||
+       height < caps.minImageExtent.height || height > caps.maxImageExtent.height)) {
+    throw Error("Vulkan", fmt::format("{} cannot make a {}x{} swapchain for this output", device_name, width, height),
+                "use another Vulkan device (CURVECHECK_VULKAN_DEVICE)");
+  }
+  if (!(caps.supportedUsageFlags & vk::ImageUsageFlagBits::eTransferDst)) {
+    throw Error("Vulkan", device_name + " cannot copy into swapchain images (no TRANSFER_DST usage)",
+                "use another Vulkan device (CURVECHECK_VULKAN_DEVICE)");
+  }
+  if (caps.currentTransform != vk::SurfaceTransformFlagBitsKHR::eIdentity) {
+    throw Error("window",
+                "the output is rotated or mirrored by the window system (" + vk::to_string(caps.currentTransform) + ")",
+                "set the output's rotation to normal; the presenter never resamples");
+  }
+  uint32_t count = std::max(caps.minImageCount, 2u);
+  if (caps.maxImageCount > 0) count = std::min(count, caps.maxImageCount);
+  const vk::CompositeAlphaFlagBitsKHR alpha =
+      (caps.supportedCompositeAlpha & vk::CompositeAlphaFlagBitsKHR::eOpaque) ? vk::CompositeAlphaFlagBitsKHR::eOpaque
+      : (caps.supportedCompositeAlpha & vk::CompositeAlphaFlagBitsKHR::eInherit)
+          ? vk::CompositeAlphaFlagBitsKHR::eInherit
+          : vk::CompositeAlphaFlagBitsKHR::ePostMultiplied;
+  // The alpha byte is 255 anyway, so every composite-alpha mode shows the code values as they are.
+  vk::SwapchainCreateInfoKHR info({}, *surface, count, format.format, format.colorSpace, vk::Extent2D(width, height),
+                                  1, vk::ImageUsageFlagBits::eTransferDst, vk::SharingMode::eExclusive, {},
+                                  vk::SurfaceTransformFlagBitsKHR::eIdentity, alpha, vk::PresentModeKHR::eFifo, true,
+                                  *swapchain);
+  vk::raii::SwapchainKHR next(device, info);
+  swapchain = std::move(next);
+  swapchain_images = swapchain.getImages();
+  copied.clear();
+  for (size_t i = 0; i < swapchain_images.size(); ++i) copied.emplace_back(device, vk::SemaphoreCreateInfo());
+}
+
+void Presentation::Present() {
+  for (int attempt = 0;; ++attempt) {
+    // Out of date: the window changed under us. Refuse if its size is no longer the image's (in
+    // CheckSurfaceExtent), else make a new swapchain and try again.
+    auto recreate = [&] {
+      if (attempt >= 2) {
+        throw Error("Vulkan", "the swapchain stays out of date after being re-created twice",
+                    "keep the output's mode and the window unchanged while presenting");
+      }
+      queue.waitIdle();
+      CreateSwapchain();
+    };
+    uint32_t index = 0;
+    bool suboptimal = false;
+    try {
+      const auto [result, acquired_index] = swapchain.acquireNextImage(kVulkanTimeoutNs, *acquired, nullptr);
+      if (result == vk::Result::eTimeout || result == vk::Result::eNotReady) {
+        throw Error("Vulkan", fmt::format("{} did not hand out a swapchain image within {} s", device_name,
+                                          kVulkanTimeoutNs / 1'000'000'000),
+                    "check that the display is not locked or switched off");
+      }
+      // eSuboptimalKHR: the image is still presentable; the extent is checked after the present.
+      suboptimal = result == vk::Result::eSuboptimalKHR;
+      index = acquired_index;
+    } catch (const vk::OutOfDateKHRError&) {
+      recreate();
+      continue;
+    }
+
+    cmd.reset();
+    cmd.begin(vk::CommandBufferBeginInfo(vk::CommandBufferUsageFlagBits::eOneTimeSubmit));
+    const vk::ImageSubresourceRange range(vk::ImageAspectFlagBits::eColor, 0, 1, 0, 1);
+    const vk::ImageMemoryBarrier to_copy({}, vk::AccessFlagBits::eTransferWrite, vk::ImageLayout::eUndefined,
+                                         vk::ImageLayout::eTransferDstOptimal, VK_QUEUE_FAMILY_IGNORED,
+                                         VK_QUEUE_FAMILY_IGNORED, swapchain_images[index], range);
+    cmd.pipelineBarrier(vk::PipelineStageFlagBits::eTransfer, vk::PipelineStageFlagBits::eTransfer, {}, {}, {},
+                        to_copy);
+    const vk::BufferImageCopy region(0, 0, 0, {vk::ImageAspectFlagBits::eColor, 0, 0, 1}, {0, 0, 0},
+                                     {width, height, 1});
+    cmd.copyBufferToImage(*staging, swapchain_images[index], vk::ImageLayout::eTransferDstOptimal, region);
+    const vk::ImageMemoryBarrier to_present(vk::AccessFlagBits::eTransferWrite, {},
+                                            vk::ImageLayout::eTransferDstOptimal, vk::ImageLayout::ePresentSrcKHR,
+                                            VK_QUEUE_FAMILY_IGNORED, VK_QUEUE_FAMILY_IGNORED,
+                                            swapchain_images[index], range);
+    cmd.pipelineBarrier(vk::PipelineStageFlagBits::eTransfer, vk::PipelineStageFlagBits::eBottomOfPipe, {}, {}, {},
+                        to_present);
+    cmd.end();
+
+    device.resetFences(*copy_done);
+    const vk::PipelineStageFlags wait_stage = vk::PipelineStageFlagBits::eTransfer;
+    const vk::CommandBuffer command = *cmd;
+    const vk::Semaphore signal = *copied[index];
+    queue.submit(vk::SubmitInfo(*acquired, wait_stage, command, signal), *copy_done);
+
+    const vk::SwapchainKHR chain = *swapchain;
+    vk::Result presented = vk::Result::eSuccess;
+    bool out_of_date = false;
+    try {
+      presented = queue.presentKHR(vk::PresentInfoKHR(signal, chain, index));
+    } catch (const vk::OutOfDateKHRError&) {
+      out_of_date = true;
+    }
+    if (device.waitForFences(*copy_done, true, kVulkanTimeoutNs) != vk::Result::eSuccess) {
+      throw Error("Vulkan", fmt::format("copying the image to the screen took more than {} s on {}",
+                                        kVulkanTimeoutNs / 1'000'000'000, device_name),
+                  "run again; if it repeats, update the driver");
+    }
+    queue.waitIdle();
+    if (out_of_date) {
+      recreate();
+      continue;
+    }
+    if (suboptimal || presented == vk::Result::eSuboptimalKHR) CheckSurfaceExtent();  // refuse if not exact
+    return;
+  }
+}
+
+// Makes the window system finish what the presenter asked of it: on X11, a round trip on the connection that
+// GLFW and the Vulkan driver share, so that a software present (lavapipe: PutImage) has been executed by the
+// server before the image is reported shown.
+void SyncWindowSystem() {
+  if (glfwGetX11Display == nullptr) return;
+  if (Display* display = glfwGetX11Display()) XSync(display, False);
+}
+
+template <typename F>
+auto WithVulkanErrors(F&& f) {
+  try {
+    return f();
+  } catch (const vk::SystemError& e) {
+    const bool lost = e.code() == vk::make_error_code(vk::Result::eErrorDeviceLost) ||
+                      e.code() == vk::make_error_code(vk::Result::eErrorSurfaceLostKHR);
+    throw Error("Vulkan",
+                std::string(lost ? "the device or the window was lost: " : "a Vulkan call failed: ") + e.what(),
+                lost ? "run again; if it repeats, update the driver or use lavapipe"
+                     : "check the Vulkan installation (vulkaninfo) and the display");
+  }
+}
+
+}  // namespace
+
+void PresenterOptions::Check(const std::string& where) const {
+  if (display < 0) {
+    throw Error(where, fmt::format("display {} is not an output number", display), "use 0 (primary), 1, ...");
+  }
+  if (images.empty()) throw Error(where, "no image to show", "give one or more PNG files");
+  if (hold_ms && *hold_ms <= 0) {
+    throw Error(where, fmt::format("hold time {} ms is not positive", *hold_ms),
+                "give the time each image stays on screen in milliseconds, e.g. 2000");
+  }
+}
+
+int RunPresenter(const PresenterOptions& options, std::ostream& log) {
+  options.Check("presenter");
+  SignalScope signals;
+
+  // Decode and check every image before anything appears on screen.
+  std::vector<LoadedImage> images;
+  images.reserve(options.images.size());
+  for (const fs::path& path : options.images) {
+    images.push_back(LoadImage(path));
+    const cv::Mat& first = images.front().pixels;
+    const cv::Mat& last = images.back().pixels;
+    if (last.size() != first.size()) {
+      throw Error(path.string(),
+                  fmt::format("the image is {}x{} px, but {} is {}x{}", last.cols, last.rows,
+                              images.front().path.string(), first.cols, first.rows),
+                  "all images shown on one output must have the output's resolution");
+    }
+  }
+  const int width = images.front().pixels.cols, height = images.front().pixels.rows;
+
+  GlfwSession glfw;
+  if (!glfwVulkanSupported()) {
+    throw Error("Vulkan", "GLFW finds no Vulkan loader with window-system support (" + GlfwLastError() + ")",
+                "install libvulkan1 and a Vulkan driver (mesa-vulkan-drivers for lavapipe)");
+  }
+  int monitor_count = 0;
+  GLFWmonitor** monitors = glfwGetMonitors(&monitor_count);
+  std::vector<std::string> outputs;
+  for (int i = 0; i < monitor_count; ++i) outputs.push_back(DescribeMonitor(monitors[i], i));
+  const std::string where_display = fmt::format("--display {}", options.display);
+  if (options.display >= monitor_count) {
+    throw Error(where_display,
+                monitor_count == 0 ? "the display has no output (monitor)"
+                                   : fmt::format("there is no output {}; the outputs are: {}", options.display,
+                                                 Join(outputs)),
+                "choose one of the outputs listed (0 is the primary)");
+  }
+  GLFWmonitor* monitor = monitors[options.display];
+  const GLFWvidmode* mode = glfwGetVideoMode(monitor);
+  if (!mode) throw Error(where_display, "the output has no video mode (" + GlfwLastError() + ")", "");
+  if (mode->width != width || mode->height != height) {
+    throw Error(images.front().path.string(),
+                fmt::format("the image is {}x{} px, but output {} ('{}') shows {}x{}", width, height,
+                            options.display, glfwGetMonitorName(monitor) ? glfwGetMonitorName(monitor) : "?",
+                            mode->width, mode->height),
+                fmt::format("the presenter never scales: render the pattern at {}x{}, or set the output to a {}x{} "
+                            "mode first",
+                            mode->width, mode->height, width, height));
+  }
+  int monitor_x = 0, monitor_y = 0;
+  glfwGetMonitorPos(monitor, &monitor_x, &monitor_y);
+
+  glfwWindowHint(GLFW_CLIENT_API, GLFW_NO_API);
+  glfwWindowHint(GLFW_RESIZABLE, GLFW_FALSE);
+  glfwWindowHint(GLFW_AUTO_ICONIFY, GLFW_FALSE);      // keep the pattern up if another window takes the focus
+  glfwWindowHint(GLFW_SCALE_TO_MONITOR, GLFW_FALSE);  // size in pixels, whatever the desktop's scale
+  glfwWindowHint(GLFW_FOCUS_ON_SHOW, GLFW_TRUE);
+  if (options.windowed) {
+    glfwWindowHint(GLFW_DECORATED, GLFW_FALSE);
+    glfwWindowHint(GLFW_FLOATING, GLFW_TRUE);
+    glfwWindowHint(GLFW_VISIBLE, GLFW_FALSE);  // placed on the output before it is shown
+  } else {
+    // Ask for exactly the current mode so that GLFW does not switch modes.
+    glfwWindowHint(GLFW_RED_BITS, mode->redBits);
+    glfwWindowHint(GLFW_GREEN_BITS, mode->greenBits);
+    glfwWindowHint(GLFW_BLUE_BITS, mode->blueBits);
+    glfwWindowHint(GLFW_REFRESH_RATE, mode->refreshRate);
+  }
+  WindowState state;  // before the window: it must outlive the window's callbacks
+  WindowPtr window(
+      glfwCreateWindow(width, height, "curvecheck present", options.windowed ? nullptr : monitor, nullptr));
+  if (!window) {
+    throw Error(where_display, "cannot open a window on the output (" + GlfwLastError() + ")",
+                "check that the display accepts new windows");
+  }
+  glfwSetWindowUserPointer(window.get(), &state);
+  glfwSetKeyCallback(window.get(), OnKey);
+  glfwSetWindowRefreshCallback(window.get(), OnRefresh);
+  glfwSetInputMode(window.get(), GLFW_CURSOR, GLFW_CURSOR_HIDDEN);  // no pointer over the pattern
+  if (options.windowed) {
+    glfwSetWindowPos(window.get(), monitor_x, monitor_y);
+    glfwShowWindow(window.get());
+  }
+
+  // The window must cover the output exactly, framebuffer pixel for output pixel. A window manager may take a
+  // moment to place it; give it that, then refuse.
+  auto geometry = [&] {
+    int fb_w = 0, fb_h = 0, x = 0, y = 0;
+    glfwGetFramebufferSize(window.get(), &fb_w, &fb_h);
+    glfwGetWindowPos(window.get(), &x, &y);
+    const GLFWvidmode* now = glfwGetVideoMode(monitor);
+    const bool exact = fb_w == width && fb_h == height && x == monitor_x && y == monitor_y && now &&
+                       now->width == width && now->height == height;
+    return std::make_pair(exact, fmt::format("the window's framebuffer is {}x{} px at ({}, {}) and the output "
+                                             "shows {}x{} at ({}, {}); both must be the image's {}x{} at the "
+                                             "output's position",
+                                             fb_w, fb_h, x, y, now ? now->width : 0, now ? now->height : 0,
+                                             monitor_x, monitor_y, width, height));
+  };
+  const auto settle_start = Clock::now();
+  auto [exact, why] = geometry();
+  while (!exact && std::chrono::duration<double>(Clock::now() - settle_start).count() < kWindowSettleSeconds) {
+    glfwWaitEventsTimeout(kPollSeconds);
+    std::tie(exact, why) = geometry();
+  }
+  if (!exact) {
+    throw Error(where_display, why,
+                "the presenter never scales: disable desktop scaling for this output and keep its mode at the "
+                "image's size" +
+                    std::string(options.windowed ? ", or use exclusive fullscreen (without --windowed)" : ""));
+  }
+
+  return WithVulkanErrors([&] {
+    Presentation presentation(window.get(), static_cast<uint32_t>(width), static_cast<uint32_t>(height));
+    const size_t n = images.size();
+    size_t current = 0;
+    auto show = [&](size_t index, bool report) {
+      PackPixels(images[index].pixels, presentation.bgra(), presentation.staging_bytes);
+      presentation.Present();
+      SyncWindowSystem();
+      state.needs_redraw = false;
+      if (report) log << fmt::format("shown {}/{} {}", index + 1, n, images[index].path.string()) << std::endl;
+    };
+    show(current, true);
+    auto shown_at = Clock::now();
+
+    while (!g_quit_requested.load() && !glfwWindowShouldClose(window.get())) {
+      glfwWaitEventsTimeout(kPollSeconds);
+      if (g_quit_requested.load() || glfwWindowShouldClose(window.get())) break;
+      int step = 0;
+      if (!state.actions.empty()) {
+        const Action action = state.actions.front();
+        state.actions.pop_front();
+        if (action == Action::kQuit) break;
+        step = action == Action::kNext ? 1 : -1;
+      } else if (g_next_requests.load() > 0) {
+        g_next_requests.fetch_sub(1);
+        step = 1;
+      } else if (options.hold_ms &&
+                 std::chrono::duration<double, std::milli>(Clock::now() - shown_at).count() >= *options.hold_ms) {
+        if (current + 1 == n) break;
+        step = 1;
+      }
+      if (step != 0) {
+        current = step > 0 ? (current + 1) % n : (current + n - 1) % n;
+        show(current, true);
+        shown_at = Clock::now();
+      } else if (state.needs_redraw) {
+        show(current, false);  // same image again after an expose: not a new image, not reported
+      }
+    }
+    return 0;
+  });
+}
+
+}  // namespace curvecheck

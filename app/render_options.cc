@@ -23,6 +23,7 @@ void AddSceneOptions(CLI::App& cmd, SceneArgs& a, const std::string& default_vie
   cmd.add_option("--tags", a.tags, "AprilTag grid across x down, e.g. 12x3");
   cmd.add_option("--tag-mm", a.tag_mm, "Tag size (black border) in mm (default: fit the screen)");
   cmd.add_option("--first-tag-id", a.first_tag_id, "First tag36h11 id");
+  cmd.add_option("--tag-gap-cells", a.tag_gap_cells, "Gap between tags in cells of tag size / 8 (>= 2)");
   cmd.add_option("--margin", a.margin, "Free margin around a fitted pattern, fraction of the display per side");
 }
 
@@ -71,6 +72,7 @@ Scene ResolveScene(const SceneArgs& a, const Eigen::Vector3d& default_from_centr
   if (a.tag_mm) s.spec.tag_mm = *a.tag_mm;
   if (a.margin) s.spec.margin = *a.margin;
   if (a.first_tag_id) s.spec.first_tag_id = *a.first_tag_id;
+  if (a.tag_gap_cells) s.spec.tag_gap_cells = *a.tag_gap_cells;
   s.spec.Check("pattern options");
   return s;
 }

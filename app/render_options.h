@@ -20,7 +20,7 @@ struct SceneArgs {
   std::optional<std::string> pattern_file;
   std::optional<std::string> squares, tags;  // "CxR"
   std::optional<double> square_mm, tag_mm, margin;
-  std::optional<int> first_tag_id;
+  std::optional<int> first_tag_id, tag_gap_cells;
 };
 
 struct MethodArgs {

@@ -75,30 +75,19 @@ float PointSample(vec2 ab) {
   return CellValue(ivec2(floor(CellCoords(ab))));
 }
 
-// Mean linear value over the axis-aligned box [lo, hi] of plane coordinates: the exact integral of the cell
-// function (a box filter of the pixel footprint) for footprints up to one cell wide, which covers every
-// pattern the display can resolve; wider footprints are clamped to one cell. Branch-free on purpose: CPU
-// rasterizers (lavapipe) execute both sides of divergent branches. The 2 x 2 cells around the footprint come
-// from one gather; the clamp-to-edge sampler reaches the surround padding beyond the grid.
-float BoxAverage(vec2 lo, vec2 hi) {
-  bool off_plane = any(isnan(lo)) || any(isnan(hi));  // a select at the end, not a branch
-  vec2 c0 = CellCoords(vec2(lo.x, hi.y));  // top-left in cell coordinates
-  vec2 c1 = CellCoords(vec2(hi.x, lo.y));  // bottom-right
-  vec2 size = clamp(c1 - c0, vec2(1e-6), vec2(1.0));
-  vec2 centre = 0.5 * (c0 + c1);
-  c0 = centre - 0.5 * size;
-  vec2 i0 = floor(c0);
-  // Share of the box in the first column / row of the 2 x 2 block.
-  vec2 first = clamp((i0 + 1.0 - c0) / size, 0.0, 1.0);
+// Mean linear value of the 2 x 2 cells whose top-left cell is i0 (cell coordinates), weighted by the shares
+// `first` of the first column and row. Branch-free on purpose: CPU rasterizers (lavapipe) execute both sides
+// of divergent branches. The four cells come from one gather; the clamp-to-edge sampler reaches the surround
+// padding beyond the grid.
+float Gather2x2(vec2 i0, vec2 first) {
   // Gather at the corner shared by the four cells (texel coordinates include the padding of one cell).
   vec2 corner = (i0 + 2.0) / vec2(textureSize(cell_texture, 0));
   // Components: x = (i0, i0+1 row), y = (i0+1, i0+1 row), z = (i0+1, i0 row), w = (i0, i0 row).
   vec4 v = LabelToLinear(textureGather(cell_texture, corner, 0));
   float top = mix(v.z, v.w, first.x);
   float bottom = mix(v.y, v.x, first.x);
-  return off_plane ? P.monitor2.z : mix(bottom, top, first.y);
+  return mix(bottom, top, first.y);
 }
-
 
 // Code value for the display: linear^(1/gamma); black and white need no power.
 vec4 Encode(float linear) {

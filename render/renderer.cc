@@ -423,6 +423,35 @@ void Transition(vk::raii::CommandBuffer& cmd, const Image& img, vk::ImageLayout 
   cmd.pipelineBarrier(src_stage, dst_stage, {}, {}, {}, barrier);
 }
 
+// The framebuffer box [x0, x1) x [y0, y1) holding every pixel whose ray can meet the pattern's
+// cells grown by one cell: the display bounding box of that rectangle's outline, sampled densely and grown by
+// 2 px, clamped to the display. The whole display if any outline point does not map to the surface.
+std::array<int, 4> PatternBoxPx(const Monitor& m, const Eigen::Vector3d& viewpoint, const Pattern& pattern) {
+  const PatternCells& c = pattern.cells;
+  const double a0 = c.top_left_mm.x() - c.cell_mm, a1 = c.top_left_mm.x() + (c.width + 1) * c.cell_mm;
+  const double b1 = c.top_left_mm.y() + c.cell_mm, b0 = c.top_left_mm.y() - (c.height + 1) * c.cell_mm;
+  const std::array<int, 4> full = {0, m.width_px, 0, m.height_px};
+  double x_lo = 1e300, x_hi = -1e300, y_lo = 1e300, y_hi = -1e300;
+  constexpr int kSamples = 512;
+  for (int i = 0; i <= kSamples; ++i) {
+    const double f = static_cast<double>(i) / kSamples;
+    for (const Eigen::Vector2d& ab : {Eigen::Vector2d(a0 + f * (a1 - a0), b0), Eigen::Vector2d(a0 + f * (a1 - a0), b1),
+                                      Eigen::Vector2d(a0, b0 + f * (b1 - b0)), Eigen::Vector2d(a1, b0 + f * (b1 - b0))}) {
+      const auto px = DisplayPxFromPattern(m, viewpoint, pattern.plane, ab);
+      if (!px || !px->allFinite()) return full;
+      x_lo = std::min(x_lo, px->x()), x_hi = std::max(x_hi, px->x());
+      y_lo = std::min(y_lo, px->y()), y_hi = std::max(y_hi, px->y());
+    }
+  }
+  // Display coordinate x covers framebuffer [x + 0.5 - 0.5, ...): pixel index floor(x + 0.5).
+  const int x0 = std::clamp(static_cast<int>(std::floor(x_lo - 2)), 0, m.width_px);
+  const int x1 = std::clamp(static_cast<int>(std::ceil(x_hi + 3)), 0, m.width_px);
+  const int y0 = std::clamp(static_cast<int>(std::floor(y_lo - 2)), 0, m.height_px);
+  const int y1 = std::clamp(static_cast<int>(std::ceil(y_hi + 3)), 0, m.height_px);
+  if (x1 <= x0 || y1 <= y0) return full;
+  return {x0, x1, y0, y1};
+}
+
 // Checks that each method can render this view correctly; throws Error naming the reason otherwise.
 void CheckMethodApplies(const Monitor& m, const Eigen::Vector3d& viewpoint, const RenderOptions& o, bool tess) {
   CheckViewpoint(m, viewpoint, "viewpoint");
@@ -606,6 +635,10 @@ std::vector<uint8_t> Renderer::Impl::Draw(const Monitor& m, const Eigen::Vector3
   std::vector<QuadDraw> quad_draws;
   const vk::Viewport full_viewport(0, 0, static_cast<float>(width), static_cast<float>(height), 0, 1);
   const vk::Rect2D full_scissor({0, 0}, {width, height});
+  // exact: only the pattern's bounding box is ray cast; around it the clear colour is the surround, which is
+  // what the ray cast would show there.
+  const std::array<int, 4> box = PatternBoxPx(m, viewpoint, pattern);
+  const vk::Rect2D exact_scissor({box[0], box[2]}, {static_cast<uint32_t>(box[1] - box[0]), static_cast<uint32_t>(box[3] - box[2])});
   if (mo.method == Method::kNone) {
     // The panel taken as flat: a W x H rectangle in the plane tangent at the screen centre.
     const double hw = 0.5 * m.width_mm, hh = 0.5 * m.height_mm;
@@ -747,10 +780,11 @@ std::vector<uint8_t> Renderer::Impl::Draw(const Monitor& m, const Eigen::Vector3
         cmd.bindPipeline(vk::PipelineBindPoint::eGraphics, main_pipeline);
         cmd.bindDescriptorSets(vk::PipelineBindPoint::eGraphics, *pipeline_layout, 0, set, {});
         cmd.setViewport(0, full_viewport);
-        cmd.setScissor(0, full_scissor);
+        cmd.setScissor(0, mo.method == Method::kExact ? exact_scissor : full_scissor);
         if (mo.method == Method::kMesh || mo.warp_grid_cols > 0) {
+          const size_t floats_per_vertex = mo.method == Method::kMesh ? 2 : 4;
           cmd.bindVertexBuffers(0, *vertex_buffer.buffer, {0});
-          cmd.draw(static_cast<uint32_t>(vertices.size() / (mo.method == Method::kMesh ? 2 : 4)), 1, 0, 0);
+          cmd.draw(static_cast<uint32_t>(vertices.size() / floats_per_vertex), 1, 0, 0);
         } else {
           cmd.draw(3, 1, 0, 0);
         }

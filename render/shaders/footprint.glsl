@@ -15,14 +15,14 @@ float TrapezoidCdf(float t, float p, float q) {
   return clamp(t <= -h ? 0.0 : (t >= h ? 1.0 : f), 0.0, 1.0);
 }
 
-// Mean linear value of the pattern over the pixel's footprint around plane coordinates ab: the footprint's
-// extents come from the fine screen-space derivatives of ab (differences within each 2 x 2 quad), the weights
-// of the 2 x 2 cells around it from TrapezoidCdf per axis (exact for a parallelogram footprint crossing one
-// cell edge per axis; separable approximation at cell corners). Footprints wider than one cell (a pattern finer
-// than the display resolves) are scaled down to one cell.
-float FootprintAverage(vec2 ab) {
+// Mean linear value of the pattern over the pixel's footprint around plane coordinates ab, given the Jacobian
+// of ab per display pixel (columns d ab/dx, d ab/dy). The weights of the 2 x 2 cells around the footprint come
+// from TrapezoidCdf per axis (exact for a parallelogram footprint crossing one cell edge per axis; separable
+// approximation at cell corners). Footprints wider than one cell (a pattern finer than the display resolves)
+// are scaled down to one cell.
+float FootprintAverageJacobian(vec2 ab, vec2 dab_dx, vec2 dab_dy) {
   vec2 c = CellCoords(ab);
-  vec2 p = abs(dFdxFine(c)), q = abs(dFdyFine(c));
+  vec2 p = abs(vec2(dab_dx.x, -dab_dx.y)) / P.cells.x, q = abs(vec2(dab_dy.x, -dab_dy.y)) / P.cells.x;
   vec2 width = p + q;
   vec2 shrink = 1.0 / max(width, vec2(1.0));  // keep the footprint within one cell per axis
   p *= shrink;
@@ -33,3 +33,7 @@ float FootprintAverage(vec2 ab) {
   float value = Gather2x2(i0, first);
   return any(isnan(ab)) ? P.monitor2.z : value;
 }
+
+// The same with the Jacobian from the fine screen-space derivatives (differences within each 2 x 2 quad), for
+// methods whose (a, b) come from the rasterizer.
+float FootprintAverage(vec2 ab) { return FootprintAverageJacobian(ab, dFdxFine(ab), dFdyFine(ab)); }

@@ -56,6 +56,11 @@ double MsSince(Clock::time_point t0) {
 }
 
 constexpr vk::Format kShadeFormat = vk::Format::eR8Unorm;
+constexpr int kMaxTessLevel = 32;  // see the mesh vertices in Draw(); also the clamp in shaders/mesh.tesc
+// lavapipe (Mesa 22.3) silently drops primitives when one tessellated draw emits more than about 1e5 triangles
+// (measured: 138k triangles in one draw left 91% of a 2560x720 frame undrawn; 61k drew every pixel). Mesh
+// patches are therefore drawn in batches of at most this many triangles.
+constexpr int kMaxTrianglesPerDraw = 32768;
 constexpr vk::Format kLinearFormat = vk::Format::eR32Sfloat;
 constexpr vk::Format kCoordFormat = vk::Format::eR32G32Sfloat;
 
@@ -510,7 +515,11 @@ std::vector<uint8_t> Renderer::Impl::Draw(const Monitor& m, const Eigen::Vector3
   params.mesh[0] = mo.mesh_subdivision == MeshSubdivision::kUniform ? 0.f
                    : mo.mesh_subdivision == MeshSubdivision::kPerez ? 1.f
                                                                     : 2.f;
-  params.mesh[1] = static_cast<float>(mo.mesh_level);
+  // mesh: the tessellator is never asked for more than kMaxTessLevel segments per edge: a higher uniform level
+  // splits the patches instead, which is the same geometry (and the draws are batched, kMaxTrianglesPerDraw).
+  const int mesh_split =
+      mo.mesh_subdivision == MeshSubdivision::kUniform ? (mo.mesh_level + kMaxTessLevel - 1) / kMaxTessLevel : 1;
+  params.mesh[1] = static_cast<float>(mo.mesh_level) / static_cast<float>(mesh_split);
   params.mesh[2] = static_cast<float>(mo.mesh_tolerance_px);
 
   // Warp: the off-axis frustum of the first pass, as a map from centre-frame points to Vulkan clip space.
@@ -584,7 +593,7 @@ std::vector<uint8_t> Renderer::Impl::Draw(const Monitor& m, const Eigen::Vector3
   const Eigen::Matrix4d centre_from_ab = CentreFromAb(pattern.plane, plane_origin);
   std::vector<float> vertices;
   if (mo.method == Method::kMesh) {
-    const double patch_mm = mo.mesh_patch_px * m.pixel_pitch_mm();
+    const double patch_mm = mo.mesh_patch_px * m.pixel_pitch_mm() / mesh_split;
     const int na = std::max(1, static_cast<int>(std::ceil((a1 - a0) / patch_mm)));
     const int nb = std::max(1, static_cast<int>(std::ceil((b1 - b0) / patch_mm)));
     for (int j = 0; j < nb; ++j) {
@@ -781,10 +790,17 @@ std::vector<uint8_t> Renderer::Impl::Draw(const Monitor& m, const Eigen::Vector3
         cmd.bindDescriptorSets(vk::PipelineBindPoint::eGraphics, *pipeline_layout, 0, set, {});
         cmd.setViewport(0, full_viewport);
         cmd.setScissor(0, mo.method == Method::kExact ? exact_scissor : full_scissor);
-        if (mo.method == Method::kMesh || mo.warp_grid_cols > 0) {
-          const size_t floats_per_vertex = mo.method == Method::kMesh ? 2 : 4;
+        if (mo.method == Method::kMesh) {
           cmd.bindVertexBuffers(0, *vertex_buffer.buffer, {0});
-          cmd.draw(static_cast<uint32_t>(vertices.size() / floats_per_vertex), 1, 0, 0);
+          const uint32_t patches = static_cast<uint32_t>(vertices.size() / 8);
+          const double level = mo.mesh_subdivision == MeshSubdivision::kUniform ? params.mesh[1] : kMaxTessLevel;
+          const uint32_t batch = std::max<uint32_t>(1, static_cast<uint32_t>(kMaxTrianglesPerDraw / (2 * level * level)));
+          for (uint32_t first = 0; first < patches; first += batch) {
+            cmd.draw(4 * std::min(batch, patches - first), 1, 4 * first, 0);
+          }
+        } else if (mo.warp_grid_cols > 0) {
+          cmd.bindVertexBuffers(0, *vertex_buffer.buffer, {0});
+          cmd.draw(static_cast<uint32_t>(vertices.size() / 4), 1, 0, 0);
         } else {
           cmd.draw(3, 1, 0, 0);
         }

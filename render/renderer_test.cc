@@ -123,6 +123,23 @@ TEST(MeshHeuristic, ExtendedHeuristicCatchesTheBlindSpot) {
   EXPECT_LT(extended.max_px, 0.5 * perez.max_px);
 }
 
+// lavapipe drops primitives from very large tessellated draws (renderer.cc, kMaxTrianglesPerDraw); the
+// renderer splits patches and batches draws so that the finest subdivisions still draw every pixel.
+TEST(MeshHeuristic, FinestUniformSubdivisionDrawsEveryPixel) {
+  const Monitor m = MonitorFromDiagonal("49 1000R", 2560, 720, 49, 1000);
+  const Eigen::Vector3d eye(0, 0, 0);
+  PatternSpec spec;
+  const Pattern p = BuildPattern(spec, m, eye, TangentPlaneAtCentre(m));
+  MethodOptions o = Options(Method::kMesh);
+  o.mesh_subdivision = MeshSubdivision::kUniform;
+  for (int level : {48, 64}) {
+    o.mesh_level = level;
+    const MappingError e = Measure(m, eye, p, o);
+    EXPECT_EQ(e.missing_pixels, 0) << level;
+    EXPECT_LT(e.max_px, 0.01) << level;
+  }
+}
+
 // Where methods fail (issue 3 item 7): each method renders correctly (mapping error within its tolerance) or
 // refuses with an Error; which one is pinned here.
 struct FailureCase {

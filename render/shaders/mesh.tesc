@@ -10,6 +10,9 @@
 #include "cylinder_projection.glsl"
 
 layout(vertices = 4) out;
+
+// Levels above 32 make lavapipe drop primitives (render/renderer.cc, kMaxTessLevel).
+const float kMaxLevel = 32.0;
 layout(location = 0) in vec2 in_ab[];
 layout(location = 0) out vec2 out_ab[];
 
@@ -25,8 +28,8 @@ float EdgeLevel(vec2 e0, vec2 e1) {
     vec2 p = DisplayPxFromUv(ProjectToDisplayUv(PlanePoint(mix(e0, e1, f))));
     deviation = max(deviation, distance(p, mix(p0, p1, f)));
   }
-  if (isnan(deviation)) return 64.0;
-  return clamp(ceil(sqrt(deviation / P.mesh.z)), 1.0, 64.0);
+  if (isnan(deviation)) return kMaxLevel;
+  return clamp(ceil(sqrt(deviation / P.mesh.z)), 1.0, kMaxLevel);
 }
 
 // Inner level (extended heuristic): the deviation of interior points (the centre and the quarter points of
@@ -44,8 +47,8 @@ float InnerLevel(float edges) {
     vec2 linear = mix(mix(q[0], q[1], t.x), mix(q[3], q[2], t.x), t.y);
     deviation = max(deviation, distance(DisplayPxFromUv(ProjectToDisplayUv(PlanePoint(ab))), linear));
   }
-  if (isnan(deviation)) return 64.0;
-  return max(edges, clamp(ceil(sqrt(deviation / P.mesh.z)), 1.0, 64.0));
+  if (isnan(deviation)) return kMaxLevel;
+  return max(edges, clamp(ceil(sqrt(deviation / P.mesh.z)), 1.0, kMaxLevel));
 }
 
 void main() {

@@ -13,9 +13,10 @@ layout(location = 0) out vec4 out_color;
 
 void main() {
   ivec2 px = ivec2(gl_FragCoord.xy);
-  // Surface point of the pixel centre from the tables (exact, computed in double on the CPU).
+  // Surface point of the pixel centre: x, z from the column table (exact, computed in double on the CPU); the
+  // height is linear in the row, y = (1 - 2 (row + 0.5) / Ny) H / 2 = (0.5 - gl_FragCoord.y / Ny) H.
   vec2 xz = column_xz[2 * px.x + 1];
-  vec3 s = vec3(xz.x, row_y[2 * px.y + 1], xz.y);
+  vec3 s = vec3(xz.x, (0.5 - gl_FragCoord.y / P.monitor.y) * P.monitor.w, xz.y);
   // Ray o + t (s - o) meets the plane n . (p - p0) = 0; (a, b) are the offsets from p0 along the plane axes.
   vec3 d = s - P.viewpoint.xyz;
   float nd = dot(P.plane_n.xyz, d);

@@ -83,6 +83,17 @@ ConfigMap ConfigMap::Map(const std::string& key) const {
   return ConfigMap(n, source_, KeyPath(key));
 }
 
+std::vector<ConfigMap> ConfigMap::MapList(const std::string& key) const {
+  const YAML::Node n = Get(key);
+  if (!n.IsSequence()) Fail(key, "must be a list, got " + Show(n), "write a list of mappings");
+  std::vector<ConfigMap> out;
+  for (size_t i = 0; i < n.size(); ++i) {
+    if (!n[i].IsMap()) Fail(fmt::format("{}[{}]", key, i), "must be a mapping, got " + Show(n[i]), "write key: value pairs");
+    out.push_back(ConfigMap(n[i], source_, KeyPath(fmt::format("{}[{}]", key, i))));
+  }
+  return out;
+}
+
 std::string ConfigMap::String(const std::string& key) const {
   const YAML::Node n = Get(key);
   if (!n.IsScalar()) Fail(key, "must be a text, got " + Show(n), "write a single value");

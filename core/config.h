@@ -32,6 +32,8 @@ class ConfigMap {
   void RejectUnknownKeys(std::initializer_list<const char*> known) const;
 
   ConfigMap Map(const std::string& key) const;
+  // A sequence of mappings (e.g. a list of bumps); each element named "key[i]" in errors.
+  std::vector<ConfigMap> MapList(const std::string& key) const;
   std::string String(const std::string& key) const;
   // A finite number.
   double Number(const std::string& key) const;

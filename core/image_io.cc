@@ -23,6 +23,15 @@ void WritePng8(const std::filesystem::path& path, int width, int height, int cha
   WriteFileAtomic(path, std::string_view(reinterpret_cast<const char*>(bytes.data()), bytes.size()));
 }
 
+void WritePng16(const std::filesystem::path& path, int width, int height, const uint16_t* data) {
+  const cv::Mat mat(height, width, CV_16UC1, const_cast<uint16_t*>(data));
+  std::vector<uint8_t> bytes;
+  if (!cv::imencode(".png", mat, bytes, {cv::IMWRITE_PNG_COMPRESSION, 3})) {
+    throw Error(path.string(), "PNG encoding failed", "check the image size");
+  }
+  WriteFileAtomic(path, std::string_view(reinterpret_cast<const char*>(bytes.data()), bytes.size()));
+}
+
 Image8 ReadImage8(const std::filesystem::path& path) {
   const std::string bytes = ReadFileToString(path);
   const cv::Mat raw(1, static_cast<int>(bytes.size()), CV_8U, const_cast<char*>(bytes.data()));

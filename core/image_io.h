@@ -11,6 +11,9 @@ namespace curvecheck {
 // Writes an 8-bit image with 1 (gray), 3 (BGR) or 4 (BGRA) channels, rows top to bottom, tightly packed.
 void WritePng8(const std::filesystem::path& path, int width, int height, int channels, const uint8_t* data);
 
+// Writes a 16-bit gray image, rows top to bottom.
+void WritePng16(const std::filesystem::path& path, int width, int height, const uint16_t* data);
+
 struct Image8 {
   int width = 0, height = 0, channels = 0;
   std::vector<uint8_t> pixels;  // rows top to bottom, tightly packed; BGR(A) order for colour

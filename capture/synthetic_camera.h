@@ -1,0 +1,148 @@
+// The synthetic camera (architecture.md, "Synthetic camera"): a ray-traced photo of a true, imperfect monitor
+// showing a display image, through any mrcal lens model, with the exact image position of every feature.
+//
+// Geometry. The nominal monitor and its screen frame are as in core/screen_geometry.h. The true monitor is a
+// cylinder of its own curvature (same active width along the surface, same height and pixel grid), with a
+// smooth deviation field along its normal (positive toward the viewer, i.e. toward the axis), placed in the
+// nominal frame by a rotation and translation about the screen centre (lean = rotation about the x axis through
+// the centre). Rays come from the camera's lens model (mrcal unprojection, precomputed on a grid and
+// interpolated); they are intersected analytically with the true cylinder and refined by Newton steps onto the
+// deviated surface.
+//
+// Radiometry. The display is physical pixels: nearest pixel of the display image, emitting over a fill factor
+// of each pixel, optionally as three vertical RGB stripes (a monochrome sensor weights them by Rec. 709 luma),
+// display gamma, black level, a bezel and a dim room. Then supersampling, Gaussian or disc blur, vignetting,
+// exposure, Poisson-Gaussian noise (seeded), sensor gamma and 8- or 16-bit quantization.
+#pragma once
+
+#include <Eigen/Core>
+#include <cstdint>
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "core/camera_model.h"
+#include "core/image_io.h"
+#include "core/monitor.h"
+
+namespace curvecheck {
+
+class ConfigMap;
+struct Feature;
+
+struct TrueMonitor {
+  double curvature_per_mm = 0;                           // 1/R_true; 0 = flat
+  Eigen::Vector3d translation_mm = Eigen::Vector3d::Zero();  // of the true screen centre in the nominal centre frame
+  Eigen::Vector3d rotation_deg = Eigen::Vector3d::Zero();    // about x, y, z through the centre (applied z y x)
+  double lean_deg = 0;  // about x through the centre; positive tilts the top toward the viewer
+  struct Bump {
+    double u = 0, v = 0;              // centre in surface coordinates (-1..1)
+    double sigma_u = 0.1, sigma_v = 0.1;
+    double height_mm = 0;             // peak deviation along the normal, toward the viewer
+  };
+  std::vector<Bump> bumps;
+
+  // Rotation taking true-centre-frame vectors to the nominal centre frame.
+  Eigen::Matrix3d Rotation() const;
+  // Deviation along the normal at (u, v), mm.
+  double DeviationMm(const Eigen::Vector2d& uv) const;
+};
+
+struct DisplayModel {
+  double fill_factor = 0.85;  // emitting fraction of a pixel along each axis (or of each stripe)
+  bool rgb_stripes = true;    // three vertical sub-pixels R, G, B
+  double gamma = 2.2;         // code value -> linear light
+  double black = 0.002;       // light of a black pixel, relative to white
+  double bezel_mm = 8;        // frame width around the active area
+  double bezel = 0.01;        // bezel radiance, relative to white
+  double room = 0.03;         // everything else
+};
+
+struct Optics {
+  int supersample = 2;         // rays per pixel along each axis
+  std::string blur = "none";   // none | gaussian | disc
+  double blur_px = 0;          // Gaussian sigma or disc radius, camera px
+  double vignetting = 0;       // relative fall-off at the image corner: gain 1 - v (r / r_corner)^2
+  double exposure = 1.0;       // multiplies scene radiance (white display = 1 before fill factor)
+};
+
+struct Sensor {
+  double gamma = 1.0;          // output encoding: 1 = linear (metrology), 2.2 = like a JPEG camera
+  double full_well_e = 20000;  // electrons at saturation (shot noise)
+  double read_noise_e = 3;     // electrons RMS
+  bool noise = true;
+  uint64_t seed = 1;
+  int bits = 8;                // 8 or 16
+};
+
+struct SyntheticScene {
+  Monitor monitor;  // nominal
+  TrueMonitor truth;
+  CameraModel camera;
+  std::string camera_model_path;  // as given in the scene (provenance)
+  Eigen::Vector3d camera_position_in_screen = Eigen::Vector3d::Zero();
+  Eigen::Matrix3d screen_from_cam = Eigen::Matrix3d::Identity();  // columns: camera x, y, z in the screen frame
+  DisplayModel display;
+  Optics optics;
+  Sensor sensor;
+};
+
+// Reads a scene (format curvecheck.scene/1); relative paths (the camera model) are relative to the scene file.
+//   monitor: PRESET | FILE                      nominal monitor
+//   camera: { model: FILE.cameramodel, position_mm: [x,y,z], look_at_mm: [x,y,z], up: [x,y,z] }
+//   true_monitor: { radius_mm: R | flat, translation_mm, rotation_deg, lean_deg, bumps: [{u, v, sigma_u,
+//                   sigma_v, height_mm}] }      all optional; default: the nominal monitor
+//   display / optics / sensor: the fields of DisplayModel / Optics / Sensor, all optional
+SyntheticScene SceneFromConfig(const ConfigMap& config, const std::filesystem::path& scene_dir);
+SyntheticScene LoadScene(const std::filesystem::path& path);
+
+// Camera rotation from a viewing direction: camera z toward look_at, x = z cross up, y = z cross x (down).
+Eigen::Matrix3d ScreenFromCamLookAt(const Eigen::Vector3d& position, const Eigen::Vector3d& look_at,
+                                    const Eigen::Vector3d& up);
+
+// Point of the true surface at (u, v), in the nominal screen frame, and its unit normal (toward the viewer).
+Eigen::Vector3d TrueSurfacePointInScreen(const SyntheticScene& scene, const Eigen::Vector2d& uv,
+                                         Eigen::Vector3d* normal_in_screen = nullptr);
+
+// Per-pixel camera rays from the lens model, unprojected through mrcal on a grid of `spacing_px` and
+// interpolated bicubically in normalized coordinates (x/z, y/z).
+class RayGrid {
+ public:
+  RayGrid(const CameraModel& camera, double spacing_px);
+  // Unit ray direction (camera frame) through pixel coordinates q.
+  Eigen::Vector3d Ray(const Eigen::Vector2d& q) const;
+  // Worst reprojection error (px) of interpolated rays over `samples` random pixels, against mrcal's projection.
+  double MeasureErrorPx(const CameraModel& camera, int samples, uint64_t seed) const;
+
+ private:
+  double spacing_;
+  int nx_, ny_;
+  std::vector<Eigen::Vector2f> normalized_;  // (x/z, y/z) at the nodes, row-major
+  Eigen::Vector2d Node(int i, int j) const;
+};
+
+struct PhotoTiming {
+  double rays_ms = 0, trace_ms = 0, optics_ms = 0, sensor_ms = 0;
+  int64_t rays = 0;
+};
+
+struct SyntheticPhoto {
+  int width = 0, height = 0, bits = 8;
+  std::vector<uint16_t> pixels;  // row-major code values (0..255 or 0..65535)
+  PhotoTiming timing;
+};
+
+// Renders the photo of `display` (the display image: gray or colour, the monitor's resolution) as the scene's
+// camera sees it. Runs on all cores. Throws Error if the display image does not match the monitor.
+SyntheticPhoto RenderSyntheticPhoto(const SyntheticScene& scene, const Image8& display, double ray_grid_px = 16);
+
+// truth.json: format curvecheck.truth/1 with the true geometry, the camera (model and pose) and, for each
+// feature, its true image position (forward projection of the true surface point where the display shows it)
+// and visibility (on the display, in front of the camera, facing it, inside the image).
+nlohmann::json TruthJson(const SyntheticScene& scene, const std::vector<Feature>& features);
+
+// Writes the photo as PNG (8 or 16 bit gray), atomically.
+void WriteSyntheticPhoto(const std::filesystem::path& path, const SyntheticPhoto& photo);
+
+}  // namespace curvecheck

@@ -1,0 +1,155 @@
+#include "core/camera_model.h"
+
+#include <fmt/format.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <cstring>
+#include <memory>
+
+#include "core/error.h"
+#include "core/file_io.h"
+
+extern "C" {
+#include <mrcal/mrcal.h>  // mrcal 2.2's header has no extern "C" of its own
+}
+
+namespace curvecheck {
+namespace {
+
+struct FreeModel {
+  void operator()(mrcal_cameramodel_t* m) const { mrcal_free_cameramodel(&m); }
+};
+using ModelPtr = std::unique_ptr<mrcal_cameramodel_t, FreeModel>;
+
+mrcal_lensmodel_t LensModel(const std::string& name, const std::string& where) {
+  mrcal_lensmodel_t lens;
+  if (!mrcal_lensmodel_from_name(&lens, name.c_str())) {
+    throw Error(where, fmt::format("'{}' is not a mrcal lens model", name),
+                "use e.g. LENSMODEL_OPENCV8 or LENSMODEL_PINHOLE (see mrcal-show-distortion-off-pinhole --help)");
+  }
+  return lens;
+}
+
+CameraModel FromMrcal(const mrcal_cameramodel_t& m, const std::string& source) {
+  CameraModel out;
+  char name[1024];
+  if (!mrcal_lensmodel_name(name, sizeof(name), &m.lensmodel)) {
+    throw Error(source, "the lens model's name does not fit in 1024 characters", "check the file");
+  }
+  out.lensmodel = name;
+  const int n = mrcal_lensmodel_num_params(&m.lensmodel);
+  out.intrinsics.assign(m.intrinsics, m.intrinsics + n);
+  out.width = static_cast<int>(m.imagersize[0]);
+  out.height = static_cast<int>(m.imagersize[1]);
+  for (int i = 0; i < 6; ++i) out.rt_cam_ref[i] = m.rt_cam_ref[i];
+  out.Check(source);
+  return out;
+}
+
+}  // namespace
+
+void CameraModel::Check(const std::string& where) const {
+  const mrcal_lensmodel_t lens = LensModel(lensmodel, where);
+  const int n = mrcal_lensmodel_num_params(&lens);
+  if (static_cast<int>(intrinsics.size()) != n) {
+    throw Error(where, fmt::format("{} takes {} intrinsics, got {}", lensmodel, n, intrinsics.size()),
+                "give fx, fy, cx, cy and the model's distortion parameters");
+  }
+  for (double v : intrinsics) {
+    if (!std::isfinite(v)) throw Error(where, "an intrinsic is not finite", "check the model");
+  }
+  if (!(intrinsics[0] > 0 && intrinsics[1] > 0)) {
+    throw Error(where, "focal lengths must be positive", "check fx, fy");
+  }
+  if (width < 1 || height < 1) {
+    throw Error(where, fmt::format("imager size {}x{} is not positive", width, height), "give the image size in px");
+  }
+}
+
+CameraModel ParseCameraModel(const std::string& text, const std::string& source) {
+  ModelPtr m(mrcal_read_cameramodel_string(text.c_str(), static_cast<int>(text.size())));
+  if (!m) {
+    throw Error(source, "is not a readable mrcal .cameramodel (mrcal's parser rejected it)",
+                "check it with mrcal-show-projection-diff or regenerate it with `curvecheck calibrate`");
+  }
+  return FromMrcal(*m, source);
+}
+
+CameraModel ReadCameraModel(const std::filesystem::path& path) {
+  return ParseCameraModel(ReadFileToString(path), path.string());
+}
+
+void WriteCameraModel(const std::filesystem::path& path, const CameraModel& model) {
+  model.Check(path.string());
+  const size_t n = model.intrinsics.size();
+  std::unique_ptr<uint8_t[]> storage(new uint8_t[sizeof(mrcal_cameramodel_t) + n * sizeof(double)]());
+  auto* m = reinterpret_cast<mrcal_cameramodel_t*>(storage.get());
+  for (int i = 0; i < 6; ++i) m->rt_cam_ref[i] = model.rt_cam_ref[i];
+  m->imagersize[0] = static_cast<unsigned>(model.width);
+  m->imagersize[1] = static_cast<unsigned>(model.height);
+  m->lensmodel = LensModel(model.lensmodel, path.string());
+  std::memcpy(m->intrinsics, model.intrinsics.data(), n * sizeof(double));
+  // mrcal writes the file itself: write a temporary beside the target, then read it back and rename.
+  const std::filesystem::path folder = path.has_parent_path() ? path.parent_path() : ".";
+  const std::filesystem::path tmp = folder / fmt::format(".{}.tmp{}", path.filename().string(), ::getpid());
+  if (!mrcal_write_cameramodel_file(tmp.c_str(), m)) {
+    std::filesystem::remove(tmp);
+    throw Error(path.string(), "mrcal could not write the camera model", "check that the folder is writable");
+  }
+  const std::string text = ReadFileToString(tmp);
+  std::filesystem::remove(tmp);
+  WriteFileAtomic(path, text);
+}
+
+std::vector<Eigen::Vector2d> ProjectPoints(const CameraModel& model, const std::vector<Eigen::Vector3d>& points,
+                                           std::vector<Eigen::Matrix<double, 2, 3>>* dq_dp) {
+  const mrcal_lensmodel_t lens = LensModel(model.lensmodel, "camera model");
+  std::vector<mrcal_point3_t> p(points.size());
+  for (size_t i = 0; i < points.size(); ++i) p[i] = {{points[i].x(), points[i].y(), points[i].z()}};
+  std::vector<mrcal_point2_t> q(points.size());
+  std::vector<mrcal_point3_t> grad(dq_dp ? 2 * points.size() : 0);
+  if (!mrcal_project(q.data(), dq_dp ? grad.data() : nullptr, nullptr, p.data(), static_cast<int>(p.size()), &lens,
+                     model.intrinsics.data())) {
+    throw Error("camera model", "mrcal_project failed for " + model.lensmodel, "check the model");
+  }
+  std::vector<Eigen::Vector2d> out(points.size());
+  for (size_t i = 0; i < points.size(); ++i) out[i] = {q[i].x, q[i].y};
+  if (dq_dp) {
+    dq_dp->resize(points.size());
+    for (size_t i = 0; i < points.size(); ++i) {
+      for (int r = 0; r < 2; ++r) {
+        for (int c = 0; c < 3; ++c) (*dq_dp)[i](r, c) = grad[2 * i + static_cast<size_t>(r)].xyz[c];
+      }
+    }
+  }
+  return out;
+}
+
+Eigen::Vector2d ProjectPoint(const CameraModel& model, const Eigen::Vector3d& point) {
+  return ProjectPoints(model, {point}).front();
+}
+
+std::vector<Eigen::Vector3d> UnprojectPixels(const CameraModel& model, const std::vector<Eigen::Vector2d>& pixels) {
+  const mrcal_lensmodel_t lens = LensModel(model.lensmodel, "camera model");
+  std::vector<mrcal_point2_t> q(pixels.size());
+  for (size_t i = 0; i < pixels.size(); ++i) q[i] = {{pixels[i].x(), pixels[i].y()}};
+  std::vector<mrcal_point3_t> v(pixels.size());
+  if (!mrcal_unproject(v.data(), q.data(), static_cast<int>(q.size()), &lens, model.intrinsics.data())) {
+    throw Error("camera model", "mrcal_unproject failed for " + model.lensmodel, "check the model");
+  }
+  std::vector<Eigen::Vector3d> out(pixels.size());
+  for (size_t i = 0; i < pixels.size(); ++i) out[i] = Eigen::Vector3d(v[i].x, v[i].y, v[i].z).normalized();
+  return out;
+}
+
+CameraModel PinholeModel(int width, int height, double focal_px) {
+  CameraModel m;
+  m.lensmodel = "LENSMODEL_PINHOLE";
+  m.intrinsics = {focal_px, focal_px, 0.5 * (width - 1), 0.5 * (height - 1)};
+  m.width = width;
+  m.height = height;
+  return m;
+}
+
+}  // namespace curvecheck

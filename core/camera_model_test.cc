@@ -1,0 +1,77 @@
+#include "core/camera_model.h"
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <random>
+
+#include "core/error.h"
+#include "core/file_io.h"
+#include "core/test_util.h"
+
+namespace curvecheck {
+namespace {
+
+using testing::EigenNear;
+
+CameraModel MildOpenCv8() {
+  CameraModel m;
+  m.lensmodel = "LENSMODEL_OPENCV8";
+  m.intrinsics = {4800, 4800, 2999.5, 1999.5, -0.08, 0.05, 0.0004, -0.0003, -0.01, 0.001, 0.002, -0.002};
+  m.width = 6000;
+  m.height = 4000;
+  return m;
+}
+
+// Unprojection is the inverse of projection (through libmrcal both ways) over the imager.
+TEST(CameraModel, ProjectUnprojectRoundTrip) {
+  const CameraModel m = MildOpenCv8();
+  std::vector<Eigen::Vector2d> q;
+  std::mt19937_64 rng(7);
+  std::uniform_real_distribution<double> ux(0, 5999), uy(0, 3999);
+  for (int i = 0; i < 500; ++i) q.emplace_back(ux(rng), uy(rng));
+  const std::vector<Eigen::Vector3d> v = UnprojectPixels(m, q);
+  std::vector<Eigen::Vector3d> far;
+  for (const auto& d : v) far.push_back(d * 1500.0);
+  const std::vector<Eigen::Vector2d> back = ProjectPoints(m, far);
+  for (size_t i = 0; i < q.size(); ++i) EXPECT_THAT(back[i], EigenNear(q[i], 1e-6));
+}
+
+// The pinhole model is x/z * f + c; gradients agree with finite differences.
+TEST(CameraModel, PinholeAndGradients) {
+  const CameraModel pin = PinholeModel(1920, 1080, 1000);
+  EXPECT_THAT(ProjectPoint(pin, {0.1, -0.2, 2.0}), EigenNear(Eigen::Vector2d(959.5 + 50, 539.5 - 100), 1e-9));
+  const CameraModel m = MildOpenCv8();
+  const Eigen::Vector3d p(120, -80, 1400);
+  std::vector<Eigen::Matrix<double, 2, 3>> grad;
+  ProjectPoints(m, {p}, &grad);
+  for (int c = 0; c < 3; ++c) {
+    Eigen::Vector3d dp = Eigen::Vector3d::Zero();
+    dp[c] = 1e-4;
+    const Eigen::Vector2d fd = (ProjectPoint(m, p + dp) - ProjectPoint(m, p - dp)) / 2e-4;
+    EXPECT_THAT(Eigen::Vector2d(grad[0].col(c)), EigenNear(fd, 1e-5));
+  }
+}
+
+TEST(CameraModel, WriteReadRoundTripAndBadFiles) {
+  const auto dir = std::filesystem::temp_directory_path() / ("curvecheck_cameramodel_" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  const CameraModel m = MildOpenCv8();
+  WriteCameraModel(dir / "cam.cameramodel", m);
+  const CameraModel r = ReadCameraModel(dir / "cam.cameramodel");
+  EXPECT_EQ(r.lensmodel, "LENSMODEL_OPENCV8");
+  EXPECT_EQ(r.width, 6000);
+  ASSERT_EQ(r.intrinsics.size(), m.intrinsics.size());
+  for (size_t i = 0; i < m.intrinsics.size(); ++i) EXPECT_NEAR(r.intrinsics[i], m.intrinsics[i], 1e-12);
+  WriteFileAtomic(dir / "bad.cameramodel", "{ 'lensmodel': 'LENSMODEL_OPENCV8', ");
+  EXPECT_THAT(testing::MessageOf([&] { ReadCameraModel(dir / "bad.cameramodel"); }),
+              ::testing::HasSubstr("bad.cameramodel: is not a readable mrcal .cameramodel"));
+  CameraModel wrong = m;
+  wrong.intrinsics.pop_back();
+  EXPECT_THAT(testing::MessageOf([&] { wrong.Check("x"); }), ::testing::HasSubstr("takes 12 intrinsics, got 11"));
+  std::filesystem::remove_all(dir);
+}
+
+}  // namespace
+}  // namespace curvecheck

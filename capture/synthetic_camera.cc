@@ -184,7 +184,8 @@ Eigen::Vector3d TrueSurfacePointInScreen(const SyntheticScene& s, const Eigen::V
   return ScreenCentreInScreen(s.monitor) + s.truth.translation_mm + r * p_true;
 }
 
-RayGrid::RayGrid(const CameraModel& camera, double spacing_px) : spacing_(spacing_px) {
+RayGrid::RayGrid(const CameraModel& camera, double spacing_px, double dense_px)
+    : spacing_(spacing_px), dense_spacing_(dense_px) {
   // Nodes from -2 spacings to beyond the far edge so that every pixel has its 4 x 4 neighbourhood.
   nx_ = static_cast<int>(std::ceil((camera.width + 1) / spacing_)) + 4;
   ny_ = static_cast<int>(std::ceil((camera.height + 1) / spacing_)) + 4;
@@ -202,11 +203,30 @@ RayGrid::RayGrid(const CameraModel& camera, double spacing_px) : spacing_(spacin
     }
     normalized_[k] = Eigen::Vector2f(static_cast<float>(v[k].x() / v[k].z()), static_cast<float>(v[k].y() / v[k].z()));
   }
+  dense_nx_ = static_cast<int>(std::ceil(camera.width / dense_spacing_)) + 2;
+  dense_ny_ = static_cast<int>(std::ceil(camera.height / dense_spacing_)) + 2;
+  dense_.resize(static_cast<size_t>(dense_nx_) * dense_ny_);
+  for (int j = 0; j < dense_ny_; ++j) {
+    for (int i = 0; i < dense_nx_; ++i) {
+      dense_[static_cast<size_t>(j) * dense_nx_ + i] = Bicubic({i * dense_spacing_ - 0.5, j * dense_spacing_ - 0.5});
+    }
+  }
 }
 
 Eigen::Vector2d RayGrid::Node(int i, int j) const { return {(i - 2) * spacing_ - 0.5, (j - 2) * spacing_ - 0.5}; }
 
 Eigen::Vector3d RayGrid::Ray(const Eigen::Vector2d& q) const {
+  const double gx = (q.x() + 0.5) / dense_spacing_, gy = (q.y() + 0.5) / dense_spacing_;
+  const int i = std::clamp(static_cast<int>(gx), 0, dense_nx_ - 2), j = std::clamp(static_cast<int>(gy), 0, dense_ny_ - 2);
+  const double fx = gx - i, fy = gy - j;
+  const size_t k = static_cast<size_t>(j) * dense_nx_ + static_cast<size_t>(i);
+  const Eigen::Vector2d top = (1 - fx) * dense_[k] + fx * dense_[k + 1];
+  const Eigen::Vector2d bottom = (1 - fx) * dense_[k + dense_nx_] + fx * dense_[k + dense_nx_ + 1];
+  const Eigen::Vector2d n = (1 - fy) * top + fy * bottom;
+  return {n.x(), n.y(), 1.0};
+}
+
+Eigen::Vector2d RayGrid::Bicubic(const Eigen::Vector2d& q) const {
   const double gx = (q.x() + 0.5) / spacing_ + 2, gy = (q.y() + 0.5) / spacing_ + 2;
   const int i = std::clamp(static_cast<int>(std::floor(gx)), 1, nx_ - 3);
   const int j = std::clamp(static_cast<int>(std::floor(gy)), 1, ny_ - 3);
@@ -219,7 +239,7 @@ Eigen::Vector3d RayGrid::Ray(const Eigen::Vector2d& q) const {
     }
     n += wy[b] * row;
   }
-  return Eigen::Vector3d(n.x(), n.y(), 1.0).normalized();
+  return n;
 }
 
 double RayGrid::MeasureErrorPx(const CameraModel& camera, int samples, uint64_t seed) const {

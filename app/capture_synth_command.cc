@@ -1,0 +1,81 @@
+// `curvecheck capture synth --scene SCENE.yaml --display pattern.png -o photo.png`: the synthetic camera.
+// Writes photo.png and photo.truth.json (the true image position of every feature of pattern.json, which must
+// sit beside the display image).
+#include "app/capture_synth_command.h"
+
+#include <fmt/format.h>
+
+#include <filesystem>
+#include <iostream>
+
+#include "capture/synthetic_camera.h"
+#include "core/error.h"
+#include "core/file_io.h"
+#include "core/image_io.h"
+#include "render/pattern_json.h"
+
+namespace curvecheck::app {
+namespace {
+namespace fs = std::filesystem;
+
+struct SynthArgs {
+  std::string scene, display, output;
+  double ray_grid_px = 16;
+};
+
+int RunSynth(const SynthArgs& a) {
+  const fs::path out = a.output;
+  if (out.extension() != ".png") throw Error("-o", fmt::format("'{}' does not end in .png", a.output), "write e.g. -o photo.png");
+  const fs::path truth_path = fs::path(out).replace_extension(".truth.json");
+  std::error_code ec;
+  for (const std::string& in : {a.scene, a.display}) {
+    if (fs::exists(in, ec) && (fs::equivalent(in, out, ec) || fs::equivalent(in, truth_path, ec))) {
+      throw Error(out.string(), "is an input of this command", "choose another output path");
+    }
+  }
+  const SyntheticScene scene = LoadScene(a.scene);
+  const fs::path pattern_json = fs::path(a.display).replace_extension(".json");
+  const PatternFile pattern = ReadPatternJson(pattern_json);
+  if (pattern.monitor.width_px != scene.monitor.width_px || pattern.monitor.height_px != scene.monitor.height_px) {
+    throw Error(pattern_json.string(),
+                fmt::format("was rendered for {}x{} px but the scene's monitor is {}x{}", pattern.monitor.width_px,
+                            pattern.monitor.height_px, scene.monitor.width_px, scene.monitor.height_px),
+                "render the pattern for the scene's monitor");
+  }
+  const Image8 display = ReadImage8(a.display);
+  const SyntheticPhoto photo = RenderSyntheticPhoto(scene, display, a.ray_grid_px);
+  nlohmann::json truth = TruthJson(scene, pattern.features);
+  truth["scene"] = a.scene;
+  truth["display_image"] = a.display;
+  truth["pattern_json"] = pattern_json.string();
+  truth["photo"] = out.filename().string();
+  WriteSyntheticPhoto(out, photo);
+  WriteFileAtomic(truth_path, truth.dump(1) + "\n");
+  int visible = 0;
+  for (const auto& f : truth["features"]) visible += f["visible"].get<bool>() ? 1 : 0;
+  const PhotoTiming& t = photo.timing;
+  const double total = t.rays_ms + t.trace_ms + t.optics_ms + t.sensor_ms;
+  std::cout << fmt::format(
+      "{} x {} px, {} rays in {:.0f} ms ({:.1f} M rays/s): rays {:.0f} ms, trace {:.0f} ms, optics {:.0f} ms, "
+      "sensor {:.0f} ms\n{} of {} features visible\nwrote {} and {}\n",
+      photo.width, photo.height, t.rays, total, t.rays / (t.trace_ms * 1e3), t.rays_ms, t.trace_ms, t.optics_ms,
+      t.sensor_ms, visible, truth["features"].size(), out.string(), truth_path.string());
+  return 0;
+}
+
+}  // namespace
+
+void AddCaptureSynthCommand(CLI::App& capture, std::function<int()>& run) {
+  auto args = std::make_shared<SynthArgs>();
+  CLI::App* cmd = capture.add_subcommand(
+      "synth", "Ray-trace a photo of the scene's true monitor showing a pattern; writes PHOTO.png and "
+               "PHOTO.truth.json (true image position of every feature of the pattern's pattern.json)");
+  cmd->add_option("--scene", args->scene, "Scene YAML (datasets/scenes/)")->required();
+  cmd->add_option("--display", args->display, "The pattern PNG shown on the display (its .json beside it)")
+      ->required();
+  cmd->add_option("-o,--output", args->output, "Output photo (PNG)")->required();
+  cmd->add_option("--ray-grid-px", args->ray_grid_px, "Spacing of the unprojection grid, px")->capture_default_str();
+  cmd->callback([&run, args] { run = [args] { return RunSynth(*args); }; });
+}
+
+}  // namespace curvecheck::app

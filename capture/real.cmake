@@ -13,6 +13,7 @@ target_sources(curvecheck_capture PRIVATE
   ${CMAKE_CURRENT_LIST_DIR}/exif.cc
   ${CMAKE_CURRENT_LIST_DIR}/frame_source.cc
   ${CMAKE_CURRENT_LIST_DIR}/gphoto2_source.cc
+  ${CMAKE_CURRENT_LIST_DIR}/session.cc
 )
 # frame_source.h exposes cv::Mat and nlohmann::json.
 target_link_libraries(curvecheck_capture
@@ -23,4 +24,5 @@ curvecheck_add_test(capture_real_test
   SOURCES
     ${CMAKE_CURRENT_LIST_DIR}/exif_test.cc
     ${CMAKE_CURRENT_LIST_DIR}/frame_source_test.cc
+    ${CMAKE_CURRENT_LIST_DIR}/session_test.cc
   LIBS curvecheck_capture opencv_core opencv_imgcodecs)

@@ -13,6 +13,7 @@ target_sources(curvecheck_capture PRIVATE
   ${CMAKE_CURRENT_LIST_DIR}/exif.cc
   ${CMAKE_CURRENT_LIST_DIR}/frame_source.cc
   ${CMAKE_CURRENT_LIST_DIR}/gphoto2_source.cc
+  ${CMAKE_CURRENT_LIST_DIR}/presenter_display.cc
   ${CMAKE_CURRENT_LIST_DIR}/session.cc
 )
 # frame_source.h exposes cv::Mat and nlohmann::json.

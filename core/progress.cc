@@ -35,7 +35,10 @@ void Progress::Skip(int done) {
 void Progress::Step(const std::string& item) {
   ++done_;
   if (!tty_) {
-    out_ << fmt::format("{}: {}/{} {}", what_, done_, total_, item) << std::endl;
+    // total 0: not known in advance; the count alone is shown.
+    out_ << (total_ > 0 ? fmt::format("{}: {}/{} {}", what_, done_, total_, item)
+                        : fmt::format("{}: {} {}", what_, done_, item))
+         << std::endl;
     return;
   }
   constexpr int kWidth = 30;

@@ -15,7 +15,7 @@ namespace curvecheck {
 
 class Progress {
  public:
-  // what: a short name of the work ("capture"); total: number of steps (>= 0); out: where to write.
+  // what: a short name of the work ("capture"); total: number of steps (0: not known); out: where to write.
   // tty: force the terminal (true) or plain (false) form; unset: detect with isatty.
   Progress(std::string what, int total, std::ostream& out, std::optional<bool> tty = std::nullopt);
   // Ends the redrawn line with a newline if one was drawn.

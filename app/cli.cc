@@ -6,6 +6,8 @@
 #include <iostream>
 
 #include "app/bench_command.h"
+#include "app/capture_command.h"
+#include "app/capture_synth_command.h"
 #include "app/commands.h"
 #include "app/present_command.h"
 #include "app/render_command.h"
@@ -24,8 +26,6 @@ struct Planned {
   const char* issue;
 };
 constexpr Planned kPlanned[] = {
-    {"capture", "photograph the pattern: synthetic ray-traced camera, webcam, DSLR, or a folder",
-     "issue 4 (capture)"},
     {"calibrate", "calibrate the camera with mrcal from chessboard photos", "issue 5 (calibrate)"},
     {"analyze", "detect, verify the correction, fit the screen model, write result.json",
      "issue 6 (analysis)"},
@@ -64,6 +64,9 @@ int Main(int argc, char** argv) {
   AddBenchCommand(app, run);
   // `present` (issue 3 item 8): the fullscreen presenter; app/present_command.cc.
   AddPresentCommand(app, run);
+  // `capture` (issue 4 item 3): webcam, DSLR, sessions, import; app/capture_command.cc.
+  CLI::App* capture = AddCaptureCommand(app, run);
+  AddCaptureSynthCommand(*capture, run);
 
   for (const Planned& p : kPlanned) {
     CLI::App* cmd = app.add_subcommand(p.name, std::string(p.summary) + " [not implemented yet: " + p.issue + "]");

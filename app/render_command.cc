@@ -72,9 +72,10 @@ int RunRender(const RenderArgs& a) {
                              err.rms_px, err.p99_px, err.max_px, err.pixels,
                              err.missing_pixels ? fmt::format(" ({} px not drawn)", err.missing_pixels) : "");
     if (a.error_map) {
-      WriteHeatmapPng(*a.error_map, scene.monitor.width_px, scene.monitor.height_px, err.map_px,
-                      std::max(1e-3, err.max_px));
-      std::cout << fmt::format("error map (0 .. {:.3g} px, viridis) -> {}\n", std::max(1e-3, err.max_px), *a.error_map);
+      const double scale = std::max(1e-3, err.max_finite_px);
+      WriteHeatmapPng(*a.error_map, scene.monitor.width_px, scene.monitor.height_px, err.map_px, scale);
+      std::cout << fmt::format("error map (0 .. {:.3g} px, viridis; pixels not drawn in magenta) -> {}\n", scale,
+                               *a.error_map);
     }
   }
   WritePng8(png, image.width, image.height, 1, image.pixels.data());

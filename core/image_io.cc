@@ -64,16 +64,18 @@ Image8 ReadImage8(const std::filesystem::path& path) {
 
 void WriteHeatmapPng(const std::filesystem::path& path, int width, int height, const std::vector<float>& values,
                      double max_value) {
-  cv::Mat gray(height, width, CV_8U), mask(height, width, CV_8U);
+  cv::Mat gray(height, width, CV_8U), mask(height, width, CV_8U), missing(height, width, CV_8U);
   for (int i = 0; i < width * height; ++i) {
     const float v = values[static_cast<size_t>(i)];
     mask.data[i] = std::isnan(v) ? 0 : 255;
-    const double t = std::isnan(v) ? 0 : std::clamp(v / max_value, 0.0, 1.0);
+    missing.data[i] = std::isinf(v) ? 255 : 0;
+    const double t = std::isfinite(v) ? std::clamp(v / max_value, 0.0, 1.0) : 0;
     gray.data[i] = static_cast<uint8_t>(std::lround(255 * t));
   }
   cv::Mat colour;
   cv::applyColorMap(gray, colour, cv::COLORMAP_VIRIDIS);
   colour.setTo(cv::Scalar(48, 48, 48), mask == 0);
+  colour.setTo(cv::Scalar(255, 0, 255), missing);  // infinite error (a pixel the method did not draw): magenta
   WritePng8(path, width, height, 3, colour.data);
 }
 

@@ -22,8 +22,8 @@ struct Image8 {
 // truncated or not an image.
 Image8 ReadImage8(const std::filesystem::path& path);
 
-// Colour-maps a float map (NaN = no data, drawn dark grey) on [0, max_value] with a perceptual colour scale
-// (OpenCV's viridis) and writes it as PNG; values above max_value saturate.
+// Colour-maps a float map (NaN = no data, drawn dark grey; infinity = failure, drawn magenta) on [0, max_value]
+// with a perceptual colour scale (OpenCV's viridis) and writes it as PNG; values above max_value saturate.
 void WriteHeatmapPng(const std::filesystem::path& path, int width, int height, const std::vector<float>& values,
                      double max_value);
 

@@ -30,7 +30,7 @@ OffAxisFrustum MakeOffAxisFrustum(const Monitor& m, const Eigen::Vector3d& viewp
                             "of the plane of the screen's corners ({:.1f} mm): a linear projection cannot cover a "
                             "field of view of 180 deg or more",
                             viewpoint.x(), viewpoint.y(), viewpoint.z(), o_rel.z(), m.sagitta_mm()),
-                "move the viewpoint back, or use the exact or mesh method");
+                "move the viewpoint back, or use the exact method");
   }
   OffAxisFrustum fr;
   fr.viewpoint_in_screen = viewpoint;

@@ -68,7 +68,10 @@ MappingError MeasureMappingError(const Monitor& m, const Eigen::Vector3d& viewpo
   for (float v : out.map_px) {
     if (std::isnan(v)) continue;
     errors.push_back(v);
-    if (std::isfinite(v)) sum2 += static_cast<double>(v) * v;
+    if (std::isfinite(v)) {
+      sum2 += static_cast<double>(v) * v;
+      out.max_finite_px = std::max(out.max_finite_px, static_cast<double>(v));
+    }
   }
   for (int y = 0; y < h; ++y) {
     out.pixels += counted[static_cast<size_t>(y)];

@@ -17,7 +17,8 @@ namespace curvecheck {
 struct MappingError {
   double rms_px = 0;
   double p99_px = 0;
-  double max_px = 0;
+  double max_px = 0;            // infinite if any pixel is missing
+  double max_finite_px = 0;     // largest error over the pixels the method drew
   int64_t pixels = 0;          // pixels compared: those whose exact point lies on the pattern's cells
   int64_t missing_pixels = 0;  // of those, pixels the method left without coordinates (NaN): counted as failures
   // Per-pixel error in display px (row-major, display size); NaN where not compared.

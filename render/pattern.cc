@@ -343,8 +343,9 @@ void PatternSpec::Check(const std::string& where) const {
     throw Error(where, fmt::format("pattern square_mm {} / tag_mm {} is negative", square_mm, tag_mm),
                 "give a size in mm, or 0 to fit the pattern to the display");
   }
-  if (!(margin >= 0 && margin < 0.9)) {
-    throw Error(where, fmt::format("pattern margin is {}; it must be in [0, 0.9)", margin),
+  if (!(margin >= 0 && margin < 0.45)) {
+    throw Error(where, fmt::format("pattern margin is {}; it must be in [0, 0.45) (a margin of 0.5 per side "
+                                   "leaves no display)", margin),
                 "give the fraction of the display to leave free on each side, e.g. 0.05");
   }
   if (HasBoard(kind) && (cols < 2 || rows < 2)) {
@@ -395,6 +396,14 @@ void PatternSpec::Check(const std::string& where) const {
     case PatternKind::kBoth:
       cells = static_cast<double>(cols) * rows * kBothSquareCells * kBothSquareCells;
       break;
+  }
+  // Every feature becomes a pattern.json entry (~300 bytes) and is projected; 2e5 features is ~60 MB of JSON,
+  // far beyond what a photo of one display can resolve.
+  const double features = (HasBoard(kind) ? static_cast<double>(cols - 1) * (rows - 1) : 0) +
+                          (HasTags(kind) ? 4.0 * TagCount(*this) : 0);
+  if (features > 2e5) {
+    throw Error(where, fmt::format("pattern has {:.3g} features, more than the limit of 200000", features),
+                "use fewer squares or tags");
   }
   if (cells > kMaxCells) {
     throw Error(where,

@@ -53,7 +53,7 @@ struct PatternSpec {
   // Fraction of the display left free around a fitted pattern on each side, in display pixels: the outline
   // of the whole cell grid must map into [-0.5 + margin Nx, Nx - 0.5 - margin Nx] x [-0.5 + margin Ny,
   // Ny - 0.5 - margin Ny]. On a flat monitor with the tangent plane the fitted square is therefore
-  // min((1 - 2 margin) W / cols, (1 - 2 margin) H / rows). In [0, 0.9).
+  // min((1 - 2 margin) W / cols, (1 - 2 margin) H / rows). In [0, 0.45).
   double margin = 0.05;
   // Pattern centre in plane coordinates (mm).
   Eigen::Vector2d centre_mm = Eigen::Vector2d::Zero();

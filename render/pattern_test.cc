@@ -407,7 +407,7 @@ TEST(Pattern, BadSpecsAreClearErrors) {
   EXPECT_THAT(check([](PatternSpec& s) { s.centre_mm.y() = INFINITY; }), HasSubstr("non-finite"));
   EXPECT_THAT(check([](PatternSpec& s) { s.tag_mm = -1; }), HasSubstr("is negative"));
   EXPECT_THAT(check([](PatternSpec& s) { s.margin = 0.95; }),
-              HasSubstr("margin is 0.95; it must be in [0, 0.9)"));
+              HasSubstr("margin is 0.95; it must be in [0, 0.45)"));
   EXPECT_THAT(check([](PatternSpec& s) { s.margin = -0.1; }), HasSubstr("margin is -0.1"));
   EXPECT_THAT(check([](PatternSpec& s) { s.margin = std::nan(""); }), HasSubstr("non-finite"));
   EXPECT_THAT(check([](PatternSpec& s) {

@@ -112,7 +112,7 @@ Eigen::Matrix4d RectangleProjection(const Eigen::Vector3d& pa, const Eigen::Vect
   const double d = -va.dot(vn);
   if (!(d > 1e-3)) {
     throw Error("viewpoint", fmt::format("the viewpoint is {:.3f} mm in front of the plane of {}", d, what),
-                "a perspective projection onto that plane cannot show it; use the exact or mesh method");
+                "a perspective projection onto that plane cannot show it; use more strips or the exact method");
   }
   const double n = 1.0, f = 1e7;
   const double l = vr.dot(va) * n / d, r = vr.dot(vb) * n / d, b = vu.dot(va) * n / d, t = vu.dot(vc) * n / d;
@@ -469,7 +469,7 @@ void CheckMethodApplies(const Monitor& m, const Eigen::Vector3d& viewpoint, cons
                             "({:.1f} mm): the field of view reaches 180 deg, which the mesh method's cylindrical "
                             "projection cannot render (thesis 4.3.1)",
                             (viewpoint - ScreenCentreInScreen(m)).z(), m.sagitta_mm()),
-                "use the exact or strips method");
+                "use the exact method");
   }
   if (o.method.method == Method::kMesh && !tess) {
     throw Error("Vulkan", "the device has no tessellation shaders, which the mesh method needs",
@@ -487,6 +487,24 @@ std::vector<uint8_t> Renderer::Impl::Draw(const Monitor& m, const Eigen::Vector3
   const MethodOptions& mo = o.method;
   const uint32_t width = static_cast<uint32_t>(m.width_px), height = static_cast<uint32_t>(m.height_px);
   const vk::Format target_format = coordinates ? kCoordFormat : kShadeFormat;
+  // Refuse sizes the device cannot hold rather than render nothing (lavapipe: 16384 px).
+  const vk::PhysicalDeviceLimits limits = physical.getProperties().limits;
+  auto check_size = [&](uint64_t w, uint64_t h, const char* what) {
+    const uint64_t max = std::min<uint64_t>(limits.maxImageDimension2D,
+                                            std::min(limits.maxFramebufferWidth, limits.maxFramebufferHeight));
+    if (w > max || h > max) {
+      throw Error("render", fmt::format("{} of {}x{} px exceeds the device's limit of {} px ({})", what, w, h, max,
+                                        device_name),
+                  "use a smaller display or warp scale, or another device");
+    }
+  };
+  check_size(width, height, "the display");
+  check_size(static_cast<uint64_t>(pattern.cells.width) + 2, static_cast<uint64_t>(pattern.cells.height) + 2,
+             "the pattern's cell grid");
+  if (mo.method == Method::kWarp) {
+    check_size(static_cast<uint64_t>(std::lround(mo.warp_scale * m.width_px)) + 4,
+               static_cast<uint64_t>(std::lround(mo.warp_scale * m.height_px)) + 4, "the warp's first-pass image");
+  }
   const Eigen::Vector3d centre = ScreenCentreInScreen(m);
   const Eigen::Vector3d eye = viewpoint - centre;  // centre frame
   const Eigen::Vector3d plane_origin = pattern.plane.origin_in_screen - centre;
@@ -542,6 +560,22 @@ std::vector<uint8_t> Renderer::Impl::Draw(const Monitor& m, const Eigen::Vector3
         0, 2 * n / (t - b), (t + b) / (t - b), 0,       //
         0, 0, -f / (f - n), -(f * n) / (f - n),         //
         0, 0, -1, 0;
+    // The first pass clips at the near plane (the plane of the screen's corners): a pattern plane that comes
+    // nearer than that somewhere in the drawn rectangle would be cut silently, so refuse.
+    {
+      const PatternCells& pc = pattern.cells;
+      const double ra0 = pc.top_left_mm.x() - pc.cell_mm, ra1 = pc.top_left_mm.x() + (pc.width + 1) * pc.cell_mm;
+      const double rb1 = pc.top_left_mm.y() + pc.cell_mm, rb0 = pc.top_left_mm.y() - (pc.height + 1) * pc.cell_mm;
+      for (const auto& [ca, cb] : {std::pair(ra0, rb0), std::pair(ra1, rb0), std::pair(ra0, rb1), std::pair(ra1, rb1)}) {
+        const Eigen::Vector3d corner = pattern.plane.PointInScreen({ca, cb}) - centre;
+        if (eye.z() - corner.z() < n * (1 - 1e-9)) {  // on the near plane itself is drawn (flat screens)
+          throw Error("pattern plane",
+                      "part of the pattern lies in front of the plane of the screen's corners, where the warp's "
+                      "linear first pass clips it",
+                      "use a pattern plane behind the screen, or the exact method");
+        }
+      }
+    }
     Eigen::Matrix4d view = Eigen::Matrix4d::Identity();  // translation by -O, in the centre frame
     view.block<3, 1>(0, 3) = -eye;
     warp_clip_from_centre = FlipY() * proj * view;

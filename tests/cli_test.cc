@@ -8,6 +8,8 @@
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
+
+#include "core/image_io.h"
 #include <sstream>
 
 namespace {
@@ -204,7 +206,12 @@ TEST_F(Cli, RenderEveryMethodAndPattern) {
       EXPECT_EQ(j["method"], method);
       EXPECT_EQ(j["monitor"]["resolution"][0], 3440);
       EXPECT_GT(j["features"].size(), 10u);
-      EXPECT_THAT(Slurp(out).substr(1, 3), ::testing::Eq("PNG"));
+      // The image shows the pattern: black and white pixels, not only the grey surround.
+      const curvecheck::Image8 img = curvecheck::ReadImage8(out);
+      EXPECT_EQ(img.width, 3440);
+      const auto [lo, hi] = std::minmax_element(img.pixels.begin(), img.pixels.end());
+      EXPECT_LT(*lo, 20);
+      EXPECT_GT(*hi, 235);
     }
   }
 }
@@ -239,6 +246,14 @@ TEST_F(Cli, RenderBadInput) {
   EXPECT_THAT(Slurp(monitor), HasSubstr("radius_mm: flat"));
 }
 
+TEST_F(Cli, RenderRefusesDisplaysBeyondTheDeviceLimits) {
+  const std::string wide = Write("wide.yaml", "resolution: [40000, 100]\nactive_area_mm: [9000, 22.5]\nradius_mm: flat\n");
+  ExpectFailure(Curvecheck({"render", "--monitor", wide, "--viewpoint", "0,0,1000", "-o", (dir_ / "w.png").string()}),
+                {"exceeds the device's limit"});
+  EXPECT_FALSE(fs::exists(dir_ / "w.png"));
+  ExpectFailure(Curvecheck({"render", "--margin", "0.5", "-o", (dir_ / "m.png").string()}), {"margin", "0.45"});
+}
+
 TEST_F(Cli, RenderWithoutVulkanDriverIsAClearError) {
   const std::string cmd = "VK_DRIVER_FILES=/nonexistent/icd.json VK_ICD_FILENAMES=/nonexistent/icd.json " +
                           Quote(CURVECHECK_BINARY) + " render -o " + Quote((dir_ / "x.png").string()) + " 2>" +
@@ -258,7 +273,35 @@ TEST_F(Cli, BenchRenderWritesCsvAndChart) {
   const std::string csv = Slurp(dir_ / "bench" / "render_bench.csv");
   EXPECT_THAT(csv, HasSubstr("method,setting,median_ms"));
   EXPECT_THAT(csv, HasSubstr("exact,\"exact analytic\""));
-  EXPECT_THAT(csv, HasSubstr(",1\n"));  // at least one Pareto point
+  // The Pareto flags follow their definition: a row is marked iff no other row is at least as fast and at
+  // least as accurate, and strictly better in one.
+  struct Row {
+    double ms, err;
+    bool pareto;
+  };
+  std::vector<Row> rows;
+  std::stringstream lines(csv);
+  for (std::string line; std::getline(lines, line);) {
+    if (line.empty() || line[0] == '#' || line.rfind("method,", 0) == 0) continue;
+    std::vector<std::string> f;
+    std::string cell;
+    bool quoted = false;
+    for (char ch : line) {
+      if (ch == '"') quoted = !quoted;
+      else if (ch == ',' && !quoted) f.push_back(cell), cell.clear();
+      else cell += ch;
+    }
+    f.push_back(cell);
+    ASSERT_EQ(f.size(), 10u) << line;
+    rows.push_back({std::stod(f[2]), std::stod(f[7]), f[9] == "1"});
+  }
+  ASSERT_GE(rows.size(), 8u);
+  for (const Row& row : rows) {
+    const bool dominated = std::any_of(rows.begin(), rows.end(), [&](const Row& q) {
+      return &q != &row && q.ms <= row.ms && q.err <= row.err && (q.ms < row.ms || q.err < row.err);
+    });
+    EXPECT_EQ(row.pareto, !dominated);
+  }
   EXPECT_TRUE(fs::exists(dir_ / "bench" / "render_bench.png"));
   EXPECT_THAT(r.out, HasSubstr("Pareto front"));
 }

@@ -307,3 +307,43 @@ TEST_F(Cli, BenchRenderWritesCsvAndChart) {
 }
 
 }  // namespace
+
+namespace {
+
+// `capture synth` end to end: render a pattern, photograph it with a small synthetic camera, and check the
+// truth file against the geometry (every feature visible, inside the image) and the photo's content.
+TEST_F(Cli, CaptureSynthWritesPhotoAndTruth) {
+  const fs::path src = fs::path(std::getenv("CURVECHECK_SOURCE_DIR"));
+  // A small camera (1200 x 800) with the default lens scaled, looking at the 27" flat from 700 mm.
+  std::ofstream(dir_ / "small.cameramodel")
+      << "{ 'lensmodel': 'LENSMODEL_OPENCV8', 'intrinsics': [1400, 1400, 599.5, 399.5, -0.05, 0.02, 0.0002, "
+         "-0.0002, -0.005, 0.001, 0.001, -0.001], 'imagersize': [1200, 800], 'extrinsics': [0,0,0,0,0,0] }\n";
+  std::ofstream(dir_ / "scene.yaml") << "format: curvecheck.scene/1\nmonitor: 27in-2560x1440-flat\n"
+                                        "camera: {model: small.cameramodel, position_mm: [50, 30, 700]}\n"
+                                        "optics: {supersample: 2, blur: gaussian, blur_px: 0.5}\n"
+                                        "sensor: {seed: 3, bits: 16}\n";
+  const std::string pattern = (dir_ / "pattern.png").string();
+  ASSERT_EQ(Curvecheck({"render", "--monitor", "27in-2560x1440-flat", "--viewpoint", "50,30,700", "--squares",
+                        "10x6", "-o", pattern}).code, 0);
+  const CliRun r = Curvecheck({"capture", "synth", "--scene", (dir_ / "scene.yaml").string(), "--display", pattern,
+                               "-o", (dir_ / "photo.png").string()});
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_THAT(r.out, HasSubstr("45 of 45 features visible"));
+  const nlohmann::json truth = nlohmann::json::parse(Slurp(dir_ / "photo.truth.json"));
+  EXPECT_EQ(truth["format"], "curvecheck.truth/1");
+  ASSERT_EQ(truth["features"].size(), 45u);
+  for (const auto& f : truth["features"]) {
+    EXPECT_TRUE(f["visible"].get<bool>());
+    EXPECT_GT(f["image_px"][0].get<double>(), 0);
+    EXPECT_LT(f["image_px"][0].get<double>(), 1200);
+  }
+  const curvecheck::Image8 photo = curvecheck::ReadImage8(dir_ / "photo.png");
+  EXPECT_EQ(photo.width, 1200);
+  EXPECT_EQ(photo.height, 800);
+  // Bad input: a display image that is not the monitor's size.
+  ExpectFailure(Curvecheck({"capture", "synth", "--scene", (dir_ / "scene.yaml").string(), "--display",
+                            (dir_ / "photo.png").string(), "-o", (dir_ / "x.png").string()}),
+                {"photo.json"});
+}
+
+}  // namespace

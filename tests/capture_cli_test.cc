@@ -1,6 +1,8 @@
 // End-to-end tests of `curvecheck capture`: without cameras (this machine has none) the camera paths fail with
 // one clear line; import builds a session folder; a session runs the real presenter on Xvfb (lavapipe) with
 // photos from a folder standing in for the camera.
+#include "tests/cli_test_util.h"
+
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 #include <signal.h>
@@ -22,23 +24,9 @@ using ::testing::StartsWith;
 
 constexpr const char* kLavapipe = "/usr/share/vulkan/icd.d/lvp_icd.x86_64.json";
 
-struct CliRun {
-  int code = -1;
-  std::string out, err;
-};
-
-std::string Slurp(const fs::path& p) {
-  std::ifstream in(p);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
-
-std::string Quote(const std::string& s) {
-  std::string q = "'";
-  for (char c : s) q += c == '\'' ? std::string("'\\''") : std::string(1, c);
-  return q + "'";
-}
+using curvecheck::testing::CliRun;
+using curvecheck::testing::Quote;
+using curvecheck::testing::Slurp;
 
 class CaptureCli : public ::testing::Test {
  protected:
@@ -52,21 +40,11 @@ class CaptureCli : public ::testing::Test {
 
   // env: "NAME=value" assignments put before the command ("-u NAME" unsets).
   CliRun Curvecheck(const std::vector<std::string>& args, const std::string& env = "") {
-    std::string cmd = (env.empty() ? "" : "env " + env + " ") + Quote(CURVECHECK_BINARY);
-    for (const auto& a : args) cmd += " " + Quote(a);
-    cmd += " >" + Quote((dir_ / "out").string()) + " 2>" + Quote((dir_ / "err").string());
-    const int status = std::system(cmd.c_str());
-    CliRun r;
-    r.code = WIFEXITED(status) ? WEXITSTATUS(status) : 128;
-    r.out = Slurp(dir_ / "out");
-    r.err = Slurp(dir_ / "err");
-    return r;
+    return curvecheck::testing::RunBinary(CURVECHECK_BINARY, args, dir_, env);
   }
 
   void ExpectFailure(const CliRun& r, const std::vector<std::string>& pieces) {
-    EXPECT_EQ(r.code, 1) << r.err;
-    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
-    for (const auto& p : pieces) EXPECT_THAT(r.err, HasSubstr(p));
+    curvecheck::testing::ExpectOneLineFailure(r, pieces);
   }
 
   // A flat 1024x768 monitor's pattern (the Xvfb screen's size), rendered with lavapipe.

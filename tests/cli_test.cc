@@ -1,5 +1,7 @@
 // End-to-end tests of the `curvecheck` command line: exit codes (0 ok, 1 failure, 2 usage), one-line errors
 // naming the file or option and the problem, and the figures `info` prints.
+#include "tests/cli_test_util.h"
+
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 #include <sys/wait.h>
@@ -18,23 +20,9 @@ using ::testing::AllOf;
 using ::testing::HasSubstr;
 using ::testing::Not;
 
-struct CliRun {
-  int code = -1;
-  std::string out, err;
-};
-
-std::string Slurp(const fs::path& p) {
-  std::ifstream in(p);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
-
-std::string Quote(const std::string& s) {
-  std::string q = "'";
-  for (char c : s) q += c == '\'' ? std::string("'\\''") : std::string(1, c);
-  return q + "'";
-}
+using curvecheck::testing::CliRun;
+using curvecheck::testing::Quote;
+using curvecheck::testing::Slurp;
 
 class Cli : public ::testing::Test {
  protected:
@@ -47,15 +35,7 @@ class Cli : public ::testing::Test {
   void TearDown() override { fs::remove_all(dir_); }
 
   CliRun Curvecheck(const std::vector<std::string>& args) {
-    std::string cmd = Quote(CURVECHECK_BINARY);
-    for (const auto& a : args) cmd += " " + Quote(a);
-    cmd += " >" + Quote((dir_ / "out").string()) + " 2>" + Quote((dir_ / "err").string());
-    const int status = std::system(cmd.c_str());
-    CliRun r;
-    r.code = WIFEXITED(status) ? WEXITSTATUS(status) : 128;
-    r.out = Slurp(dir_ / "out");
-    r.err = Slurp(dir_ / "err");
-    return r;
+    return curvecheck::testing::RunBinary(CURVECHECK_BINARY, args, dir_);
   }
 
   std::string Write(const std::string& name, const std::string& text) {
@@ -66,9 +46,7 @@ class Cli : public ::testing::Test {
 
   // Exit 1 with exactly one line on stderr containing every expected piece.
   void ExpectFailure(const CliRun& r, const std::vector<std::string>& pieces) {
-    EXPECT_EQ(r.code, 1) << r.err;
-    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
-    for (const auto& p : pieces) EXPECT_THAT(r.err, HasSubstr(p));
+    curvecheck::testing::ExpectOneLineFailure(r, pieces);
   }
 
   fs::path dir_;

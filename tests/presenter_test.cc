@@ -9,6 +9,8 @@
 // photo check), nor the timing of scan-out on real hardware.
 // Xvfb is a project dependency (scripts/debian-packages.txt): if it is missing the tests fail, they do not skip.
 #include <fcntl.h>
+#include "tests/cli_test_util.h"
+
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 #include <poll.h>
@@ -47,12 +49,7 @@ const char* const kLavapipe = "/usr/share/vulkan/icd.d/lvp_icd.x86_64.json";
 
 double SecondsSince(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
 
-std::string Slurp(const fs::path& p) {
-  std::ifstream in(p);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
+using curvecheck::testing::Slurp;
 
 // Environment of this process with `set` entries replaced or added (a later entry wins over an earlier one of
 // the same name), then `unset` names removed.

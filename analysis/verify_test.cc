@@ -1,0 +1,199 @@
+// Verification against analytic ground truth: the camera (the default 24 MP OPENCV8 lens) sits at the stated
+// viewpoint of the default scene, 1.5 m in front of the default 49" 1000R monitor, and the features are placed
+// on the ideal monitor where a given rendering puts them. No image is rendered: the detections are the exact
+// projections (plus seeded noise where said), so every figure here is the verification's own, not a detector's.
+#include "analysis/verify.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdlib>
+#include <fstream>
+#include <functional>
+#include <iostream>
+#include <random>
+
+#include "capture/synthetic_camera.h"
+#include "core/screen_geometry.h"
+#include "core/test_util.h"
+#include "datasets/monitor_presets.h"
+#include "render/pattern_json.h"
+
+namespace curvecheck {
+namespace {
+
+using testing::MessageOf;
+
+std::filesystem::path SourceDir() { return std::getenv("CURVECHECK_SOURCE_DIR"); }
+
+class VerifyTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    monitor_ = LoadMonitor(kDefaultMonitorPreset);
+    viewpoint_ = ScreenCentreInScreen(monitor_) + Eigen::Vector3d(0, 0, 1500);
+    plane_ = TangentPlaneAtCentre(monitor_);
+    PatternSpec spec;
+    spec.cols = 32;
+    spec.rows = 9;
+    const Pattern p = BuildPattern(spec, monitor_, viewpoint_, plane_);
+    const nlohmann::json j = PatternToJson(p, monitor_, viewpoint_, {{"name", "exact"}});
+    const std::filesystem::path path = ::testing::TempDir() + "verify_test_pattern.json";
+    std::ofstream(path) << j.dump();
+    pattern_ = ReadPatternJson(path);
+    camera_ = ReadCameraModel(SourceDir() / "datasets/cameras/default-24mp-opencv8.cameramodel");
+    screen_from_cam_ = ScreenFromCamLookAt(viewpoint_, ScreenCentreInScreen(monitor_), Eigen::Vector3d::UnitY());
+  }
+
+  // Where the camera at `camera_in_screen` sees each feature when the rendering puts feature f at display
+  // position display_of(f) on the ideal nominal monitor.
+  void Photograph(const std::function<Eigen::Vector2d(const Feature&)>& display_of, double noise_px,
+                  std::vector<std::string>* ids, std::vector<Eigen::Vector2d>* px, uint64_t seed = 1) const {
+    std::mt19937_64 rng(seed);
+    std::normal_distribution<double> normal(0, noise_px);
+    for (const Feature& f : pattern_.features) {
+      if (!f.display_px) continue;
+      const Eigen::Vector3d p = SurfacePointFromUv(monitor_, UvFromDisplayPx(monitor_, display_of(f)));
+      const Eigen::Vector3d p_cam = screen_from_cam_.transpose() * (p - viewpoint_);
+      ids->push_back(f.id);
+      px->push_back(ProjectPoint(camera_, p_cam) + Eigen::Vector2d(normal(rng), normal(rng)));
+    }
+  }
+
+  Monitor monitor_;
+  Eigen::Vector3d viewpoint_;
+  PatternPlane plane_;
+  PatternFile pattern_;
+  CameraModel camera_;
+  Eigen::Matrix3d screen_from_cam_;
+};
+
+TEST_F(VerifyTest, ExactRenderingFromTheViewpointIsAPlanarPerspectiveImage) {
+  std::vector<std::string> ids;
+  std::vector<Eigen::Vector2d> px;
+  Photograph([](const Feature& f) { return *f.display_px; }, 0, &ids, &px);
+  ASSERT_EQ(ids.size(), 31u * 8u);
+  const Verification v = VerifyCorrection(pattern_, camera_, ids, px);
+  ASSERT_EQ(v.failure, "");
+  EXPECT_LT(v.rms_px, 1e-6);
+  EXPECT_LT(v.max_display_px, 1e-6);
+  EXPECT_LT(v.max_arcmin, 1e-6);
+  EXPECT_TRUE(v.pass);
+}
+
+TEST_F(VerifyTest, NoiseShowsAsItsOwnRmsAndPasses) {
+  std::vector<std::string> ids;
+  std::vector<Eigen::Vector2d> px;
+  Photograph([](const Feature& f) { return *f.display_px; }, 0.1, &ids, &px, 7);
+  const Verification v = VerifyCorrection(pattern_, camera_, ids, px);
+  ASSERT_EQ(v.failure, "");
+  // RMS of the 2D residual's length; 2n residuals minus 8 parameters: 0.1 sqrt(2) sqrt(1 - 8 / 2n) = 0.1403 px.
+  EXPECT_NEAR(v.rms_px, 0.1403, 0.01);
+  // One display px is 0.234 mm, about 0.78 camera px from 1.5 m with f = 5000 px.
+  EXPECT_NEAR(v.rms_display_px, v.rms_px / 0.78, 0.03);
+  // Noise alone: the 95th percentile of a 2D Gaussian's length is 2.45 sigma; 0.1 / 0.78 display px per axis.
+  EXPECT_NEAR(v.p95_display_px, 2.45 * 0.1 / 0.78, 0.06);
+  EXPECT_TRUE(v.pass);
+}
+
+TEST_F(VerifyTest, OneMisplacedFeatureShowsItsDisplacementInDisplayPixels) {
+  std::vector<std::string> ids;
+  std::vector<Eigen::Vector2d> px;
+  const std::string moved = "c100";
+  const Eigen::Vector2d shift(1.0, -0.5);
+  const auto display_of = [&](const Feature& f) {
+    Eigen::Vector2d d = *f.display_px;
+    if (f.id == moved) d += shift;
+    return d;
+  };
+  Photograph(display_of, 0, &ids, &px);
+  const Verification v = VerifyCorrection(pattern_, camera_, ids, px);
+  ASSERT_EQ(v.failure, "");
+  for (const FeatureCheck& c : v.features) {
+    if (c.id != moved) continue;
+    // The homography absorbs a little of one feature's displacement (its leverage, ~8/248).
+    EXPECT_THAT(c.residual_display_px, testing::EigenNear(shift, 0.06));
+    // The same displacement as the angle between the rays of the detected and the expected position.
+    const std::vector<Eigen::Vector3d> rays = UnprojectPixels(camera_, {c.detected_px, c.expected_px});
+    const double angle = std::atan2(rays[0].cross(rays[1]).norm(), rays[0].dot(rays[1]));
+    EXPECT_NEAR(c.residual_arcmin, angle * 60 * 180 / M_PI, 1e-6 * c.residual_arcmin);
+    // About the residual over the focal length (5000 px; the lens's distortion changes it by a few %).
+    EXPECT_NEAR(c.residual_arcmin, c.residual_px.norm() / 5000 * 60 * 180 / M_PI, 0.05 * c.residual_arcmin);
+  }
+}
+
+TEST_F(VerifyTest, CatchesTheUncorrectedRenderingByAWideMargin) {
+  // `none` draws the pattern plane (tangent at the centre, the flat screen an unaware application assumes)
+  // with uniform pixels: feature (a, b) lands at display px ((a + W/2) / pitch - 0.5, (H/2 - b) / pitch - 0.5).
+  const double pitch = monitor_.pixel_pitch_mm();
+  const auto none = [&](const Feature& f) {
+    return Eigen::Vector2d((f.pattern_mm.x() + monitor_.width_mm / 2) / pitch - 0.5,
+                           (monitor_.height_mm / 2 - f.pattern_mm.y()) / pitch - 0.5);
+  };
+  std::vector<std::string> ids;
+  std::vector<Eigen::Vector2d> px;
+  Photograph(none, 0.1, &ids, &px);
+  const Verification v = VerifyCorrection(pattern_, camera_, ids, px);
+  ASSERT_EQ(v.failure, "");
+  EXPECT_FALSE(v.pass);
+  EXPECT_GT(v.rms_display_px, 20 * v.tolerance_display_px) << v.rms_display_px;
+}
+
+TEST_F(VerifyTest, CatchesAViewpointMisstatedBy20mm) {
+  // Rendered for a viewpoint 20 mm off the camera's real position, in each axis.
+  for (const Eigen::Vector3d& offset : {Eigen::Vector3d(20, 0, 0), Eigen::Vector3d(0, 20, 0), Eigen::Vector3d(0, 0, 20)}) {
+    const Eigen::Vector3d stated = viewpoint_ + offset;
+    const auto misstated = [&](const Feature& f) {
+      return *DisplayPxFromPattern(monitor_, stated, plane_, f.pattern_mm);
+    };
+    std::vector<std::string> ids;
+    std::vector<Eigen::Vector2d> px;
+    Photograph(misstated, 0.1, &ids, &px);
+    const Verification v = VerifyCorrection(pattern_, camera_, ids, px);
+    ASSERT_EQ(v.failure, "");
+    std::cout << "viewpoint off by (" << offset.transpose() << ") mm: rms " << v.rms_display_px << " display px, max "
+              << v.max_display_px << ", p95 " << v.p95_display_px << "\n";
+    EXPECT_FALSE(v.pass) << offset.transpose() << ": p95 " << v.p95_display_px << " display px";
+  }
+}
+
+TEST_F(VerifyTest, TooFewFeaturesGiveNoVerdict) {
+  std::vector<std::string> ids;
+  std::vector<Eigen::Vector2d> px;
+  Photograph([](const Feature& f) { return *f.display_px; }, 0, &ids, &px);
+  ids.resize(6);
+  px.resize(6);
+  const Verification v = VerifyCorrection(pattern_, camera_, ids, px);
+  EXPECT_EQ(v.failure, "only 6 usable features; at least 8 are needed for a verdict");
+  EXPECT_FALSE(v.pass);
+}
+
+TEST_F(VerifyTest, UnknownIdIsAnError) {
+  EXPECT_THAT(MessageOf([&] { VerifyCorrection(pattern_, camera_, {"c99999"}, {Eigen::Vector2d(1, 1)}); }),
+              ::testing::HasSubstr("detected feature 'c99999' is not in the pattern"));
+}
+
+TEST_F(VerifyTest, CombinedVerdictPassesOnlyIfEveryPhotoPasses) {
+  std::vector<std::string> ids, ids_bad;
+  std::vector<Eigen::Vector2d> px, px_bad;
+  Photograph([](const Feature& f) { return *f.display_px; }, 0.1, &ids, &px);
+  // A vertical ripple of 1 display px, four periods across the width (no homography absorbs it).
+  const auto sheared = [](const Feature& f) {
+    Eigen::Vector2d d = *f.display_px;
+    d.y() += std::sin(2 * M_PI * d.x() / 1280);
+    return d;
+  };
+  Photograph(sheared, 0.1, &ids_bad, &px_bad);
+  const Verification good = VerifyCorrection(pattern_, camera_, ids, px);
+  const Verification bad = VerifyCorrection(pattern_, camera_, ids_bad, px_bad);
+  ASSERT_TRUE(good.pass);
+  ASSERT_FALSE(bad.pass) << bad.rms_display_px;
+  EXPECT_TRUE(CombineVerifications({good, good}, {}).pass);
+  const Verification both = CombineVerifications({good, bad}, {});
+  EXPECT_FALSE(both.pass);
+  EXPECT_NEAR(both.rms_display_px,
+              std::sqrt((good.rms_display_px * good.rms_display_px + bad.rms_display_px * bad.rms_display_px) / 2),
+              1e-9);
+}
+
+}  // namespace
+}  // namespace curvecheck

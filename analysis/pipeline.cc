@@ -1,0 +1,462 @@
+#include "analysis/pipeline.h"
+
+#include <fmt/format.h>
+
+#include <chrono>
+#include <cmath>
+#include <map>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+#include <set>
+#include <sstream>
+
+#include "core/error.h"
+#include "core/file_io.h"
+#include "core/monitor_json.h"
+
+namespace curvecheck {
+namespace {
+
+double MsSince(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+}
+
+bool SameMonitor(const Monitor& a, const Monitor& b) {
+  const auto near = [](double x, double y) { return std::abs(x - y) <= 1e-9 * std::max(1.0, std::abs(x)); };
+  return a.width_px == b.width_px && a.height_px == b.height_px && near(a.width_mm, b.width_mm) &&
+         near(a.height_mm, b.height_mm) && near(a.curvature_per_mm, b.curvature_per_mm);
+}
+
+nlohmann::json Vec(const Eigen::Vector2d& v) { return {v.x(), v.y()}; }
+nlohmann::json Vec(const Eigen::Vector3d& v) { return {v.x(), v.y(), v.z()}; }
+// JSON has no NaN or infinity: those become null.
+nlohmann::json Num(double x) { return std::isfinite(x) ? nlohmann::json(x) : nlohmann::json(nullptr); }
+
+nlohmann::json VerificationJson(const Verification& v) {
+  nlohmann::json j = {{"rms_px", v.rms_px},
+                      {"max_px", v.max_px},
+                      {"rms_arcmin", v.rms_arcmin},
+                      {"max_arcmin", v.max_arcmin},
+                      {"rms_display_px", Num(v.rms_display_px)},
+                      {"max_display_px", Num(v.max_display_px)},
+                      {"p95_display_px", Num(v.p95_display_px)},
+                      {"tolerance_display_px", v.tolerance_display_px},
+                      {"pass", v.pass},
+                      {"features", v.features.size()}};
+  if (!v.failure.empty()) j["failure"] = v.failure;
+  return j;
+}
+
+nlohmann::json ModelFitJson(const ModelFit& f) {
+  nlohmann::json j = {{"model", f.model},
+                      {"parameters", f.parameters},
+                      {"rms_px", f.rms_px},
+                      {"noise_px", f.noise_px},
+                      {"bic", f.bic},
+                      {"heldout_rms_px", Num(f.heldout_rms_px)},
+                      {"curvature_per_mm", f.curvature_per_mm},
+                      {"curvature_sigma_per_mm", f.curvature_sigma_per_mm},
+                      {"radius_mm", f.radius_mm ? nlohmann::json(*f.radius_mm) : nlohmann::json(nullptr)},
+                      {"radius_sigma_mm", f.radius_sigma_mm ? nlohmann::json(*f.radius_sigma_mm) : nlohmann::json(nullptr)},
+                      {"radius_ci95_mm", {Num(f.radius_ci95_mm[0]), Num(f.radius_ci95_mm[1])}},
+                      {"converged", f.converged},
+                      {"ill_conditioned", f.ill_conditioned},
+                      {"time_ms", f.time_ms}};
+  if (!f.radius_mm) j["radius_lower_bound_mm"] = f.radius_lower_bound_mm;
+  if (!f.condition_note.empty()) j["condition_note"] = f.condition_note;
+  nlohmann::json extra = nlohmann::json::object();
+  for (const auto& [name, value] : f.extra) extra[name] = {{"value", value.first}, {"sigma", value.second}};
+  j["extra"] = extra;
+  return j;
+}
+
+std::string PhotoNameFor(const std::filesystem::path& p, std::set<std::string>& taken) {
+  std::string name = p.filename().string();
+  if (name.empty()) name = "photo";
+  std::string candidate = name;
+  for (int k = 2; taken.count(candidate); ++k) candidate = fmt::format("{}-{}", name, k);
+  taken.insert(candidate);
+  return candidate;
+}
+
+}  // namespace
+
+void AnalyzeOptions::Check(const std::string& where) const {
+  detect.Check(where);
+  verify.Check(where);
+  fit.Check(where);
+}
+
+int AnalysisResult::UsedPhotos() const {
+  int n = 0;
+  for (const PhotoAnalysis& p : photos) n += p.used ? 1 : 0;
+  return n;
+}
+
+AnalysisResult Analyze(const std::filesystem::path& camera_path, const std::vector<PhotoInput>& inputs,
+                       const AnalyzeOptions& options) {
+  const auto t_start = std::chrono::steady_clock::now();
+  options.Check("analyze options");
+  if (inputs.empty()) throw Error("analyze", "no photos given", "give one or more photos with their pattern.json");
+  AnalysisResult r;
+  r.camera_path = camera_path;
+  r.camera = ReadCameraModel(camera_path);
+
+  // Each pattern.json once; all must describe the same monitor (one screen model is fitted to all photos).
+  std::map<std::filesystem::path, size_t> pattern_index;
+  std::vector<PatternFile> distinct;
+  std::vector<size_t> pattern_of_photo;
+  for (const PhotoInput& in : inputs) {
+    auto it = pattern_index.find(in.pattern);
+    if (it == pattern_index.end()) {
+      distinct.push_back(ReadPatternJson(in.pattern));
+      it = pattern_index.emplace(in.pattern, distinct.size() - 1).first;
+      if (!SameMonitor(distinct.front().monitor, distinct.back().monitor)) {
+        throw Error(in.pattern.string(),
+                    fmt::format("describes monitor '{}', but {} describes '{}'; one analysis fits one monitor",
+                                distinct.back().monitor.name, inputs.front().pattern.string(),
+                                distinct.front().monitor.name),
+                    "analyse the photos of each monitor separately");
+      }
+    }
+    pattern_of_photo.push_back(it->second);
+  }
+  r.monitor = distinct.front().monitor;
+  for (size_t k : pattern_of_photo) r.patterns.push_back(distinct[k]);
+
+  std::set<std::string> names;
+  std::vector<PhotoObservations> observations;
+  for (size_t i = 0; i < inputs.size(); ++i) {
+    PhotoAnalysis pa;
+    pa.input = inputs[i];
+    pa.name = PhotoNameFor(inputs[i].photo, names);
+    const PatternFile& pattern = r.patterns[i];
+    auto t0 = std::chrono::steady_clock::now();
+    cv::Mat gray;
+    try {
+      gray = ReadPhotoGray(inputs[i].photo);
+    } catch (const Error& e) {
+      pa.rejected = e.what();
+    }
+    pa.read_ms = MsSince(t0);
+    if (pa.rejected.empty() && (gray.cols != r.camera.width || gray.rows != r.camera.height)) {
+      pa.rejected = fmt::format("{}: the photo is {} x {} px but the camera model {} is for {} x {} px; use the model "
+                                "calibrated for this camera at this resolution",
+                                inputs[i].photo.string(), gray.cols, gray.rows, camera_path.string(), r.camera.width,
+                                r.camera.height);
+    }
+    if (pa.rejected.empty()) {
+      pa.detection = DetectFeatures(gray, pattern, options.detect);
+      if (!pa.detection.failure.empty()) {
+        pa.rejected = fmt::format("{}: {} ({} detector, pattern {})", inputs[i].photo.string(),
+                                  pa.detection.failure, pa.detection.detector, inputs[i].pattern.string());
+      }
+    }
+    if (pa.rejected.empty()) {
+      std::vector<std::string> ids;
+      std::vector<Eigen::Vector2d> px;
+      for (const DetectedFeature& f : pa.detection.features) {
+        if (!f.flag.empty()) continue;
+        ids.push_back(f.id);
+        px.push_back(f.px);
+      }
+      t0 = std::chrono::steady_clock::now();
+      pa.verification = VerifyCorrection(pattern, r.camera, ids, px, options.verify);
+      pa.verify_ms = MsSince(t0);
+      if (!pa.verification.failure.empty()) {
+        pa.rejected = fmt::format("{}: {}", inputs[i].photo.string(), pa.verification.failure);
+      } else {
+        pa.used = true;
+        PhotoObservations obs;
+        obs.photo = pa.name;
+        for (const FeatureCheck& c : pa.verification.features) {
+          obs.ids.push_back(c.id);
+          obs.display_px.push_back(c.display_px);
+          obs.detected_px.push_back(c.detected_px);
+        }
+        pa.fit_ids = obs.ids;
+        pa.fit_index = static_cast<int>(observations.size());
+        observations.push_back(std::move(obs));
+      }
+    }
+    r.photos.push_back(std::move(pa));
+  }
+
+  std::vector<Verification> verdicts;
+  for (const PhotoAnalysis& p : r.photos) {
+    if (p.used) verdicts.push_back(p.verification);
+  }
+  if (!verdicts.empty()) r.verification = CombineVerifications(verdicts, options.verify);
+
+  if (!options.fit_screen) {
+    r.fit_failure = "the screen fit was not requested";
+  } else if (observations.empty()) {
+    r.fit_failure = "no usable photo";
+  } else {
+    const auto t0 = std::chrono::steady_clock::now();
+    try {
+      r.fit = FitScreen(r.monitor, r.camera, observations, options.fit);
+    } catch (const Error& e) {
+      r.fit_failure = e.what();
+      for (PhotoAnalysis& p : r.photos) p.fit_index = -1;
+    }
+    r.fit_ms = MsSince(t0);
+  }
+  r.total_ms = MsSince(t_start);
+  return r;
+}
+
+nlohmann::json ResultJson(const AnalysisResult& r, const std::string& command_line) {
+  nlohmann::json j;
+  j["format"] = "curvecheck.result/1";
+  j["command"] = command_line;
+
+  nlohmann::json photos = nlohmann::json::array();
+  for (const PhotoAnalysis& p : r.photos) {
+    nlohmann::json e = {{"name", p.name},
+                        {"photo", p.input.photo.string()},
+                        {"pattern", p.input.pattern.string()},
+                        {"status", p.used ? "used" : "rejected"}};
+    if (!p.used) e["reason"] = p.rejected;
+    if (!p.detection.detector.empty()) {
+      int flagged = 0;
+      for (const DetectedFeature& f : p.detection.features) flagged += f.flag.empty() ? 0 : 1;
+      e["detection"] = {{"detector", p.detection.detector},
+                        {"features", p.detection.features.size()},
+                        {"flagged", flagged},
+                        {"notes", p.detection.notes},
+                        {"time_ms", p.detection.time_ms}};
+    }
+    if (p.used) e["verification"] = VerificationJson(p.verification);
+    photos.push_back(e);
+  }
+  j["inputs"] = {{"camera",
+                  {{"path", r.camera_path.string()},
+                   {"lensmodel", r.camera.lensmodel},
+                   {"imagersize", {r.camera.width, r.camera.height}}}},
+                 {"monitor", MonitorToJson(r.monitor)},
+                 {"photos", photos}};
+
+  j["verification"] = VerificationJson(r.verification);
+  if (r.UsedPhotos() == 0) j["verification"]["failure"] = "no usable photo";
+
+  // Per-feature fit residuals and deviations, keyed by (fit photo index, id).
+  std::map<std::pair<int, std::string>, std::pair<Eigen::Vector2d, bool>> fit_residual;
+  std::map<std::pair<int, std::string>, const FeatureDeviation*> deviation;
+  if (r.fit) {
+    const ScreenFitResult& fit = *r.fit;
+    const ModelFit& chosen = fit.Chosen();
+    for (const PhotoAnalysis& p : r.photos) {
+      if (p.fit_index < 0) continue;
+      const auto& res = chosen.residual_px[static_cast<size_t>(p.fit_index)];
+      const auto& out = chosen.outlier[static_cast<size_t>(p.fit_index)];
+      for (size_t k = 0; k < p.fit_ids.size() && k < res.size(); ++k) {
+        fit_residual[{p.fit_index, p.fit_ids[k]}] = {res[k], k < out.size() && out[k]};
+      }
+    }
+    for (const FeatureDeviation& d : fit.deviations) deviation[{d.photo, d.id}] = &d;
+
+    nlohmann::json cameras = nlohmann::json::array();
+    for (const PhotoAnalysis& p : r.photos) {
+      if (p.fit_index < 0) continue;
+      const CameraEstimate& c = chosen.cameras[static_cast<size_t>(p.fit_index)];
+      cameras.push_back({{"photo", p.name},
+                         {"position_mm", Vec(c.position_in_screen_mm)},
+                         {"position_in_centre_mm", Vec(c.position_in_centre_mm)},
+                         {"position_sigma_mm", Vec(c.position_sigma_mm)},
+                         {"stated_viewpoint_mm", Vec(r.patterns[static_cast<size_t>(&p - r.photos.data())].viewpoint_in_screen)}});
+    }
+    nlohmann::json f = ModelFitJson(chosen);
+    f["camera_position_mm"] = cameras.empty() ? nlohmann::json(nullptr) : cameras[0]["position_mm"];
+    f["camera_position_sigma_mm"] = cameras.empty() ? nlohmann::json(nullptr) : cameras[0]["position_sigma_mm"];
+    f["cameras"] = cameras;
+    f["choice_reason"] = fit.choice_reason;
+    f["assumptions"] = fit.assumptions;
+    nlohmann::json candidates = nlohmann::json::array();
+    for (size_t k = 0; k < fit.candidates.size(); ++k) {
+      nlohmann::json c = ModelFitJson(fit.candidates[k]);
+      c["chosen"] = static_cast<int>(k) == fit.chosen;
+      candidates.push_back(c);
+    }
+    f["candidates"] = candidates;
+    j["fit"] = f;
+
+    nlohmann::json map_mm = nlohmann::json::array(), map_sigma = nlohmann::json::array();
+    for (double v : fit.map_mm) map_mm.push_back(Num(v));
+    for (double v : fit.map_sigma_mm) map_sigma.push_back(Num(v));
+    j["deviations"] = {{"note", "displacement of the physical screen along the surface normal of the chosen model's "
+                                "base surface, toward the viewer positive, mm; the map is a smoothing of the per-feature "
+                                "values over (u, v) in [-1, 1] x [-1, 1] (row-major, u fastest, v from -1 at the top), "
+                                "null where no feature supports it"},
+                       {"map", {{"nu", fit.map_nu}, {"nv", fit.map_nv}, {"mm", map_mm}, {"sigma_mm", map_sigma}}}};
+  } else {
+    j["fit"] = {{"model", nullptr}, {"failure", r.fit_failure}};
+  }
+
+  nlohmann::json features = nlohmann::json::array();
+  nlohmann::json fit_outliers = nlohmann::json::array();
+  for (const PhotoAnalysis& p : r.photos) {
+    if (!p.used) continue;
+    std::map<std::string, const FeatureCheck*> checks;
+    for (const FeatureCheck& c : p.verification.features) checks[c.id] = &c;
+    for (const DetectedFeature& d : p.detection.features) {
+      nlohmann::json e = {{"id", d.id}, {"photo", p.name}, {"detected_px", Vec(d.px)}, {"quality", d.quality}};
+      if (!d.flag.empty()) e["flag"] = d.flag;
+      const auto c = checks.find(d.id);
+      if (c != checks.end()) {
+        e["display_px"] = Vec(c->second->display_px);
+        e["expected_px"] = Vec(c->second->expected_px);
+        e["residual_px"] = Vec(c->second->residual_px);
+        e["residual_display_px"] = {Num(c->second->residual_display_px.x()), Num(c->second->residual_display_px.y())};
+        e["residual_arcmin"] = c->second->residual_arcmin;
+      }
+      const auto fr = fit_residual.find({p.fit_index, d.id});
+      if (fr != fit_residual.end()) {
+        e["fit_residual_px"] = Vec(fr->second.first);
+        if (fr->second.second) {
+          e["fit_outlier"] = true;
+          fit_outliers.push_back({{"photo", p.name}, {"id", d.id}, {"residual_px", Vec(fr->second.first)}});
+        }
+      }
+      const auto dv = deviation.find({p.fit_index, d.id});
+      if (dv != deviation.end()) {
+        e["deviation_mm"] = dv->second->normal_mm;
+        e["deviation_sigma_mm"] = dv->second->sigma_mm;
+      }
+      features.push_back(e);
+    }
+  }
+  if (r.fit) j["fit"]["outliers"] = fit_outliers;
+  j["features"] = features;
+  j["timing_ms"] = {{"total", r.total_ms}, {"fit", r.fit_ms}};
+  return j;
+}
+
+namespace {
+
+// Neighbour pairs for drawing the expected grid: checkerboard corners along rows and columns, tag borders.
+std::vector<std::pair<std::string, std::string>> GridEdges(const PatternFile& pattern) {
+  std::vector<std::pair<std::string, std::string>> edges;
+  const nlohmann::json& spec = pattern.raw["pattern"];
+  if (spec.contains("cols") && spec.contains("rows") && spec["cols"].is_number_integer() &&
+      spec["rows"].is_number_integer()) {
+    const int cols = spec["cols"].get<int>() - 1, rows = spec["rows"].get<int>() - 1;
+    for (int row = 0; row < rows; ++row) {
+      for (int col = 0; col < cols; ++col) {
+        const int k = row * cols + col;
+        if (col + 1 < cols) edges.push_back({fmt::format("c{}", k), fmt::format("c{}", k + 1)});
+        if (row + 1 < rows) edges.push_back({fmt::format("c{}", k), fmt::format("c{}", k + cols)});
+      }
+    }
+  }
+  std::set<std::string> tags;
+  for (const Feature& f : pattern.features) {
+    if (f.kind == "tag_corner") tags.insert(f.id.substr(0, f.id.find('.')));
+  }
+  for (const std::string& t : tags) {
+    for (int k = 0; k < 4; ++k) edges.push_back({fmt::format("{}.{}", t, k), fmt::format("{}.{}", t, (k + 1) % 4)});
+  }
+  return edges;
+}
+
+}  // namespace
+
+std::vector<std::filesystem::path> WriteOverlays(const AnalysisResult& r, const std::filesystem::path& dir,
+                                                 double magnification, int max_px) {
+  std::vector<std::filesystem::path> written;
+  for (size_t i = 0; i < r.photos.size(); ++i) {
+    const PhotoAnalysis& p = r.photos[i];
+    if (!p.used) continue;
+    cv::Mat gray = ReadPhotoGray(p.input.photo);
+    if (gray.depth() == CV_16U) gray.convertTo(gray, CV_8U, 1.0 / 257);
+    const double scale = std::min(1.0, static_cast<double>(max_px) / std::max(gray.cols, gray.rows));
+    cv::Mat small;
+    if (scale < 1) {
+      cv::resize(gray, small, cv::Size(), scale, scale, cv::INTER_AREA);
+    } else {
+      small = gray;
+    }
+    cv::Mat img;
+    cv::cvtColor(small, img, cv::COLOR_GRAY2BGR);
+    // Pixel centres at integers in both images: x_small = (x + 0.5) scale - 0.5.
+    const auto at = [&](const Eigen::Vector2d& q) {
+      return cv::Point2d((q.x() + 0.5) * scale - 0.5, (q.y() + 0.5) * scale - 0.5);
+    };
+    const int thick = std::max(1, static_cast<int>(std::lround(std::max(img.cols, img.rows) / 1500.0)));
+    std::map<std::string, const FeatureCheck*> checks;
+    for (const FeatureCheck& c : p.verification.features) checks[c.id] = &c;
+    for (const auto& [a, b] : GridEdges(r.patterns[i])) {
+      const auto ca = checks.find(a), cb = checks.find(b);
+      if (ca == checks.end() || cb == checks.end()) continue;
+      cv::line(img, at(ca->second->expected_px), at(cb->second->expected_px), cv::Scalar(0, 160, 0), thick,
+               cv::LINE_AA);
+    }
+    for (const FeatureCheck& c : p.verification.features) {
+      const cv::Point2d q = at(c.expected_px);
+      const Eigen::Vector2d tip = c.expected_px + magnification * c.residual_px;
+      cv::line(img, q, at(tip), cv::Scalar(0, 0, 255), thick + 1, cv::LINE_AA);
+      cv::circle(img, q, 2 * thick, cv::Scalar(0, 160, 0), thick, cv::LINE_AA);
+    }
+    if (r.fit && p.fit_index >= 0) {
+      const ModelFit& chosen = r.fit->Chosen();
+      const auto& res = chosen.residual_px[static_cast<size_t>(p.fit_index)];
+      std::map<std::string, Eigen::Vector2d> detected;
+      for (const DetectedFeature& d : p.detection.features) detected[d.id] = d.px;
+      for (size_t k = 0; k < p.fit_ids.size() && k < res.size(); ++k) {
+        const Eigen::Vector2d q = detected[p.fit_ids[k]];
+        cv::line(img, at(q), at(q + magnification * res[k]), cv::Scalar(255, 80, 0), thick + 1, cv::LINE_AA);
+      }
+    }
+    const std::string legend = fmt::format(
+        "{}: green = expected planar perspective grid; red = verification residual x{:g}; blue = {} fit residual x{:g}",
+        p.name, magnification, r.fit ? r.fit->Chosen().model : std::string("(no)"), magnification);
+    const double font = std::max(0.5, img.cols / 2500.0);
+    cv::putText(img, legend, cv::Point(10, static_cast<int>(30 * font)), cv::FONT_HERSHEY_SIMPLEX, font,
+                cv::Scalar(0, 255, 255), thick, cv::LINE_AA);
+    std::vector<uchar> png;
+    if (!cv::imencode(".png", img, png)) {
+      throw Error((dir / ("overlay-" + p.name)).string(), "could not encode the overlay image");
+    }
+    std::filesystem::path out = dir / ("overlay-" + std::filesystem::path(p.name).stem().string() + ".png");
+    WriteFileAtomic(out, std::string_view(reinterpret_cast<const char*>(png.data()), png.size()));
+    written.push_back(out);
+  }
+  return written;
+}
+
+std::string SummaryText(const AnalysisResult& r) {
+  std::ostringstream s;
+  const Verification& v = r.verification;
+  if (r.UsedPhotos() == 0) {
+    s << "verification: no usable photo\n";
+  } else {
+    s << fmt::format("verification: {} (95% of features within {:.3f} display px; tolerance {:g}); RMS {:.3f} camera "
+                     "px, {:.3f} display px, {:.3f} arcmin over {} photo(s)\n",
+                     v.pass ? "PASS" : "FAIL", v.p95_display_px, v.tolerance_display_px, v.rms_px, v.rms_display_px,
+                     v.rms_arcmin, r.UsedPhotos());
+  }
+  if (r.fit) {
+    const ModelFit& f = r.fit->Chosen();
+    if (f.radius_mm) {
+      s << fmt::format("radius: {:.1f} +- {:.1f} mm (1 sigma; 95% interval {:.1f} .. {:.1f} mm), model {}\n",
+                       *f.radius_mm, f.radius_sigma_mm.value_or(0), f.radius_ci95_mm[0], f.radius_ci95_mm[1], f.model);
+    } else {
+      s << fmt::format("radius: not measurable as a number; flat is consistent (95% lower bound {:.0f} mm), model {}\n",
+                       f.radius_lower_bound_mm, f.model);
+    }
+    if (f.ill_conditioned) s << "warning: ill-conditioned fit: " << f.condition_note << "\n";
+    s << "model choice: " << r.fit->choice_reason << "\n";
+    for (const auto& [name, value] : f.extra) {
+      s << fmt::format("  {} = {:.4g} +- {:.2g}\n", name, value.first, value.second);
+    }
+    s << fmt::format("fit: RMS {:.3f} px, noise {:.3f} px per coordinate\n", f.rms_px, r.fit->noise_px);
+  } else {
+    s << "fit: none (" << r.fit_failure << ")\n";
+  }
+  for (const PhotoAnalysis& p : r.photos) {
+    if (!p.used) s << "rejected: " << p.rejected << "\n";
+  }
+  return s.str();
+}
+
+}  // namespace curvecheck

@@ -1,0 +1,86 @@
+// The analysis of a set of photos (issue 6 item 6): detect -> verify -> fit -> select -> deviations, and the
+// result.json document (architecture.md, "File contracts"). `curvecheck analyze` and `curvecheck demo` are thin
+// shells around Analyze, ResultJson and WriteOverlays.
+//
+// Bad photos do not stop the analysis: a photo that cannot be read, has the wrong size for the camera model,
+// or does not show its pattern is rejected with its reason, and the good ones are analysed. Only when no photo
+// is usable does Analyze report failure.
+#pragma once
+
+#include <Eigen/Core>
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "analysis/detect.h"
+#include "analysis/screen_fit.h"
+#include "analysis/verify.h"
+#include "core/camera_model.h"
+#include "render/pattern_json.h"
+
+namespace curvecheck {
+
+struct AnalyzeOptions {
+  DetectOptions detect;
+  VerifyOptions verify;
+  FitOptions fit;
+  // Fit the screen (false: detection and verification only).
+  bool fit_screen = true;
+
+  void Check(const std::string& where) const;
+};
+
+struct PhotoInput {
+  std::filesystem::path photo;
+  std::filesystem::path pattern;  // its pattern.json
+};
+
+struct PhotoAnalysis {
+  PhotoInput input;
+  std::string name;  // file name of the photo, unique within the analysis (for result.json and overlays)
+  bool used = false;
+  std::string rejected;  // why the photo was not used ("" when used)
+  Detection detection;
+  Verification verification;
+  int fit_index = -1;  // index of this photo in the fit (ScreenFitResult cameras / residuals), -1 if not fitted
+  std::vector<std::string> fit_ids;  // the ids given to the fit, in its order
+  double read_ms = 0, verify_ms = 0;
+};
+
+struct AnalysisResult {
+  std::filesystem::path camera_path;
+  CameraModel camera;
+  Monitor monitor;  // the nominal monitor, common to every pattern.json
+  std::vector<PatternFile> patterns;  // by input order (each photo's own)
+  std::vector<PhotoAnalysis> photos;
+  Verification verification;  // over all used photos
+  std::optional<ScreenFitResult> fit;
+  std::string fit_failure;  // why there is no fit (fit disabled, or an error) when `fit` is empty
+  double total_ms = 0, fit_ms = 0;
+
+  int UsedPhotos() const;
+};
+
+// Analyses the photos. Throws Error for bad input that concerns the whole analysis (unreadable camera model or
+// pattern.json, patterns of different monitors, invalid options); a bad photo is rejected, not thrown. The
+// caller checks UsedPhotos() > 0.
+AnalysisResult Analyze(const std::filesystem::path& camera_path, const std::vector<PhotoInput>& inputs,
+                       const AnalyzeOptions& options);
+
+// result.json: format curvecheck.result/1 (architecture.md) with the inputs and their provenance, the
+// verification, the fit with every candidate, the deviations, and every feature.
+nlohmann::json ResultJson(const AnalysisResult& result, const std::string& command_line);
+
+// Overlay images, one per used photo: the photo (gray, scaled to at most max_px on its longer side) with the
+// expected planar perspective grid (green), the verification residuals (red) and the screen fit's residuals
+// (blue), both magnified by `magnification`. Written atomically into `dir` as overlay-<name>.png; returns the
+// paths.
+std::vector<std::filesystem::path> WriteOverlays(const AnalysisResult& result, const std::filesystem::path& dir,
+                                                 double magnification = 50, int max_px = 3000);
+
+// A short human summary (verification verdict, radius +- sigma, chosen model, rejected photos), one item per line.
+std::string SummaryText(const AnalysisResult& result);
+
+}  // namespace curvecheck

@@ -4,7 +4,9 @@
 #include <exception>
 #include <functional>
 #include <iostream>
+#include <string>
 
+#include "app/analyze_command.h"
 #include "app/bench_command.h"
 #include "app/capture_command.h"
 #include "app/capture_synth_command.h"
@@ -27,14 +29,20 @@ struct Planned {
 };
 constexpr Planned kPlanned[] = {
     {"calibrate", "calibrate the camera with mrcal from chessboard photos", "issue 5 (calibrate)"},
-    {"analyze", "detect, verify the correction, fit the screen model, write result.json",
-     "issue 6 (analysis)"},
     {"sweep", "stability sweeps over scene factors", "issue 7"},
 };
 
 }  // namespace
 
+static std::string& CommandLineStorage() {
+  static std::string line;
+  return line;
+}
+
+const std::string& CommandLine() { return CommandLineStorage(); }
+
 int Main(int argc, char** argv) {
+  for (int i = 0; i < argc; ++i) CommandLineStorage() += (i ? " " : "") + std::string(i ? argv[i] : "curvecheck");
   CLI::App app{"curvecheck: photogrammetric validation of curved (and flat) monitors", "curvecheck"};
   app.require_subcommand(1);
   app.fallthrough(false);
@@ -55,12 +63,14 @@ int Main(int argc, char** argv) {
 
   DemoOptions demo;
   CLI::App* demo_cmd = app.add_subcommand(
-      "demo", "Run the pipeline on the embedded default (49\" 1000R monitor, camera 1.5 m in front): for now the "
-              "stages that exist (geometry, render)");
+      "demo", "Run the pipeline on the embedded default: render a corrected checkerboard, photograph it with the "
+              "synthetic camera (49\" 1000R monitor, 24 MP camera 1.5 m in front), analyse the photo");
   demo_cmd->add_option("-o,--output", demo.output_dir, "Output folder")->capture_default_str();
   demo_cmd->callback([&] { run = [&] { return RunDemo(demo); }; });
 
   AddRenderCommand(app, run);
+  // `analyze` (issue 6): app/analyze_command.cc.
+  AddAnalyzeCommand(app, run);
   AddBenchCommand(app, run);
   // `present` (issue 3 item 8): the fullscreen presenter; app/present_command.cc.
   AddPresentCommand(app, run);

@@ -1,0 +1,120 @@
+// `curvecheck analyze --camera cam.cameramodel --pattern pattern.json photo.png [photo2.png ...] -o OUTDIR`:
+// detection, verification of the correction, the screen fit with model selection, deviations; writes
+// OUTDIR/result.json (architecture.md, "File contracts") and one overlay image per photo.
+#include "app/analyze_command.h"
+
+#include <fmt/format.h>
+
+#include <filesystem>
+#include <iostream>
+#include <memory>
+
+#include "analysis/pipeline.h"
+#include "app/cli.h"
+#include "app/output_paths.h"
+#include "core/error.h"
+#include "core/file_io.h"
+
+namespace curvecheck::app {
+namespace {
+namespace fs = std::filesystem;
+
+struct AnalyzeArgs {
+  std::string camera;
+  std::vector<std::string> patterns;
+  std::vector<std::string> photos;
+  std::string output;
+  AnalyzeOptions options;
+  std::vector<std::string> models;
+  bool no_fit = false;
+  bool no_overlays = false;
+  double magnification = 50;
+  std::string command_line;
+};
+
+int RunAnalyze(AnalyzeArgs a) {
+  if (a.patterns.size() != 1 && a.patterns.size() != a.photos.size()) {
+    throw Error("--pattern",
+                fmt::format("{} pattern files for {} photos", a.patterns.size(), a.photos.size()),
+                "give one --pattern for all photos, or one per photo in the order of the photos");
+  }
+  if (!a.models.empty()) a.options.fit.models = a.models;
+  a.options.fit_screen = !a.no_fit;
+  a.options.Check("analyze options");
+  if (!(a.magnification > 0)) throw Error("--magnify", "must be a positive factor", "give e.g. 50");
+
+  std::vector<PhotoInput> inputs;
+  std::vector<fs::path> input_paths = {a.camera};
+  for (size_t i = 0; i < a.photos.size(); ++i) {
+    inputs.push_back({a.photos[i], a.patterns[a.patterns.size() == 1 ? 0 : i]});
+    input_paths.push_back(inputs.back().photo);
+    input_paths.push_back(inputs.back().pattern);
+  }
+  const fs::path dir = a.output;
+  const fs::path result_path = dir / "result.json";
+  PrepareOutputDir(dir, "-o");
+  CheckNotAnInput(result_path, input_paths);
+
+  const AnalysisResult r = Analyze(a.camera, inputs, a.options);
+  std::cout << SummaryText(r);
+  if (r.UsedPhotos() == 0) {
+    // One line, the first photo's reason: the most common case is a single photo.
+    const PhotoAnalysis& p = r.photos.front();
+    throw Error("", p.rejected + (r.photos.size() > 1 ? fmt::format(" (and {} more photos rejected)", r.photos.size() - 1) : ""),
+                "");
+  }
+  std::vector<fs::path> overlays;
+  if (!a.no_overlays) {
+    for (const PhotoAnalysis& p : r.photos) {
+      if (p.used) CheckNotAnInput(dir / ("overlay-" + fs::path(p.name).stem().string() + ".png"), input_paths);
+    }
+    overlays = WriteOverlays(r, dir, a.magnification);
+  }
+  WriteFileAtomic(result_path, ResultJson(r, a.command_line).dump(1) + "\n");
+  std::cout << "wrote " << result_path.string();
+  for (const fs::path& p : overlays) std::cout << ", " << p.filename().string();
+  std::cout << "\n";
+  return 0;
+}
+
+}  // namespace
+
+void AddAnalyzeCommand(CLI::App& app, std::function<int()>& run) {
+  auto args = std::make_shared<AnalyzeArgs>();
+  CLI::App* cmd = app.add_subcommand(
+      "analyze",
+      "Detect the pattern in photos, verify the correction (planar perspective check), fit the screen (radius with "
+      "uncertainty, model selection, deviations); writes OUTDIR/result.json and overlay images");
+  cmd->add_option("--camera,-c", args->camera, "The camera's mrcal .cameramodel (calibrated at the photos' size)")
+      ->required();
+  cmd->add_option("--pattern,-p", args->patterns,
+                  "pattern.json of the rendering shown in the photos: once for all photos, or once per photo "
+                  "in order")
+      ->required();
+  cmd->add_option("photos", args->photos, "Photos (PNG/JPEG, 8 or 16 bit)")->required();
+  cmd->add_option("-o,--output", args->output, "Output folder (created if missing)")->required();
+  cmd->add_option("--detector", args->options.detect.detector,
+                  "auto | mrgingham | opencv-sb | opencv-classic | apriltag")
+      ->capture_default_str();
+  cmd->add_option("--tolerance", args->options.verify.tolerance_display_px,
+                  "Verification passes when 95% of the features are within this many display px of the planar "
+                  "perspective image")
+      ->capture_default_str();
+  cmd->add_option("--models", args->models,
+                  "Screen models to try (default: all): flat, cylinder, cylinder+lean, varying-curvature, "
+                  "varying-curvature-quadratic, cylinder+deviation")
+      ->delimiter(',');
+  cmd->add_option("--expected-noise", args->options.fit.expected_noise_px,
+                  "Expected detection noise per coordinate, px (scales the robust loss)")
+      ->capture_default_str();
+  cmd->add_flag("--no-fit", args->no_fit, "Detection and verification only");
+  cmd->add_flag("--no-overlays", args->no_overlays, "Do not write overlay images");
+  cmd->add_option("--magnify", args->magnification, "Magnification of the residual vectors in the overlays")
+      ->capture_default_str();
+  cmd->callback([&run, args] {
+    args->command_line = CommandLine();
+    run = [args] { return RunAnalyze(*args); };
+  });
+}
+
+}  // namespace curvecheck::app

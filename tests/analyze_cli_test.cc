@@ -1,0 +1,183 @@
+// `curvecheck analyze` end to end, on photos made by the rig itself: `render` (Vulkan, lavapipe) ->
+// `capture synth` (ray-traced, a true monitor of known radius) -> `analyze`, and the result.json checked against
+// the truth. The camera is the default scene's 24 MP OPENCV8 lens scaled to 1500 x 1000 px (same field of view,
+// a quarter of the resolution) to keep the test fast; everything else is the default scene.
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+
+#include "core/camera_model.h"
+#include "tests/cli_test_util.h"
+
+namespace curvecheck {
+namespace {
+
+namespace fs = std::filesystem;
+using curvecheck::testing::CliRun;
+using curvecheck::testing::ExpectOneLineFailure;
+using curvecheck::testing::Slurp;
+using ::testing::HasSubstr;
+
+class AnalyzeCli : public ::testing::Test {
+ protected:
+  static fs::path Dir() { return fs::path(::testing::TempDir()) / "analyze_cli_test"; }
+  static CliRun Curvecheck(const std::vector<std::string>& args) {
+    return curvecheck::testing::RunBinary(CURVECHECK_BINARY, args, Dir());
+  }
+
+  // A scene like datasets/scenes/default.yaml with the small camera and the given true radius.
+  static fs::path WriteScene(const std::string& name, const std::string& true_radius) {
+    const fs::path path = Dir() / (name + ".yaml");
+    std::ofstream(path) << "format: curvecheck.scene/1\nmonitor: default\n"
+                        << "camera: {model: small.cameramodel, position_mm: [0, 0, 500], look_at_mm: [0, 0, -1000]}\n"
+                        << "true_monitor: {radius_mm: " << true_radius << "}\n"
+                        << "optics: {supersample: 2, blur: gaussian, blur_px: 0.7, vignetting: 0.2, exposure: 0.9}\n"
+                        << "sensor: {gamma: 1, full_well_e: 20000, read_noise_e: 3, seed: 3, bits: 8}\n";
+    return path;
+  }
+
+  static void SetUpTestSuite() {
+    fs::remove_all(Dir());
+    fs::create_directories(Dir());
+    CameraModel cam = ReadCameraModel(fs::path(std::getenv("CURVECHECK_SOURCE_DIR")) /
+                                      "datasets/cameras/default-24mp-opencv8.cameramodel");
+    const double s = 0.25;  // pixel centres at integers: x' = (x + 0.5) s - 0.5
+    cam.intrinsics[0] *= s;
+    cam.intrinsics[1] *= s;
+    cam.intrinsics[2] = (cam.intrinsics[2] + 0.5) * s - 0.5;
+    cam.intrinsics[3] = (cam.intrinsics[3] + 0.5) * s - 0.5;
+    cam.width = static_cast<int>(cam.width * s);
+    cam.height = static_cast<int>(cam.height * s);
+    WriteCameraModel(Dir() / "small.cameramodel", cam);
+    for (const std::string method : {"exact", "none"}) {
+      const CliRun r = Curvecheck({"render", "--monitor", "default", "--viewpoint", "0,0,500", "--squares", "24x7",
+                                   "--method", method, "-o", (Dir() / (method + ".png")).string()});
+      ASSERT_EQ(r.code, 0) << r.err;
+    }
+    // True radius 1080 mm on a nominal 1000R monitor (datasets/scenes/radius-8pct.yaml).
+    const fs::path scene = WriteScene("scene", "1080");
+    for (const std::string method : {"exact", "none"}) {
+      const CliRun r = Curvecheck({"capture", "synth", "--scene", scene.string(), "--display",
+                                   (Dir() / (method + ".png")).string(), "-o",
+                                   (Dir() / ("photo-" + method + ".png")).string()});
+      ASSERT_EQ(r.code, 0) << r.err;
+    }
+  }
+
+  static nlohmann::json Result(const fs::path& dir) {
+    return nlohmann::json::parse(Slurp(dir / "result.json"));
+  }
+};
+
+TEST_F(AnalyzeCli, ExactRenderingPassesAndTheRadiusIsTheTrueOne) {
+  const fs::path out = Dir() / "out-exact";
+  const CliRun r = Curvecheck({"analyze", "--camera", (Dir() / "small.cameramodel").string(), "--pattern",
+                               (Dir() / "exact.json").string(), (Dir() / "photo-exact.png").string(), "-o",
+                               out.string()});
+  ASSERT_EQ(r.code, 0) << r.err << r.out;
+  EXPECT_THAT(r.out, HasSubstr("verification: PASS"));
+  const nlohmann::json j = Result(out);
+  EXPECT_EQ(j["format"], "curvecheck.result/1");
+  EXPECT_TRUE(j["verification"]["pass"].get<bool>());
+  EXPECT_LT(j["verification"]["rms_px"].get<double>(), 0.15);
+
+  // The radius: the truth (1080 mm, 8% off the nominal 1000 mm) inside the 95% interval, and the nominal
+  // outside it (a 1/4-resolution camera still separates them).
+  const nlohmann::json& fit = j["fit"];
+  ASSERT_FALSE(fit["radius_mm"].is_null()) << fit.dump(1);
+  const double radius = fit["radius_mm"], sigma = fit["radius_sigma_mm"];
+  const double lo = fit["radius_ci95_mm"][0], hi = fit["radius_ci95_mm"][1];
+  std::cout << "radius " << radius << " +- " << sigma << " mm, 95% [" << lo << ", " << hi << "], model "
+            << fit["model"] << "\n";
+  EXPECT_EQ(fit["model"], "cylinder");
+  EXPECT_LE(lo, 1080);
+  EXPECT_GE(hi, 1080);
+  EXPECT_LT(std::abs(radius - 1080), 3 * sigma);
+  EXPECT_TRUE(1000 < lo || 1000 > hi) << "the nominal radius should be excluded";
+  // Every candidate is reported; the camera position is the true one (1.5 m in front of the centre) within
+  // a few sigma.
+  EXPECT_GE(fit["candidates"].size(), 5u);
+  const nlohmann::json& cam = fit["cameras"][0];
+  const double z_centre = cam["position_in_centre_mm"][2], z_sigma = cam["position_sigma_mm"][2];
+  EXPECT_NEAR(z_centre, 1500, std::max(5 * z_sigma, 1.0));
+
+  // Features: every one of the 23 x 6 corners, each with a detection, an expected position and residuals.
+  EXPECT_EQ(j["features"].size(), 23u * 6u);
+  for (const auto& f : j["features"]) {
+    ASSERT_TRUE(f.contains("residual_px")) << f.dump();
+    EXPECT_LT(std::hypot(f["residual_px"][0].get<double>(), f["residual_px"][1].get<double>()), 0.6) << f.dump();
+  }
+  EXPECT_TRUE(fs::exists(out / "overlay-photo-exact.png"));
+}
+
+TEST_F(AnalyzeCli, UncorrectedRenderingFailsTheVerificationByAWideMargin) {
+  const fs::path out = Dir() / "out-none";
+  const CliRun r = Curvecheck({"analyze", "--camera", (Dir() / "small.cameramodel").string(), "--pattern",
+                               (Dir() / "none.json").string(), (Dir() / "photo-none.png").string(), "-o",
+                               out.string(), "--no-fit"});
+  ASSERT_EQ(r.code, 0) << r.err;  // a failed verification is a result, not an error
+  EXPECT_THAT(r.out, HasSubstr("verification: FAIL"));
+  const nlohmann::json j = Result(out);
+  EXPECT_FALSE(j["verification"]["pass"].get<bool>());
+  EXPECT_GT(j["verification"]["p95_display_px"].get<double>(), 10 * j["verification"]["tolerance_display_px"].get<double>());
+}
+
+TEST_F(AnalyzeCli, BadPhotosAreRejectedWithReasonsAndTheGoodOnesAnalysed) {
+  std::ofstream(Dir() / "corrupt.png") << "\x89PNG\r\n\x1a\n not really";
+  const fs::path out = Dir() / "out-mixed";
+  const CliRun r = Curvecheck({"analyze", "--camera", (Dir() / "small.cameramodel").string(), "--pattern",
+                               (Dir() / "exact.json").string(), (Dir() / "corrupt.png").string(),
+                               (Dir() / "exact.png").string(), (Dir() / "photo-exact.png").string(), "-o",
+                               out.string(), "--no-fit", "--no-overlays"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  const nlohmann::json j = Result(out);
+  const auto& photos = j["inputs"]["photos"];
+  ASSERT_EQ(photos.size(), 3u);
+  EXPECT_EQ(photos[0]["status"], "rejected");
+  EXPECT_THAT(photos[0]["reason"].get<std::string>(), HasSubstr("corrupt.png"));
+  // The display image itself is 5120 x 1440, not the camera's 1500 x 1000.
+  EXPECT_EQ(photos[1]["status"], "rejected");
+  EXPECT_THAT(photos[1]["reason"].get<std::string>(), HasSubstr("5120 x 1440 px but the camera model"));
+  EXPECT_EQ(photos[2]["status"], "used");
+  EXPECT_THAT(r.out, HasSubstr("rejected: "));
+}
+
+TEST_F(AnalyzeCli, NoUsablePhotoIsAOneLineFailure) {
+  const CliRun r = Curvecheck({"analyze", "--camera", (Dir() / "small.cameramodel").string(), "--pattern",
+                               (Dir() / "exact.json").string(), (Dir() / "exact.png").string(), "-o",
+                               (Dir() / "out-bad").string()});
+  ExpectOneLineFailure(r, {"exact.png", "5120 x 1440 px but the camera model"});
+  EXPECT_FALSE(fs::exists(Dir() / "out-bad" / "result.json"));
+}
+
+TEST_F(AnalyzeCli, AnInputIsNeverOverwritten) {
+  // -o pointing at the folder whose result.json is... the pattern file itself would be replaced: refuse.
+  fs::create_directories(Dir() / "trap");
+  fs::copy_file(Dir() / "exact.json", Dir() / "trap" / "result.json", fs::copy_options::overwrite_existing);
+  const std::string before = Slurp(Dir() / "trap" / "result.json");
+  const CliRun r = Curvecheck({"analyze", "--camera", (Dir() / "small.cameramodel").string(), "--pattern",
+                               (Dir() / "trap" / "result.json").string(), (Dir() / "photo-exact.png").string(), "-o",
+                               (Dir() / "trap").string()});
+  ExpectOneLineFailure(r, {"result.json", "is an input of this command"});
+  EXPECT_EQ(Slurp(Dir() / "trap" / "result.json"), before);
+}
+
+TEST_F(AnalyzeCli, UsageErrors) {
+  const CliRun r = Curvecheck({"analyze", "--camera", "x.cameramodel", "-o", "out"});
+  EXPECT_EQ(r.code, 2);
+  const CliRun missing = Curvecheck({"analyze", "--camera", (Dir() / "nope.cameramodel").string(), "--pattern",
+                                     (Dir() / "exact.json").string(), (Dir() / "photo-exact.png").string(), "-o",
+                                     (Dir() / "out-nocam").string()});
+  ExpectOneLineFailure(missing, {"nope.cameramodel"});
+  const CliRun counts = Curvecheck({"analyze", "--camera", (Dir() / "small.cameramodel").string(), "--pattern",
+                                    (Dir() / "exact.json").string(), "--pattern", (Dir() / "none.json").string(),
+                                    (Dir() / "photo-exact.png").string(), "-o", (Dir() / "out-counts").string()});
+  ExpectOneLineFailure(counts, {"--pattern", "2 pattern files for 1 photos"});
+}
+
+}  // namespace
+}  // namespace curvecheck

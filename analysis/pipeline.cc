@@ -93,14 +93,18 @@ int AnalysisResult::UsedPhotos() const {
   return n;
 }
 
-AnalysisResult Analyze(const std::filesystem::path& camera_path, const std::vector<PhotoInput>& inputs,
-                       const AnalyzeOptions& options) {
+namespace {
+
+// The analysis with photos from `load` (which throws Error for a bad photo).
+AnalysisResult AnalyzeWith(const CameraModel& camera, const std::filesystem::path& camera_path,
+                           const std::vector<PhotoInput>& inputs, const std::function<cv::Mat(size_t)>& load,
+                           const AnalyzeOptions& options) {
   const auto t_start = std::chrono::steady_clock::now();
   options.Check("analyze options");
   if (inputs.empty()) throw Error("analyze", "no photos given", "give one or more photos with their pattern.json");
   AnalysisResult r;
   r.camera_path = camera_path;
-  r.camera = ReadCameraModel(camera_path);
+  r.camera = camera;
 
   // Each pattern.json once; all must describe the same monitor (one screen model is fitted to all photos).
   std::map<std::filesystem::path, size_t> pattern_index;
@@ -134,7 +138,7 @@ AnalysisResult Analyze(const std::filesystem::path& camera_path, const std::vect
     auto t0 = std::chrono::steady_clock::now();
     cv::Mat gray;
     try {
-      gray = ReadPhotoGray(inputs[i].photo);
+      gray = load(i);
     } catch (const Error& e) {
       pa.rejected = e.what();
     }
@@ -204,6 +208,23 @@ AnalysisResult Analyze(const std::filesystem::path& camera_path, const std::vect
   }
   r.total_ms = MsSince(t_start);
   return r;
+}
+
+}  // namespace
+
+AnalysisResult Analyze(const std::filesystem::path& camera_path, const std::vector<PhotoInput>& inputs,
+                       const AnalyzeOptions& options) {
+  return AnalyzeWith(ReadCameraModel(camera_path), camera_path, inputs,
+                     [&](size_t i) { return ReadPhotoGray(inputs[i].photo); }, options);
+}
+
+AnalysisResult AnalyzeImages(const CameraModel& camera, const std::filesystem::path& camera_path,
+                             const std::vector<PhotoInput>& inputs, const std::vector<cv::Mat>& images,
+                             const AnalyzeOptions& options) {
+  if (images.size() != inputs.size()) {
+    throw Error("analyze", fmt::format("{} images for {} inputs", images.size(), inputs.size()));
+  }
+  return AnalyzeWith(camera, camera_path, inputs, [&](size_t i) { return images[i]; }, options);
 }
 
 nlohmann::json ResultJson(const AnalysisResult& r, const std::string& command_line) {

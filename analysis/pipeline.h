@@ -9,7 +9,9 @@
 
 #include <Eigen/Core>
 #include <filesystem>
+#include <functional>
 #include <nlohmann/json.hpp>
+#include <opencv2/core.hpp>
 #include <optional>
 #include <string>
 #include <vector>
@@ -68,6 +70,12 @@ struct AnalysisResult {
 // caller checks UsedPhotos() > 0.
 AnalysisResult Analyze(const std::filesystem::path& camera_path, const std::vector<PhotoInput>& inputs,
                        const AnalyzeOptions& options);
+
+// As Analyze, with the camera model and the photos already in memory (benchmarks): images[i] is the photo of
+// inputs[i] (CV_8U or CV_16U, one channel); inputs[i].photo only names it.
+AnalysisResult AnalyzeImages(const CameraModel& camera, const std::filesystem::path& camera_path,
+                             const std::vector<PhotoInput>& inputs, const std::vector<cv::Mat>& images,
+                             const AnalyzeOptions& options);
 
 // result.json: format curvecheck.result/1 (architecture.md) with the inputs and their provenance, the
 // verification, the fit with every candidate, the deviations, and every feature.

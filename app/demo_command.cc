@@ -14,6 +14,7 @@
 #include "app/output_paths.h"
 #include "capture/synthetic_camera.h"
 #include "core/correction.h"
+#include "core/error.h"
 #include "core/file_io.h"
 #include "core/image_io.h"
 #include "core/screen_geometry.h"

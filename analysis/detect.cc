@@ -1,0 +1,546 @@
+#include "analysis/detect.h"
+
+#include <fmt/format.h>
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <map>
+#include <numeric>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+#include <optional>
+#include <set>
+
+#include "analysis/detect_board.h"
+#include "analysis/detect_tags.h"
+#include "core/error.h"
+#include "core/file_io.h"
+
+namespace curvecheck {
+namespace {
+
+using detect_internal::CornerGrid;
+using detect_internal::DetectedTag;
+
+constexpr const char* kDetectors[] = {"auto", "mrgingham", "opencv-sb", "opencv-classic", "apriltag"};
+
+// What detection needs from pattern.json.
+struct PatternInfo {
+  std::string kind;        // checkerboard | apriltag | both
+  int cols = 0, rows = 0;  // squares (board kinds)
+  double square_mm = 0;    // board kinds
+  std::map<std::string, Eigen::Vector2d> pattern_mm;  // every feature id -> plane coordinates
+  std::set<int> tag_ids;                              // tags of the pattern (from the feature ids)
+  int board_corners = 0, tag_corners = 0;
+};
+
+PatternInfo ReadPatternInfo(const PatternFile& pattern) {
+  const nlohmann::json& p = pattern.raw.at("pattern");
+  const auto fail = [](const std::string& what) {
+    throw Error("pattern.json", what, "write it again with curvecheck render");
+  };
+  PatternInfo info;
+  if (!p.contains("kind") || !p.at("kind").is_string()) fail("'pattern.kind' is missing or not a text");
+  info.kind = p.at("kind").get<std::string>();
+  if (info.kind != "checkerboard" && info.kind != "apriltag" && info.kind != "both") {
+    fail(fmt::format("'pattern.kind' is '{}', not checkerboard, apriltag or both", info.kind));
+  }
+  if (info.kind != "apriltag") {
+    for (const char* key : {"cols", "rows"}) {
+      if (!p.contains(key) || !p.at(key).is_number_integer() || p.at(key).get<int>() < 2) {
+        fail(fmt::format("'pattern.{}' is missing or not a whole number of at least 2", key));
+      }
+    }
+    info.cols = p.at("cols").get<int>();
+    info.rows = p.at("rows").get<int>();
+    if (!p.contains("square_mm") || !p.at("square_mm").is_number() || !(p.at("square_mm").get<double>() > 0)) {
+      fail("'pattern.square_mm' is missing or not positive");
+    }
+    info.square_mm = p.at("square_mm").get<double>();
+  }
+  for (const Feature& f : pattern.features) {
+    info.pattern_mm[f.id] = f.pattern_mm;
+    if (f.kind == "tag_corner") {
+      info.tag_ids.insert(std::stoi(f.id.substr(1)));
+      ++info.tag_corners;
+    } else {
+      ++info.board_corners;
+    }
+  }
+  if (info.kind != "apriltag" && info.board_corners != (info.cols - 1) * (info.rows - 1)) {
+    fail(fmt::format("has {} checkerboard corners, but a board of {}x{} squares has {}", info.board_corners,
+                     info.cols, info.rows, (info.cols - 1) * (info.rows - 1)));
+  }
+  if (info.kind != "checkerboard" && info.tag_ids.empty()) fail("is a pattern with tags but lists no tag corners");
+  return info;
+}
+
+std::string TagIdRanges(const std::set<int>& ids) {
+  std::string out;
+  for (auto it = ids.begin(); it != ids.end();) {
+    const int first = *it;
+    int last = first;
+    for (++it; it != ids.end() && *it == last + 1; ++it) last = *it;
+    out += fmt::format("{}{}", out.empty() ? "" : ", ", first == last ? fmt::format("{}", first)
+                                                                     : fmt::format("{}..{}", first, last));
+  }
+  return out;
+}
+
+// Homography from pattern plane (mm) to image (px) by least squares with h33 = 1 on normalized coordinates.
+// nullopt if the points are degenerate.
+std::optional<Eigen::Matrix3d> FitHomography(const std::vector<Eigen::Vector2d>& from,
+                                             const std::vector<Eigen::Vector2d>& to) {
+  const size_t n = from.size();
+  if (n < 4) return std::nullopt;
+  const auto normalizer = [](const std::vector<Eigen::Vector2d>& pts) {
+    Eigen::Vector2d mean = Eigen::Vector2d::Zero();
+    for (const auto& p : pts) mean += p;
+    mean /= static_cast<double>(pts.size());
+    double spread = 0;
+    for (const auto& p : pts) spread += (p - mean).norm();
+    spread /= static_cast<double>(pts.size());
+    const double s = spread > 0 ? std::sqrt(2.0) / spread : 1.0;
+    Eigen::Matrix3d t;
+    t << s, 0, -s * mean.x(), 0, s, -s * mean.y(), 0, 0, 1;
+    return t;
+  };
+  const Eigen::Matrix3d ta = normalizer(from), tb = normalizer(to);
+  Eigen::Matrix<double, 8, 8> ata = Eigen::Matrix<double, 8, 8>::Zero();
+  Eigen::Matrix<double, 8, 1> atb = Eigen::Matrix<double, 8, 1>::Zero();
+  for (size_t i = 0; i < n; ++i) {
+    const Eigen::Vector3d p = ta * from[i].homogeneous(), q = tb * to[i].homogeneous();
+    Eigen::Matrix<double, 8, 1> r1, r2;
+    r1 << p.x(), p.y(), 1, 0, 0, 0, -q.x() * p.x(), -q.x() * p.y();
+    r2 << 0, 0, 0, p.x(), p.y(), 1, -q.y() * p.x(), -q.y() * p.y();
+    ata += r1 * r1.transpose() + r2 * r2.transpose();
+    atb += r1 * q.x() + r2 * q.y();
+  }
+  const Eigen::FullPivLU<Eigen::Matrix<double, 8, 8>> lu(ata);
+  if (lu.rank() < 8 || lu.rcond() < 1e-12) return std::nullopt;
+  const Eigen::Matrix<double, 8, 1> h = lu.solve(atb);
+  Eigen::Matrix3d hn;
+  hn << h(0), h(1), h(2), h(3), h(4), h(5), h(6), h(7), 1;
+  const Eigen::Matrix3d out = tb.inverse() * hn * ta;
+  if (!out.allFinite()) return std::nullopt;
+  return out;
+}
+
+Eigen::Vector2d Apply(const Eigen::Matrix3d& h, const Eigen::Vector2d& p) { return (h * p.homogeneous()).hnormalized(); }
+
+void AddFlag(DetectedFeature& f, const std::string& flag) { f.flag += (f.flag.empty() ? "" : "; ") + flag; }
+
+// Screening (detect.h): local homographies of each feature's neighbours in pattern coordinates.
+void ScreenOutliers(std::vector<DetectedFeature>& features, const PatternInfo& info, const DetectOptions& o,
+                    std::vector<std::string>& notes) {
+  const size_t n = features.size();
+  if (n < 6) {
+    if (n > 0) notes.push_back(fmt::format("{} features: too few to screen for outliers", n));
+    return;
+  }
+  std::vector<Eigen::Vector2d> plane(n);
+  std::vector<std::string> group(n);  // a tag's own corners are not its neighbours
+  for (size_t i = 0; i < n; ++i) {
+    plane[i] = info.pattern_mm.at(features[i].id);
+    const std::string& id = features[i].id;
+    group[i] = id[0] == 't' ? id.substr(0, id.find('.')) : id;
+  }
+  std::vector<std::vector<size_t>> order(n);  // others by distance on the plane
+  for (size_t i = 0; i < n; ++i) {
+    for (size_t j = 0; j < n; ++j) {
+      if (j != i && group[j] != group[i]) order[i].push_back(j);
+    }
+    std::sort(order[i].begin(), order[i].end(),
+              [&](size_t a, size_t b) { return (plane[a] - plane[i]).squaredNorm() < (plane[b] - plane[i]).squaredNorm(); });
+  }
+  std::vector<bool> active(n, true);
+  std::vector<double> residual(n);
+  const size_t max_rounds = n / 4 + 1;
+  size_t unscreened = 0;
+  for (size_t round = 0; round < max_rounds; ++round) {
+    unscreened = 0;
+    std::vector<double> finite;
+    for (size_t i = 0; i < n; ++i) {
+      std::vector<Eigen::Vector2d> from, to;
+      for (size_t j : order[i]) {
+        if (!active[j]) continue;
+        from.push_back(plane[j]);
+        to.push_back(features[j].px);
+        if (static_cast<int>(from.size()) == o.screen_neighbours) break;
+      }
+      const std::optional<Eigen::Matrix3d> h = from.size() >= 5 ? FitHomography(from, to) : std::nullopt;
+      residual[i] = h ? (Apply(*h, plane[i]) - features[i].px).norm() : std::nan("");
+      if (!h) ++unscreened;
+      if (active[i] && std::isfinite(residual[i])) finite.push_back(residual[i]);
+    }
+    if (finite.empty()) break;
+    std::nth_element(finite.begin(), finite.begin() + finite.size() / 2, finite.end());
+    const double sigma = 1.4826 * finite[finite.size() / 2];
+    const double limit = std::max(o.outlier_sigmas * sigma, o.outlier_min_px);
+    size_t worst = n;
+    for (size_t i = 0; i < n; ++i) {
+      if (active[i] && std::isfinite(residual[i]) && residual[i] > limit &&
+          (worst == n || residual[i] > residual[worst])) {
+        worst = i;
+      }
+    }
+    if (worst == n) break;
+    active[worst] = false;
+    AddFlag(features[worst], fmt::format("outlier: {:.2f} px from its neighbours' homography (limit {:.2f} px)",
+                                         residual[worst], limit));
+  }
+  if (unscreened > 0) {
+    notes.push_back(fmt::format("{} features not screened (fewer than 5 neighbours for a homography)", unscreened));
+  }
+}
+
+void FlagBorder(std::vector<DetectedFeature>& features, const cv::Mat& photo, double border_px) {
+  for (DetectedFeature& f : features) {
+    const double d = std::min({f.px.x() + 0.5, f.px.y() + 0.5, photo.cols - 0.5 - f.px.x(), photo.rows - 0.5 - f.px.y()});
+    if (d < border_px) AddFlag(f, fmt::format("near the image border ({:.1f} px)", d));
+  }
+}
+
+// 8-bit copy for the detectors (16-bit scaled so that its brightest pixel is 255).
+cv::Mat To8Bit(const cv::Mat& photo) {
+  if (photo.depth() == CV_8U) return photo;
+  double max_value = 0;
+  cv::minMaxLoc(photo, nullptr, &max_value);
+  cv::Mat out;
+  photo.convertTo(out, CV_8U, max_value > 0 ? 255.0 / max_value : 1.0);
+  return out;
+}
+
+// cornerSubPix takes 8-bit or float images.
+cv::Mat ForSubPix(const cv::Mat& photo) {
+  if (photo.depth() == CV_8U) return photo;
+  cv::Mat out;
+  photo.convertTo(out, CV_32F);
+  return out;
+}
+
+// Why a board detector found nothing: tags instead, another board size, or nothing at all.
+std::string DiagnoseBoardFailure(const cv::Mat& gray8, const PatternInfo& info, const std::string& detector) {
+  const std::vector<DetectedTag> tags = detect_internal::RunAprilTag(gray8, 4, 0, 0);
+  if (!tags.empty()) {
+    std::set<int> ids;
+    for (const DetectedTag& t : tags) ids.insert(t.id);
+    return fmt::format("different pattern: the photo shows tag36h11 tags ({}), not the {}x{} checkerboard of "
+                       "pattern.json",
+                       TagIdRanges(ids), info.cols, info.rows);
+  }
+  if (detect_internal::FindAnyBoardSize(gray8)) {
+    return fmt::format("pattern not found: the photo shows a checkerboard, but no complete one of {}x{} inner "
+                       "corners ({}): a different pattern, or part of it outside the photo?",
+                       info.cols - 1, info.rows - 1, detector);
+  }
+  return fmt::format("pattern not found: no checkerboard of {}x{} inner corners ({})", info.cols - 1,
+                     info.rows - 1, detector);
+}
+
+// One board detector, oriented and named; false with `failure` set if it found nothing usable.
+bool DetectBoard(const std::string& detector, const cv::Mat& photo, const cv::Mat& gray8, const PatternInfo& info,
+                 const DetectOptions& o, Detection& out) {
+  const cv::Size inner(info.cols - 1, info.rows - 1);
+  std::optional<CornerGrid> grid;
+  if (detector == "mrgingham") {
+    grid = detect_internal::RunMrgingham(gray8, inner.width);
+  } else if (detector == "opencv-sb") {
+    grid = detect_internal::RunOpenCvSb(gray8, inner, o.sb_accuracy);
+  } else {
+    grid = detect_internal::RunOpenCvClassic(gray8, ForSubPix(photo), inner, o.classic_max_px);
+  }
+  if (!grid) {
+    out.failure = fmt::format("pattern not found: no checkerboard of {}x{} inner corners ({})", inner.width,
+                              inner.height, detector);
+    return false;
+  }
+  const detect_internal::BoardOrientation orient =
+      detect_internal::ResolveBoardOrientation(*grid, gray8, info.cols, info.rows, o.upright_max_deg);
+  if (!orient.failure.empty()) {
+    out.failure = orient.failure;
+    return false;
+  }
+  out.notes.push_back(orient.note);
+  out.features.clear();
+  for (size_t d = 0; d < grid->px.size(); ++d) {
+    DetectedFeature f;
+    f.id = fmt::format("c{}", orient.corner_index[d]);
+    f.px = Eigen::Vector2d(grid->px[d].x, grid->px[d].y);
+    f.quality = grid->quality[d];
+    out.features.push_back(std::move(f));
+  }
+  std::sort(out.features.begin(), out.features.end(), [](const DetectedFeature& a, const DetectedFeature& b) {
+    return std::stoi(a.id.substr(1)) < std::stoi(b.id.substr(1));
+  });
+  return true;
+}
+
+// Board corners of kind "both", predicted from the nearest tags and refined by cornerSubPix inside the clean
+// X-junction (the tags' borders are 1/6 of a square from each corner).
+void BoardCornersFromTags(const cv::Mat& subpix, const std::vector<DetectedTag>& tags, const PatternInfo& info,
+                          Detection& out) {
+  struct TagOnPlane {
+    const DetectedTag* tag;
+    Eigen::Vector2d centre_mm;
+  };
+  std::vector<TagOnPlane> placed;
+  for (const DetectedTag& t : tags) {
+    Eigen::Vector2d c = Eigen::Vector2d::Zero();
+    for (int k = 0; k < 4; ++k) c += info.pattern_mm.at(fmt::format("t{}.{}", t.id, k)) / 4;
+    placed.push_back({&t, c});
+  }
+  const cv::TermCriteria stop(cv::TermCriteria::EPS + cv::TermCriteria::COUNT, 40, 1e-3);
+  int predicted = 0, refused = 0;
+  for (int k = 0; k < (info.cols - 1) * (info.rows - 1); ++k) {
+    const std::string id = fmt::format("c{}", k);
+    const Eigen::Vector2d p = info.pattern_mm.at(id);
+    std::vector<const TagOnPlane*> near;
+    for (const TagOnPlane& t : placed) {
+      if ((t.centre_mm - p).norm() < 2.0 * info.square_mm) near.push_back(&t);
+    }
+    std::sort(near.begin(), near.end(), [&](const TagOnPlane* a, const TagOnPlane* b) {
+      return (a->centre_mm - p).norm() < (b->centre_mm - p).norm();
+    });
+    if (near.size() > 4) near.resize(4);
+    std::vector<Eigen::Vector2d> from, to;
+    for (const TagOnPlane* t : near) {
+      for (int c = 0; c < 4; ++c) {
+        from.push_back(info.pattern_mm.at(fmt::format("t{}.{}", t->tag->id, c)));
+        to.push_back(t->tag->px[static_cast<size_t>(c)]);
+      }
+    }
+    const std::optional<Eigen::Matrix3d> h = FitHomography(from, to);
+    if (!h) continue;
+    const Eigen::Vector2d guess = Apply(*h, p);
+    const double square_px = std::min((Apply(*h, p + Eigen::Vector2d(info.square_mm, 0)) - guess).norm(),
+                                      (Apply(*h, p + Eigen::Vector2d(0, info.square_mm)) - guess).norm());
+    const int half = std::clamp(static_cast<int>(std::floor(0.12 * square_px)), 2, 30);
+    if (guess.x() < half + 1 || guess.y() < half + 1 || guess.x() > subpix.cols - half - 2 ||
+        guess.y() > subpix.rows - half - 2) {
+      continue;
+    }
+    ++predicted;
+    std::vector<cv::Point2f> one{cv::Point2f(static_cast<float>(guess.x()), static_cast<float>(guess.y()))};
+    cv::cornerSubPix(subpix, one, cv::Size(half, half), cv::Size(-1, -1), stop);
+    const Eigen::Vector2d refined(one[0].x, one[0].y);
+    const double moved = (refined - guess).norm();
+    if (!refined.allFinite() || moved > half) {
+      ++refused;
+      continue;
+    }
+    DetectedFeature f;
+    f.id = id;
+    f.px = refined;
+    f.quality = moved <= 0.25 * half ? 1.0 : std::max(0.0, 1 - (moved - 0.25 * half) / (0.75 * half));
+    out.features.push_back(std::move(f));
+  }
+  if (refused > 0) {
+    out.notes.push_back(fmt::format("{} of {} board corners predicted from the tags did not converge (dropped)",
+                                    refused, predicted));
+  }
+}
+
+void DetectTags(const cv::Mat& photo, const cv::Mat& gray8, const PatternInfo& info, const DetectOptions& o,
+                Detection& out) {
+  std::vector<DetectedTag> found =
+      detect_internal::RunAprilTag(gray8, o.apriltag_decimate, o.apriltag_max_hamming, o.apriltag_threads);
+  if (found.empty()) {
+    out.failure = "pattern not found: no tag36h11 tag in the photo";
+    return;
+  }
+  std::map<int, DetectedTag> by_id;
+  std::set<int> foreign, doubled;
+  for (const DetectedTag& t : found) {
+    if (!info.tag_ids.count(t.id)) {
+      foreign.insert(t.id);
+      continue;
+    }
+    auto [it, inserted] = by_id.emplace(t.id, t);
+    if (!inserted) {
+      doubled.insert(t.id);
+      if (t.decision_margin > it->second.decision_margin) it->second = t;
+    }
+  }
+  if (by_id.empty()) {
+    out.failure = fmt::format("different pattern: ids not in pattern.json: the photo shows tags {}, pattern.json "
+                              "has tags {}",
+                              TagIdRanges(foreign), TagIdRanges(info.tag_ids));
+    return;
+  }
+  if (!foreign.empty()) {
+    out.notes.push_back(fmt::format("ignored tags not in pattern.json: {}", TagIdRanges(foreign)));
+  }
+  if (!doubled.empty()) {
+    out.notes.push_back(fmt::format("tags seen more than once (kept the strongest): {}", TagIdRanges(doubled)));
+  }
+  std::vector<DetectedTag> tags;
+  int unrefined = 0;
+  for (auto& [id, t] : by_id) {
+    if (o.refine_tags && !detect_internal::RefineTagCorners(photo, t)) ++unrefined;
+    tags.push_back(t);
+  }
+  if (unrefined > 0) {
+    out.notes.push_back(fmt::format("{} of {} tags kept the detector's corners (border edges too small or cut by "
+                                    "the image edge)",
+                                    unrefined, tags.size()));
+  }
+  for (const DetectedTag& t : tags) {
+    const double margin_quality = std::min(1.0, t.decision_margin / 100);
+    const double edge_quality = t.edge_rms_px >= 0 ? 1 / (1 + std::pow(t.edge_rms_px / 0.2, 2)) : 1.0;
+    for (int k = 0; k < 4; ++k) {
+      DetectedFeature f;
+      f.id = fmt::format("t{}.{}", t.id, k);
+      f.px = t.px[static_cast<size_t>(k)];
+      f.quality = margin_quality * edge_quality;
+      if (t.hamming > 0) AddFlag(f, fmt::format("tag decoded with {} corrected bit(s)", t.hamming));
+      out.features.push_back(std::move(f));
+    }
+  }
+  if (info.kind == "both") BoardCornersFromTags(ForSubPix(photo), tags, info, out);
+}
+
+}  // namespace
+
+std::vector<std::string> ScreenFeatures(std::vector<DetectedFeature>& features, const PatternFile& pattern,
+                                        const DetectOptions& options) {
+  options.Check("detect options");
+  const PatternInfo info = ReadPatternInfo(pattern);
+  std::set<std::string> seen;
+  for (const DetectedFeature& f : features) {
+    if (!info.pattern_mm.count(f.id)) {
+      throw Error("features", fmt::format("id '{}' is not in pattern.json", f.id), "screen features of this pattern only");
+    }
+    if (!seen.insert(f.id).second) {
+      throw Error("features", fmt::format("id '{}' appears twice", f.id), "screen one detection per photo");
+    }
+  }
+  std::vector<std::string> notes;
+  ScreenOutliers(features, info, options, notes);
+  return notes;
+}
+
+void DetectOptions::Check(const std::string& where) const {
+  if (std::find(std::begin(kDetectors), std::end(kDetectors), detector) == std::end(kDetectors)) {
+    throw Error(where, fmt::format("detector '{}' is not known", detector),
+                "use auto, mrgingham, opencv-sb, opencv-classic or apriltag");
+  }
+  const auto range = [&](const char* name, double v, double lo, double hi, const char* fix) {
+    if (!(std::isfinite(v) && v >= lo && v <= hi)) {
+      throw Error(where, fmt::format("{} is {}, but must be in [{}, {}]", name, v, lo, hi), fix);
+    }
+  };
+  range("apriltag_decimate", apriltag_decimate, 1, 8, "use 1 (full resolution) to 8; 2 is the default");
+  range("apriltag_max_hamming", apriltag_max_hamming, 0, 2, "use 0, 1 or 2 (larger needs gigabytes of tables)");
+  range("apriltag_threads", apriltag_threads, 0, 256, "use 0 for all cores");
+  if (classic_max_px != 0) range("classic_max_px", classic_max_px, 200, 1e6, "use 0 (full resolution) or >= 200");
+  range("upright_max_deg", upright_max_deg, 1e-9, 45, "use an angle in (0, 45] deg, e.g. 40");
+  range("screen_neighbours", screen_neighbours, 5, 100, "use 5..100, e.g. 8");
+  range("outlier_sigmas", outlier_sigmas, 1e-9, 1e6, "use a positive number of sigmas, e.g. 5");
+  range("outlier_min_px", outlier_min_px, 0, 1e6, "use a non-negative number of px, e.g. 0.5");
+  range("border_px", border_px, 0, 1e6, "use a non-negative number of px, e.g. 4");
+}
+
+cv::Mat ReadPhotoGray(const std::filesystem::path& path) {
+  const std::string bytes = ReadFileToString(path);
+  if (bytes.empty()) throw Error(path.string(), "is empty (0 bytes)", "give a photo (PNG, JPEG, TIFF)");
+  const auto starts = [&](std::string_view magic) { return bytes.compare(0, magic.size(), magic) == 0; };
+  const std::string_view tail = std::string_view(bytes).substr(bytes.size() - std::min<size_t>(bytes.size(), 1024));
+  if (starts("\x89PNG") && tail.find("IEND") == std::string_view::npos) {
+    throw Error(path.string(), "is a truncated PNG (no IEND chunk at its end)", "copy the photo again");
+  }
+  if (starts("\xFF\xD8") && tail.find("\xFF\xD9") == std::string_view::npos) {
+    throw Error(path.string(), "is a truncated JPEG (no end-of-image marker)", "copy the photo again");
+  }
+  const cv::Mat raw(1, static_cast<int>(bytes.size()), CV_8U, const_cast<char*>(bytes.data()));
+  cv::Mat img;
+  try {
+    img = cv::imdecode(raw, cv::IMREAD_UNCHANGED);  // keeps 16 bits; ignores EXIF rotation (the sensor's layout)
+  } catch (const cv::Exception&) {
+    img = cv::Mat();
+  }
+  if (img.empty() || img.cols == 0 || img.rows == 0) {
+    throw Error(path.string(), "is not a readable image (corrupt, truncated or unsupported format)",
+                "give a PNG, JPEG or TIFF photo");
+  }
+  if (img.depth() != CV_8U && img.depth() != CV_16U) {
+    throw Error(path.string(), "has an unsupported pixel type (not 8 or 16 bit integers)",
+                "give an 8 or 16 bit photo");
+  }
+  if (img.channels() == 3) cv::cvtColor(img, img, cv::COLOR_BGR2GRAY);
+  if (img.channels() == 4) cv::cvtColor(img, img, cv::COLOR_BGRA2GRAY);
+  if (img.channels() != 1) {
+    throw Error(path.string(), fmt::format("has {} channels", img.channels()), "give a gray or colour photo");
+  }
+  return img;
+}
+
+Detection DetectFeatures(const cv::Mat& photo_gray, const PatternFile& pattern, const DetectOptions& options) {
+  const auto start = std::chrono::steady_clock::now();
+  options.Check("detect options");
+  if (photo_gray.empty() || photo_gray.channels() != 1 ||
+      (photo_gray.depth() != CV_8U && photo_gray.depth() != CV_16U) || photo_gray.cols < 8 || photo_gray.rows < 8) {
+    throw Error("photo", fmt::format("is a {}x{} image with {} channel(s) of type {}", photo_gray.cols,
+                                     photo_gray.rows, photo_gray.channels(), photo_gray.depth()),
+                "give a gray 8 or 16 bit photo of at least 8x8 px (ReadPhotoGray)");
+  }
+  const PatternInfo info = ReadPatternInfo(pattern);
+  const bool board_kind = info.kind != "apriltag", tag_kind = info.kind != "checkerboard";
+  std::string detector = options.detector;
+  if (detector == "auto") detector = tag_kind ? "apriltag" : "opencv-classic";
+  if (detector == "apriltag" && !tag_kind) {
+    throw Error("detector", "apriltag cannot detect a plain checkerboard (pattern.json has no tags)",
+                "use auto, opencv-classic, opencv-sb or mrgingham");
+  }
+  if (detector != "apriltag" && !board_kind) {
+    throw Error("detector", fmt::format("{} detects checkerboards; pattern.json is an apriltag grid", detector),
+                "use auto or apriltag");
+  }
+  if (detector == "mrgingham" && info.cols != info.rows) {
+    throw Error("detector",
+                fmt::format("mrgingham detects square boards (N x N inner corners) only; pattern.json has {}x{}",
+                            info.cols - 1, info.rows - 1),
+                "use opencv-classic or opencv-sb, or render a square board");
+  }
+
+  Detection out;
+  out.detector = detector;
+  const cv::Mat gray8 = To8Bit(photo_gray);
+  if (detector == "apriltag") {
+    DetectTags(photo_gray, gray8, info, options, out);
+  } else if (!DetectBoard(detector, photo_gray, gray8, info, options, out)) {
+    if (options.detector == "auto" && out.failure.starts_with("pattern not found")) {
+      // auto: classic is fast but less robust to strong perspective and blur; try SB before giving up.
+      const std::string first = out.failure;
+      out = Detection();
+      out.detector = "opencv-sb";
+      out.notes.push_back(fmt::format("opencv-classic failed ({}); used opencv-sb", first));
+      DetectBoard("opencv-sb", photo_gray, gray8, info, options, out);
+    }
+    if (out.failure.starts_with("pattern not found")) out.failure = DiagnoseBoardFailure(gray8, info, out.detector);
+  }
+  if (out.failure.empty()) {
+    ScreenOutliers(out.features, info, options, out.notes);
+    FlagBorder(out.features, photo_gray, options.border_px);
+    const size_t expected = (detector == "apriltag" ? static_cast<size_t>(info.tag_corners) : 0) +
+                            (board_kind && (detector != "apriltag" || info.kind == "both")
+                                 ? static_cast<size_t>(info.board_corners)
+                                 : 0);
+    if (out.features.size() < expected) {
+      out.notes.push_back(fmt::format("{} of {} features of the pattern detected (the others are outside the "
+                                      "photo, occluded or not found)",
+                                      out.features.size(), expected));
+    }
+    const auto flagged = std::count_if(out.features.begin(), out.features.end(),
+                                       [](const DetectedFeature& f) { return !f.flag.empty(); });
+    if (flagged > 0) out.notes.push_back(fmt::format("{} features flagged", flagged));
+  } else {
+    out.features.clear();
+  }
+  out.time_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  return out;
+}
+
+}  // namespace curvecheck

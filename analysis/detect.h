@@ -1,0 +1,119 @@
+// Detection (issue 6 item 1): finds the features of a pattern.json in a photo and names them with the
+// pattern's feature ids ("c<k>" checkerboard inner corners, "t<id>.<k>" tag corners; render/pattern.h).
+//
+// Detectors:
+//   mrgingham       the mrgingham library (no CLAHE/blur preprocessing: the library as it is). Square boards of
+//                   N x N inner corners only.
+//   opencv-sb       OpenCV findChessboardCornersSB at full resolution (its own sub-pixel corners; histogram
+//                   equalization only as a retry, it costs accuracy).
+//   opencv-classic  OpenCV findChessboardCorners on a copy scaled down by an integer factor to at most
+//                   `classic_max_px` on its longer side (global threshold, then with histogram equalization; not
+//                   the adaptive thresholds, which take a minute on photos of other boards), then cornerSubPix at
+//                   full resolution with a window of 0.3 x the distance to the nearest corner.
+//   apriltag        AprilTag 3 tag36h11; corners moved by -0.5 px to pixel centres at integers, then refined at
+//                   full resolution from the tag's outer border: each of the four edges is located along its
+//                   normal at ~1 px steps and fitted with a quadratic curve (lens distortion and screen curvature
+//                   bend the edges), adjacent curves intersected. Kind "both": the checkerboard corners are
+//                   predicted from the nearest tags (local homography in pattern coordinates) and refined by
+//                   cornerSubPix within the clean X-junction around each corner.
+//   auto            by pattern kind, without running every detector: checkerboard -> opencv-classic (falls back
+//                   to opencv-sb only if classic fails, and says so in the notes); apriltag and both -> apriltag.
+//
+// Orientation of checkerboards (the grid a board detector returns has no ids). Candidates are the symmetries
+// of the board that keep its size and its handedness (a photo of the front of a screen is never mirrored):
+// identity and 180 deg, plus 90 and 270 deg for square boards. Rule: (1) the square colours decide where the
+// board's parity makes them decisive (the top-left square is black; a 180 deg turn changes the colours iff
+// cols + rows is odd, a 90 deg turn iff the board has an even number of squares per side); (2) among the
+// candidates the colours leave, the photo is assumed roughly upright: the board's up direction, averaged over
+// the board, within `upright_max_deg` (default 40) of the image's up. If no candidate or more than one remains,
+// the result is failure "ambiguous orientation" rather than a guess.
+//
+// Screening. Every feature is predicted from its neighbours (the nearest `screen_neighbours` features in
+// pattern coordinates, excluding the same tag's corners) by a homography fitted to them; a feature whose
+// detection is farther from the prediction than max(`outlier_sigmas` x the robust sigma of all residuals,
+// `outlier_min_px`) is flagged "outlier: ...". The worst is flagged first and removed from the neighbourhoods
+// before the others are re-checked, so one bad feature does not drag its neighbours along. Features within
+// `border_px` of the image edge are flagged "near the image border". Flagged features stay in the result (the
+// caller decides; `flag` says why).
+#pragma once
+
+#include <Eigen/Core>
+#include <filesystem>
+#include <opencv2/core.hpp>
+#include <string>
+#include <vector>
+
+#include "render/pattern_json.h"
+
+namespace curvecheck {
+
+struct DetectOptions {
+  // auto | mrgingham | opencv-sb | opencv-classic | apriltag (see above).
+  std::string detector = "auto";
+  // AprilTag quad_decimate: the quad search runs on an image decimated by this factor (1 = full resolution).
+  // 2 is ~4x faster than 1 at 24 MP; the corners are refined at full resolution afterwards either way. 1..8.
+  int apriltag_decimate = 2;
+  // AprilTag: largest number of corrected bits accepted (tag36h11 codes are >= 11 bits apart). 0..3.
+  int apriltag_max_hamming = 1;
+  // AprilTag: threads for the detector (0 = all cores).
+  int apriltag_threads = 0;
+  // Refine AprilTag corners from the border edges (false: the detector's corners, -0.5 px, as they are).
+  bool refine_tags = true;
+  // opencv-classic: longer side of the scaled copy that the coarse detector sees, px (0 = full resolution).
+  int classic_max_px = 1600;
+  // opencv-sb: add CALIB_CB_ACCURACY (upsampling; ~5x slower, a little more accurate).
+  bool sb_accuracy = false;
+  // Orientation rule (2): largest angle between the board's up and the image's up, deg, in (0, 45].
+  double upright_max_deg = 40;
+  // Screening: neighbours per local homography (>= 5), threshold in robust sigmas and its floor in px.
+  int screen_neighbours = 8;
+  double outlier_sigmas = 5;
+  double outlier_min_px = 0.5;
+  // Features closer than this to the image edge (px) are flagged: their refinement window is cut.
+  double border_px = 4;
+
+  void Check(const std::string& where) const;  // throws Error naming `where`
+};
+
+struct DetectedFeature {
+  std::string id;      // the pattern.json feature id ("c12", "t7.2")
+  Eigen::Vector2d px;  // camera image coordinates, pixel centres at integers (mrcal/OpenCV convention)
+  // 0..1, detector-specific. mrgingham: 0.5^(pyramid level of its refinement), 1 = refined at full
+  // resolution. opencv-sb / opencv-classic: 1 (no per-corner measure; see the screening flags). apriltag tag
+  // corners: min(1, decision margin / 100) x 1 / (1 + (edge fit RMS / 0.2 px)^2); board corners of "both":
+  // 1 when cornerSubPix converged within a quarter of its window of the prediction, else lower in proportion.
+  double quality = 1;
+  // "" = good; else why it is suspect ("outlier: 2.3 px from neighbours' homography", "near the image border").
+  std::string flag;
+};
+
+struct Detection {
+  std::string detector;                   // which detector produced the features
+  std::vector<DetectedFeature> features;  // unique ids, all present in the pattern
+  // "" on success; else "<category>: <details>" with the category one of "pattern not found" (also when a
+  // board is seen but not the one of pattern.json), "ambiguous orientation", "different pattern" (tags whose
+  // ids are not in pattern.json: "different pattern: ids not in pattern.json: ..."; tags where pattern.json has
+  // a plain board). Features are empty on failure.
+  std::string failure;
+  std::vector<std::string> notes;  // e.g. "orientation from the square colours", "12 of 144 corners not found"
+  double time_ms = 0;              // wall time of DetectFeatures
+};
+
+// Photo file -> gray image, 8-bit (CV_8U) or 16-bit (CV_16U, precision kept). Colour photos are converted
+// with OpenCV's luma weights. Throws Error(file, problem, fix) on missing, unreadable, truncated (PNG and JPEG
+// end markers are checked) or empty images and on other pixel types.
+cv::Mat ReadPhotoGray(const std::filesystem::path& path);
+
+// Detects the pattern of pattern.json in a photo (CV_8U or CV_16U, one channel). Never throws for a photo
+// without the pattern or with a different one: it returns `failure` instead. Throws Error for invalid
+// options, an unsupported image type, or a detector that cannot detect this pattern kind (apriltag on a plain
+// checkerboard, a board detector on an apriltag grid, mrgingham on a board that is not N x N corners).
+Detection DetectFeatures(const cv::Mat& photo_gray, const PatternFile& pattern, const DetectOptions& options);
+
+// The outlier screening of DetectFeatures (above) on any features of `pattern` (e.g. merged from several
+// detections): appends "outlier: ..." to the flags of inconsistent features; returns notes (features that
+// could not be screened). Throws Error for an id that is not in the pattern.
+std::vector<std::string> ScreenFeatures(std::vector<DetectedFeature>& features, const PatternFile& pattern,
+                                        const DetectOptions& options);
+
+}  // namespace curvecheck

@@ -1,0 +1,270 @@
+#include "analysis/detect_board.h"
+
+#include <fmt/format.h>
+#include <mrgingham/mrgingham.hh>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdlib>
+#include <numbers>
+#include <opencv2/calib3d.hpp>
+#include <opencv2/imgproc.hpp>
+#include <utility>
+
+#include "analysis/detect_tags.h"
+
+namespace curvecheck::detect_internal {
+namespace {
+
+// Integer factor that brings the longer side to at most max_px (1 = none).
+int ScaleFactor(const cv::Mat& image, int max_px) {
+  if (max_px <= 0) return 1;
+  const int longer = std::max(image.cols, image.rows);
+  return std::max(1, (longer + max_px - 1) / max_px);
+}
+
+cv::Mat Shrink(const cv::Mat& image, int factor) {
+  if (factor == 1) return image;
+  cv::Mat small;
+  cv::resize(image, small, cv::Size(image.cols / factor, image.rows / factor), 0, 0, cv::INTER_AREA);
+  return small;
+}
+
+constexpr std::pair<int, int> kNeighbours[] = {{1, 0}, {-1, 0}, {0, 1}, {0, -1}};
+constexpr std::pair<int, int> kQuadCorners[] = {{0, 0}, {1, 0}, {0, 1}, {1, 1}};
+
+struct Candidate {
+  std::string name;
+  std::vector<int> board_of_detected;  // per detected point: col + row * nc
+  double colour = 0;                   // correlation of the observed with the predicted square colours, -1..1
+  double up_deg = 0;                   // angle between the board's up and the image's up
+};
+
+}  // namespace
+
+std::optional<CornerGrid> RunMrgingham(const cv::Mat& gray8, int gridn) {
+  std::vector<mrgingham::PointDouble> points;
+  signed char* levels = nullptr;
+  const int found = mrgingham::find_chessboard_from_image_array(points, &levels, gridn, gray8, -1);
+  std::optional<CornerGrid> out;
+  if (found >= 0 && static_cast<int>(points.size()) == gridn * gridn) {
+    out.emplace();
+    out->width = out->height = gridn;
+    for (size_t i = 0; i < points.size(); ++i) {
+      out->px.emplace_back(points[i].x, points[i].y);
+      out->quality.push_back(levels ? std::pow(0.5, std::max(0, static_cast<int>(levels[i]))) : 1.0);
+    }
+  }
+  std::free(levels);  // mrgingham realloc()s it; the caller frees (mrgingham.hh)
+  return out;
+}
+
+std::optional<CornerGrid> RunOpenCvSb(const cv::Mat& gray8, cv::Size inner, bool accuracy) {
+  std::vector<cv::Point2f> corners;
+  // Without CALIB_CB_NORMALIZE_IMAGE first: the histogram equalization costs accuracy (measured on a 1500 x 1000
+  // synthetic photo: 0.31 px RMS from cornerSubPix's corners with it, 0.065 px without).
+  const int flags = accuracy ? cv::CALIB_CB_ACCURACY : 0;
+  if (!cv::findChessboardCornersSB(gray8, inner, corners, flags) &&
+      !cv::findChessboardCornersSB(gray8, inner, corners, flags | cv::CALIB_CB_NORMALIZE_IMAGE)) {
+    return std::nullopt;
+  }
+  if (static_cast<int>(corners.size()) != inner.area()) return std::nullopt;
+  CornerGrid g;
+  g.width = inner.width;
+  g.height = inner.height;
+  for (const cv::Point2f& p : corners) g.px.emplace_back(p.x, p.y);
+  g.quality.assign(g.px.size(), 1.0);
+  return g;
+}
+
+std::optional<CornerGrid> RunOpenCvClassic(const cv::Mat& gray8, const cv::Mat& full, cv::Size inner, int max_px) {
+  const int factor = ScaleFactor(gray8, max_px);
+  const cv::Mat small = Shrink(gray8, factor);
+  // The global threshold first (milliseconds on a clean photo), then with histogram equalization. Not the
+  // adaptive thresholds: they iterate over block sizes and dilations, measured at 50-60 s on a 1500 x 1000
+  // photo of a board of another size or of tags (OpenCV 4.6). FAST_CHECK ends both quickly without a board.
+  std::vector<cv::Point2f> corners;
+  if (!cv::findChessboardCorners(small, inner, corners, cv::CALIB_CB_FAST_CHECK) &&
+      !cv::findChessboardCorners(small, inner, corners, cv::CALIB_CB_NORMALIZE_IMAGE | cv::CALIB_CB_FAST_CHECK)) {
+    return std::nullopt;
+  }
+  if (static_cast<int>(corners.size()) != inner.area()) return std::nullopt;
+  CornerGrid g;
+  g.width = inner.width;
+  g.height = inner.height;
+  // Pixel i of the shrunk copy averages full-resolution pixels factor*i .. factor*i + factor - 1.
+  for (const cv::Point2f& p : corners) g.px.emplace_back(factor * p.x + 0.5 * (factor - 1), factor * p.y + 0.5 * (factor - 1));
+  const cv::TermCriteria stop(cv::TermCriteria::EPS + cv::TermCriteria::COUNT, 40, 1e-3);
+  for (int j = 0; j < g.height; ++j) {
+    for (int i = 0; i < g.width; ++i) {
+      const cv::Point2d& p = g.px[static_cast<size_t>(j * g.width + i)];
+      double nearest = 1e9;
+      for (const auto& [di, dj] : kNeighbours) {
+        const int ii = i + di, jj = j + dj;
+        if (ii < 0 || jj < 0 || ii >= g.width || jj >= g.height) continue;
+        nearest = std::min(nearest, cv::norm(g.px[static_cast<size_t>(jj * g.width + ii)] - p));
+      }
+      const int half = std::clamp(static_cast<int>(std::lround(0.3 * nearest)), 3, 40);
+      std::vector<cv::Point2f> one{cv::Point2f(static_cast<float>(p.x), static_cast<float>(p.y))};
+      cv::cornerSubPix(full, one, cv::Size(half, half), cv::Size(-1, -1), stop);
+      g.px[static_cast<size_t>(j * g.width + i)] = cv::Point2d(one[0].x, one[0].y);
+    }
+  }
+  g.quality.assign(g.px.size(), 1.0);
+  return g;
+}
+
+BoardOrientation ResolveBoardOrientation(const CornerGrid& grid, const cv::Mat& image, int cols, int rows,
+                                         double upright_max_deg) {
+  const int nc = cols - 1, nr = rows - 1;
+  const int w = grid.width, h = grid.height;
+  BoardOrientation out;
+  // Observed colour of every detected quad (i, j)-(i+1, j+1): mean of four samples 15% in from its corners
+  // (inside the square; for kind "both" inside the white margin around a tag).
+  struct Quad {
+    int i, j;
+    double value;
+  };
+  std::vector<Quad> quads;
+  double mean = 0;
+  for (int j = 0; j + 1 < h; ++j) {
+    for (int i = 0; i + 1 < w; ++i) {
+      const cv::Point2d& p00 = grid.px[static_cast<size_t>(j * w + i)];
+      const cv::Point2d& p10 = grid.px[static_cast<size_t>(j * w + i + 1)];
+      const cv::Point2d& p01 = grid.px[static_cast<size_t>((j + 1) * w + i)];
+      const cv::Point2d& p11 = grid.px[static_cast<size_t>((j + 1) * w + i + 1)];
+      double sum = 0;
+      int n = 0;
+      for (double a : {0.15, 0.85}) {
+        for (double b : {0.15, 0.85}) {
+          const cv::Point2d q = (1 - a) * (1 - b) * p00 + a * (1 - b) * p10 + (1 - a) * b * p01 + a * b * p11;
+          const double v = SampleBilinear(image, q.x, q.y);
+          if (std::isfinite(v)) {
+            sum += v;
+            ++n;
+          }
+        }
+      }
+      if (n > 0) {
+        quads.push_back({i, j, sum / n});
+        mean += sum / n;
+      }
+    }
+  }
+  if (!quads.empty()) mean /= static_cast<double>(quads.size());
+  double spread = 0;
+  for (const Quad& q : quads) spread += std::abs(q.value - mean);
+
+  // Candidate symmetries: detected (i, j) from board (col, row), keeping the board's size.
+  std::vector<Candidate> candidates;
+  for (bool transposed : {false, true}) {
+    if (transposed ? (w != nr || h != nc) : (w != nc || h != nr)) continue;
+    for (bool flip_col : {false, true}) {
+      for (bool flip_row : {false, true}) {
+        Candidate c;
+        c.board_of_detected.assign(static_cast<size_t>(w * h), -1);
+        for (int row = 0; row < nr; ++row) {
+          for (int col = 0; col < nc; ++col) {
+            const int bc = flip_col ? nc - 1 - col : col, br = flip_row ? nr - 1 - row : row;
+            const int i = transposed ? br : bc, j = transposed ? bc : br;
+            c.board_of_detected[static_cast<size_t>(j * w + i)] = col + row * nc;
+          }
+        }
+        c.name = fmt::format("{}{}{}", transposed ? "T" : "", flip_col ? "C" : "", flip_row ? "R" : "");
+        candidates.push_back(std::move(c));
+      }
+    }
+  }
+  if (candidates.empty()) {
+    out.failure = fmt::format("ambiguous orientation: the detector returned a {}x{} grid for a {}x{} board", w, h, nc, nr);
+    return out;
+  }
+  // Board-ordered points of a candidate, its handedness, colours and up direction.
+  std::vector<Candidate> kept;
+  for (Candidate& c : candidates) {
+    std::vector<cv::Point2d> at(static_cast<size_t>(nc * nr));
+    for (size_t d = 0; d < c.board_of_detected.size(); ++d) at[static_cast<size_t>(c.board_of_detected[d])] = grid.px[d];
+    const auto p = [&](int col, int row) { return at[static_cast<size_t>(col + row * nc)]; };
+    cv::Point2d right(0, 0), down(0, 0);
+    for (int row = 0; row < nr; ++row) {
+      for (int col = 0; col + 1 < nc; ++col) right += p(col + 1, row) - p(col, row);
+    }
+    for (int row = 0; row + 1 < nr; ++row) {
+      for (int col = 0; col < nc; ++col) down += p(col, row + 1) - p(col, row);
+    }
+    // Pattern right and down are image x and y for an unmirrored view: right x down > 0.
+    const double handed = right.x * down.y - right.y * down.x;
+    if (nc >= 2 && nr >= 2 && handed <= 0) continue;
+    cv::Point2d up(0, 0);
+    if (nc >= 2) up += cv::Point2d(right.y, -right.x) / cv::norm(right);
+    if (nr >= 2) up -= down / cv::norm(down);
+    c.up_deg = std::acos(std::clamp(-up.y / cv::norm(up), -1.0, 1.0)) * 180 / std::numbers::pi;
+    double agree = 0;
+    for (const Quad& q : quads) {
+      int min_col = nc, min_row = nr;
+      for (const auto& [di, dj] : kQuadCorners) {
+        const int k = c.board_of_detected[static_cast<size_t>((q.j + dj) * w + q.i + di)];
+        min_col = std::min(min_col, k % nc);
+        min_row = std::min(min_row, k / nc);
+      }
+      // Square (min_col + 1, min_row + 1) of the board; black where col + row is even (top-left black).
+      const bool black = (min_col + min_row) % 2 == 0;
+      agree += (black ? -1 : 1) * (q.value - mean);
+    }
+    c.colour = spread > 0 ? agree / spread : 0;
+    kept.push_back(std::move(c));
+  }
+  if (kept.empty()) {
+    out.failure = "ambiguous orientation: the detected grid is mirrored (a photo of the screen cannot be)";
+    return out;
+  }
+  std::vector<const Candidate*> by_colour;
+  for (const Candidate& c : kept) {
+    if (quads.empty() || c.colour > 0.5) by_colour.push_back(&c);
+  }
+  if (by_colour.empty()) {
+    out.failure = "ambiguous orientation: the square colours match no orientation of the pattern (an inverted or "
+                  "washed-out photo?)";
+    return out;
+  }
+  const Candidate* chosen = nullptr;
+  if (by_colour.size() == 1) {
+    chosen = by_colour.front();
+    out.note = fmt::format("board orientation from the square colours (board up {:.0f} deg from image up)",
+                           chosen->up_deg);
+  } else {
+    std::vector<const Candidate*> upright;
+    std::string angles;
+    for (const Candidate* c : by_colour) {
+      angles += fmt::format("{}{:.0f}", angles.empty() ? "" : ", ", c->up_deg);
+      if (c->up_deg <= upright_max_deg) upright.push_back(c);
+    }
+    if (upright.size() != 1) {
+      out.failure = fmt::format(
+          "ambiguous orientation: the square colours leave {} orientations (board up at {} deg from image up) and "
+          "{} of them within {:.0f} deg of upright; hold the camera upright (|roll| < {:.0f} deg)",
+          by_colour.size(), angles, upright.size(), upright_max_deg, upright_max_deg);
+      return out;
+    }
+    chosen = upright.front();
+    out.note = fmt::format("board orientation from the upright rule (board up {:.0f} deg from image up; the square "
+                           "colours leave {} orientations)",
+                           chosen->up_deg, by_colour.size());
+  }
+  out.corner_index = chosen->board_of_detected;
+  return out;
+}
+
+std::optional<cv::Size> FindAnyBoardSize(const cv::Mat& gray8) {
+  const cv::Mat small = Shrink(gray8, ScaleFactor(gray8, 1600));
+  std::vector<cv::Point2f> corners;
+  cv::Mat meta;
+  if (!cv::findChessboardCornersSB(small, cv::Size(3, 3), corners,
+                                   cv::CALIB_CB_NORMALIZE_IMAGE | cv::CALIB_CB_LARGER, meta)) {
+    return std::nullopt;
+  }
+  if (meta.empty()) return std::nullopt;
+  return cv::Size(meta.cols, meta.rows);
+}
+
+}  // namespace curvecheck::detect_internal

@@ -1,0 +1,46 @@
+// Checkerboard detectors and the board's orientation (internal to analysis/detect; see detect.h for the
+// rules). A board detector returns an unnamed grid of inner corners; ResolveBoardOrientation maps it onto the
+// pattern's inner-corner indices (col, row), row 0 at the top of the pattern.
+#pragma once
+
+#include <opencv2/core.hpp>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace curvecheck::detect_internal {
+
+// A grid of corners as a detector returns it: `width` points per row, `height` rows, row-major, in full-
+// resolution image coordinates (pixel centres at integers).
+struct CornerGrid {
+  int width = 0, height = 0;
+  std::vector<cv::Point2d> px;
+  std::vector<double> quality;  // per point, 0..1 (detect.h documents each detector's meaning)
+};
+
+// mrgingham library on an 8-bit photo: gridn x gridn corners, or nullopt.
+std::optional<CornerGrid> RunMrgingham(const cv::Mat& gray8, int gridn);
+// findChessboardCornersSB at full resolution (+ CALIB_CB_ACCURACY if asked); CALIB_CB_NORMALIZE_IMAGE only if
+// it fails without.
+std::optional<CornerGrid> RunOpenCvSb(const cv::Mat& gray8, cv::Size inner, bool accuracy);
+// findChessboardCorners on a copy scaled down by an integer factor to at most max_px on the longer side (0 =
+// full resolution), then cornerSubPix on `full` (8-bit or float) with a window of 0.3 x the distance to the
+// nearest grid neighbour, clamped to 3..40 px half-width.
+std::optional<CornerGrid> RunOpenCvClassic(const cv::Mat& gray8, const cv::Mat& full, cv::Size inner, int max_px);
+
+// Board inner corner indices of every grid point, or the failure.
+struct BoardOrientation {
+  std::vector<int> corner_index;  // per grid point: k = row * (cols - 1) + col of the pattern
+  std::string failure;            // "" or "ambiguous orientation: ..."
+  std::string note;               // how it was decided
+};
+// `cols` x `rows` squares, the top-left square black. `image` (8-bit) is sampled for the square colours.
+BoardOrientation ResolveBoardOrientation(const CornerGrid& grid, const cv::Mat& image, int cols, int rows,
+                                         double upright_max_deg);
+
+// Whether the photo shows some checkerboard: findChessboardCornersSB with CALIB_CB_LARGER from 3 x 3 inner corners
+// on a copy of at most 1600 px; the size it returns (its meta array) is a lower bound, often part of the board
+// only. Used to explain a failed detection.
+std::optional<cv::Size> FindAnyBoardSize(const cv::Mat& gray8);
+
+}  // namespace curvecheck::detect_internal

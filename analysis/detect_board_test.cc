@@ -1,0 +1,148 @@
+// The orientation rule of checkerboards (detect.h) on drawn boards with known corner names: square colours where
+// the board's parity decides, the upright rule where it does not, refusal where neither does.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+#include <opencv2/imgproc.hpp>
+
+#include "analysis/detect_board.h"
+
+namespace curvecheck::detect_internal {
+namespace {
+
+struct DrawnBoard {
+  cv::Mat image;
+  CornerGrid grid;                // in a scrambled order (as a detector might return it)
+  std::vector<int> true_index;    // per grid point: the pattern's k = row * (cols - 1) + col
+};
+
+// A board of cols x rows squares of `square` px (top-left square black), rotated by roll_deg (clockwise on
+// the image) about the image centre, drawn on white. The grid is returned transposed and reversed when
+// `scramble` is set, as a detector that started at another corner would return it.
+DrawnBoard Draw(int cols, int rows, double square, double roll_deg, bool scramble) {
+  const int size = 900;
+  DrawnBoard b;
+  b.image = cv::Mat(size, size, CV_8U, cv::Scalar(230));
+  const double a = roll_deg * std::numbers::pi / 180;
+  const auto place = [&](double col, double row) {  // board coordinates (squares) -> image
+    const double x = (col - cols / 2.0) * square, y = (row - rows / 2.0) * square;
+    return cv::Point2d(size / 2.0 + std::cos(a) * x - std::sin(a) * y, size / 2.0 + std::sin(a) * x + std::cos(a) * y);
+  };
+  for (int r = 0; r < rows; ++r) {
+    for (int c = 0; c < cols; ++c) {
+      if ((r + c) % 2 != 0) continue;
+      std::vector<cv::Point> poly;
+      for (const auto& [dc, dr] : {std::pair{0, 0}, {1, 0}, {1, 1}, {0, 1}}) {
+        const cv::Point2d p = place(c + dc, r + dr);
+        poly.emplace_back(static_cast<int>(std::lround(p.x * 16)), static_cast<int>(std::lround(p.y * 16)));
+      }
+      cv::fillConvexPoly(b.image, poly, cv::Scalar(20), cv::LINE_AA, 4);
+    }
+  }
+  const int nc = cols - 1, nr = rows - 1;
+  if (!scramble) {
+    b.grid.width = nc;
+    b.grid.height = nr;
+    for (int r = 0; r < nr; ++r) {
+      for (int c = 0; c < nc; ++c) {
+        b.grid.px.push_back(place(c + 1, r + 1));
+        b.true_index.push_back(r * nc + c);
+      }
+    }
+  } else {  // transposed and both directions reversed: still unmirrored
+    b.grid.width = nr;
+    b.grid.height = nc;
+    for (int c = 0; c < nc; ++c) {
+      for (int r = nr - 1; r >= 0; --r) {
+        b.grid.px.push_back(place(c + 1, r + 1));
+        b.true_index.push_back(r * nc + c);
+      }
+    }
+  }
+  b.grid.quality.assign(b.grid.px.size(), 1.0);
+  return b;
+}
+
+// 16 x 5 squares: cols + rows odd, so the colours tell 0 from 180 deg at any roll.
+TEST(BoardOrientation, ColoursDecideANonSquareBoardWithOddParityAtAnyRoll) {
+  for (double roll : {0.0, 30.0, 89.0, 135.0, 180.0, -100.0}) {
+    for (bool scramble : {false, true}) {
+      const DrawnBoard b = Draw(16, 5, 45, roll, scramble);
+      const BoardOrientation o = ResolveBoardOrientation(b.grid, b.image, 16, 5, 40);
+      ASSERT_EQ(o.failure, "") << roll;
+      EXPECT_EQ(o.corner_index, b.true_index) << "roll " << roll << " scramble " << scramble;
+      EXPECT_NE(o.note.find("square colours"), std::string::npos) << o.note;
+    }
+  }
+}
+
+// 16 x 6 squares: a 180 deg turn keeps the colours, so the upright rule decides, and refuses past 40 deg.
+TEST(BoardOrientation, UprightRuleDecidesWhereColoursCannot) {
+  for (double roll : {0.0, 25.0, -39.0}) {
+    const DrawnBoard b = Draw(16, 6, 45, roll, true);
+    const BoardOrientation o = ResolveBoardOrientation(b.grid, b.image, 16, 6, 40);
+    ASSERT_EQ(o.failure, "") << roll;
+    EXPECT_EQ(o.corner_index, b.true_index) << roll;
+    EXPECT_NE(o.note.find("upright rule"), std::string::npos) << o.note;
+  }
+  for (double roll : {60.0, 90.0, -120.0}) {
+    const DrawnBoard b = Draw(16, 6, 45, roll, false);
+    const BoardOrientation o = ResolveBoardOrientation(b.grid, b.image, 16, 6, 40);
+    EXPECT_TRUE(o.failure.starts_with("ambiguous orientation")) << roll << ": " << o.failure;
+  }
+  // Upside down: indistinguishable from upright by construction, named as upright (the rule's assumption).
+  const DrawnBoard b = Draw(16, 6, 45, 180, false);
+  const BoardOrientation o = ResolveBoardOrientation(b.grid, b.image, 16, 6, 40);
+  ASSERT_EQ(o.failure, "");
+  for (size_t i = 0; i < o.corner_index.size(); ++i) EXPECT_EQ(o.corner_index[i], 74 - b.true_index[i]);
+}
+
+// Square boards: 10 x 10 squares (even) - the colours tell 90 deg turns apart, the upright rule 180 deg;
+// 11 x 11 (odd) - the upright rule alone. Both refuse at 45 deg, where two orientations are equally upright.
+TEST(BoardOrientation, SquareBoards) {
+  for (double roll : {0.0, 30.0, -35.0}) {
+    for (int n : {10, 11}) {
+      const DrawnBoard b = Draw(n, n, 60, roll, true);
+      const BoardOrientation o = ResolveBoardOrientation(b.grid, b.image, n, n, 40);
+      ASSERT_EQ(o.failure, "") << n << " " << roll;
+      EXPECT_EQ(o.corner_index, b.true_index) << n << " " << roll;
+    }
+  }
+  for (int n : {10, 11}) {
+    const DrawnBoard b = Draw(n, n, 60, 45, false);
+    EXPECT_TRUE(ResolveBoardOrientation(b.grid, b.image, n, n, 40).failure.starts_with("ambiguous orientation")) << n;
+  }
+  // 10 x 10 at 90 deg: the colours leave 90 and 270 deg, both 90 deg from upright.
+  const DrawnBoard b = Draw(10, 10, 60, 90, false);
+  EXPECT_TRUE(ResolveBoardOrientation(b.grid, b.image, 10, 10, 40).failure.starts_with("ambiguous orientation"));
+  // 11 x 11 at 90 deg looks exactly like an upright 11 x 11 board: named as upright (the rule's assumption).
+  const DrawnBoard odd = Draw(11, 11, 60, 90, false);
+  const BoardOrientation o = ResolveBoardOrientation(odd.grid, odd.image, 11, 11, 40);
+  ASSERT_EQ(o.failure, "");
+  EXPECT_NE(o.corner_index, odd.true_index);
+}
+
+// An inverted photo (white squares where black ones belong) of a colour-decisive board.
+TEST(BoardOrientation, InvertedColoursAreRefused) {
+  DrawnBoard b = Draw(16, 5, 45, 0, false);
+  b.image = 250 - b.image;
+  const BoardOrientation o = ResolveBoardOrientation(b.grid, b.image, 16, 5, 40);
+  // 16 x 5 inverted looks like the board turned by 180 deg; the colours then name it so: the names are
+  // consistent with the colours, which is all a photo can tell.
+  ASSERT_EQ(o.failure, "");
+  for (size_t i = 0; i < o.corner_index.size(); ++i) EXPECT_EQ(o.corner_index[i], 59 - b.true_index[i]);
+  // A grid whose rows run right to left (index order only; the view is not mirrored) is named correctly.
+  CornerGrid reversed = b.grid;
+  std::vector<int> truth = b.true_index;
+  for (int j = 0; j < reversed.height; ++j) {
+    std::reverse(reversed.px.begin() + j * reversed.width, reversed.px.begin() + (j + 1) * reversed.width);
+    std::reverse(truth.begin() + j * reversed.width, truth.begin() + (j + 1) * reversed.width);
+  }
+  const DrawnBoard upright = Draw(16, 5, 45, 0, false);
+  EXPECT_EQ(ResolveBoardOrientation(reversed, upright.image, 16, 5, 40).corner_index, truth);
+}
+
+}  // namespace
+}  // namespace curvecheck::detect_internal

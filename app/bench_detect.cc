@@ -1,0 +1,170 @@
+// `curvecheck bench detect`: time and accuracy of every detector on synthetic photos of a scene (the default
+// scene's 24 MP camera unless --scene says otherwise). For each pattern (the default 16x5 checkerboard, an
+// 11x11 square board for mrgingham, the default AprilTag grid) it renders the pattern exact for the camera
+// position, ray-traces one photo with the synthetic camera, then runs each applicable detector --runs times:
+// median and min wall time of DetectFeatures (photo decoding excluded), and the error of the detected features
+// against the synthetic truth (mean vector, RMS, max). Prints a table; with -o also writes detect_bench.csv.
+#include "app/bench_detect.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <filesystem>
+#include <iostream>
+#include <map>
+#include <memory>
+#include <opencv2/core.hpp>
+
+#include "analysis/detect.h"
+#include "app/machine_info.h"
+#include "capture/synthetic_camera.h"
+#include "core/correction.h"
+#include "core/error.h"
+#include "core/file_io.h"
+#include "render/pattern.h"
+#include "render/renderer.h"
+
+namespace curvecheck::app {
+namespace {
+namespace fs = std::filesystem;
+
+struct BenchDetectArgs {
+  std::string scene = "datasets/scenes/default.yaml";
+  int runs = 3;
+  std::string output;
+  std::string patterns = "checkerboard,square,apriltag";
+};
+
+struct Case {
+  std::string label;
+  DetectOptions options;
+};
+
+int RunBenchDetect(const BenchDetectArgs& a) {
+  if (a.runs < 1 || a.runs > 100) throw Error("--runs", fmt::format("{} is out of range", a.runs), "use 1..100");
+  if (!fs::exists(a.scene)) {
+    throw Error("--scene", fmt::format("'{}' does not exist", a.scene),
+                "give a scene file (datasets/scenes/*.yaml) or run from the repository root");
+  }
+  const SyntheticScene scene = LoadScene(a.scene);
+  Renderer renderer;
+  const std::string machine = DescribeMachine();
+  std::cout << fmt::format("bench detect: scene {} ({}x{} px camera), median of {} runs; {}\n", a.scene,
+                           scene.camera.width, scene.camera.height, a.runs, machine);
+  std::cout << fmt::format("{:<14} {:<30} {:>9} {:>9} {:>6} {:>17} {:>8} {:>8}  {}\n", "pattern", "detector",
+                           "median ms", "min ms", "found", "mean px", "rms px", "max px", "failure/notes");
+  std::string csv = fmt::format("# curvecheck bench detect, scene {}, {} runs; {}\n", a.scene, a.runs, machine);
+  csv += "pattern,detector,median_ms,min_ms,found,visible,mean_x_px,mean_y_px,rms_px,max_px,failure\n";
+  const Eigen::Vector3d viewpoint = scene.camera_position_in_screen;
+  for (const std::string& which : {"checkerboard", "square", "apriltag"}) {
+    if (a.patterns.find(which) == std::string::npos) continue;
+    PatternSpec spec;
+    std::vector<Case> cases;
+    const auto with = [](const std::string& label, const std::string& detector) {
+      Case c{label, DetectOptions()};
+      c.options.detector = detector;
+      return c;
+    };
+    if (which == std::string("apriltag")) {
+      spec.kind = PatternKind::kAprilTag;
+      for (int dec : {1, 2, 4}) {
+        Case c = with(fmt::format("apriltag decimate {}", dec), "apriltag");
+        c.options.apriltag_decimate = dec;
+        cases.push_back(c);
+        c.label += " unrefined";
+        c.options.refine_tags = false;
+        cases.push_back(c);
+      }
+      cases.push_back(with("auto", "auto"));
+    } else {
+      if (which == std::string("square")) {
+        spec.cols = spec.rows = 11;
+        cases.push_back(with("mrgingham", "mrgingham"));
+      }
+      cases.push_back(with("opencv-classic", "opencv-classic"));
+      cases.push_back(with("opencv-sb", "opencv-sb"));
+      cases.push_back(with("auto", "auto"));
+    }
+    const Pattern pattern = BuildPattern(spec, scene.monitor, viewpoint, TangentPlaneAtCentre(scene.monitor));
+    const GrayImage shown = renderer.Render(scene.monitor, viewpoint, pattern, RenderOptions());
+    const SyntheticPhoto photo = RenderSyntheticPhoto(scene, Image8{shown.width, shown.height, 1, shown.pixels});
+    cv::Mat image(photo.height, photo.width, photo.bits == 16 ? CV_16U : CV_8U);
+    for (size_t i = 0; i < photo.pixels.size(); ++i) {
+      if (photo.bits == 16) {
+        image.ptr<uint16_t>(0)[i] = photo.pixels[i];
+      } else {
+        image.data[i] = static_cast<uint8_t>(photo.pixels[i]);
+      }
+    }
+    const nlohmann::json truth_json = TruthJson(scene, pattern.features);
+    std::map<std::string, Eigen::Vector2d> truth;
+    for (size_t i = 0; i < pattern.features.size(); ++i) {
+      const auto& t = truth_json["features"][i];
+      if (t["visible"].get<bool>()) truth[pattern.features[i].id] = {t["image_px"][0].get<double>(), t["image_px"][1].get<double>()};
+    }
+    PatternFile file;
+    file.raw = PatternToJson(pattern, scene.monitor, viewpoint, {{"name", "exact"}});
+    file.monitor = scene.monitor;
+    file.viewpoint_in_screen = viewpoint;
+    file.method = "exact";
+    file.features = pattern.features;
+    const std::string label =
+        which == std::string("apriltag")
+            ? fmt::format("tags {}x{}", spec.tag_cols, spec.tag_rows)
+            : fmt::format("board {}x{}", spec.cols, spec.rows);
+    for (const Case& c : cases) {
+      std::vector<double> times;
+      Detection d;
+      for (int r = 0; r < a.runs; ++r) {
+        d = DetectFeatures(image, file, c.options);
+        times.push_back(d.time_ms);
+      }
+      std::sort(times.begin(), times.end());
+      Eigen::Vector2d mean = Eigen::Vector2d::Zero();
+      double sum2 = 0, worst = 0;
+      int n = 0;
+      for (const DetectedFeature& f : d.features) {
+        const auto it = truth.find(f.id);
+        if (it == truth.end()) continue;
+        const Eigen::Vector2d e = f.px - it->second;
+        mean += e;
+        sum2 += e.squaredNorm();
+        worst = std::max(worst, e.norm());
+        ++n;
+      }
+      if (n > 0) mean /= n;
+      const double rms = n > 0 ? std::sqrt(sum2 / n) : 0;
+      const double median = times[times.size() / 2];
+      std::string info = d.failure;
+      if (info.empty() && c.options.detector == "auto") info = "-> " + d.detector;
+      std::cout << fmt::format("{:<14} {:<30} {:>9.1f} {:>9.1f} {:>6} {:>8.4f},{:>8.4f} {:>8.4f} {:>8.4f}  {}\n", label,
+                               c.label, median, times.front(), fmt::format("{}/{}", n, truth.size()), mean.x(),
+                               mean.y(), rms, worst, info);
+      csv += fmt::format("{},{},{:.3f},{:.3f},{},{},{:.5f},{:.5f},{:.5f},{:.5f},\"{}\"\n", label, c.label, median,
+                         times.front(), n, truth.size(), mean.x(), mean.y(), rms, worst, d.failure);
+    }
+  }
+  if (!a.output.empty()) {
+    std::error_code ec;
+    fs::create_directories(a.output, ec);
+    const fs::path path = fs::path(a.output) / "detect_bench.csv";
+    WriteFileAtomic(path, csv);
+    std::cout << "wrote " << path.string() << "\n";
+  }
+  return 0;
+}
+
+}  // namespace
+
+void AddBenchDetectCommand(CLI::App& bench, std::function<int()>& run) {
+  auto args = std::make_shared<BenchDetectArgs>();
+  CLI::App* cmd = bench.add_subcommand(
+      "detect", "Every detector on synthetic photos of a scene: median time and error against the truth");
+  cmd->add_option("--scene", args->scene, "Scene YAML (its camera takes the photos)")->capture_default_str();
+  cmd->add_option("--runs", args->runs, "Timed runs per detector (median reported)")->capture_default_str();
+  cmd->add_option("--patterns", args->patterns, "Which of checkerboard,square,apriltag")->capture_default_str();
+  cmd->add_option("-o,--output", args->output, "Folder for detect_bench.csv (none: print only)");
+  cmd->callback([&run, args] { run = [args] { return RunBenchDetect(*args); }; });
+}
+
+}  // namespace curvecheck::app

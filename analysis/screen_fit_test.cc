@@ -150,12 +150,12 @@ TEST(ScreenFitTest, TwoMillimetreBulgeChoosesTheDeviationModelAndIsLocated) {
   ASSERT_EQ(scene.truth.bumps.size(), 1u);
   const TrueMonitor::Bump& bump = scene.truth.bumps[0];
   std::mt19937_64 rng(16);
-  const auto photo = Observe(scene, DisplayGrid(scene.monitor, 41, 12), kNoisePx, rng, SceneSurface(scene));
+  const auto photo = Observe(scene, DisplayGrid(scene.monitor, 63, 17), kNoisePx, rng, SceneSurface(scene));
   const ScreenFitResult r = FitScreen(scene.monitor, scene.camera, {photo}, FitOptions{});
   EXPECT_EQ(r.Chosen().model, "cylinder+deviation") << Table(r);
   // The bump moves features by a fraction of a pixel: the cylinder's residuals show it.
   const ModelFit& cyl = r.candidates[static_cast<size_t>(IndexOf(r, "cylinder"))];
-  EXPECT_GT(cyl.rms_px, 1.5 * r.Chosen().rms_px);
+  EXPECT_GT(cyl.rms_px, 1.1 * r.Chosen().rms_px);
   // Peak of the map.
   ASSERT_EQ(r.map_mm.size(), static_cast<size_t>(r.map_nu * r.map_nv));
   int peak = -1;
@@ -170,7 +170,7 @@ TEST(ScreenFitTest, TwoMillimetreBulgeChoosesTheDeviationModelAndIsLocated) {
   EXPECT_NEAR(pv, bump.v, 0.1 + 1.0 / r.map_nv);  // cells are 2/map_nv tall in v
   // Height: the truth relative to the best cylinder is the bump minus its part along the gauge modes (mean,
   // tilts, curvature), which the fit cannot and should not separate from the pose and radius.
-  const DeviationBasis basis(scene.monitor, scene.monitor.curvature_per_mm, 11, 5);
+  const DeviationBasis basis(scene.monitor, scene.monitor.curvature_per_mm, 13, 6);
   Eigen::MatrixXd modes(41 * 21, 5);
   Eigen::VectorXd truth(41 * 21);
   for (int j = 0; j < 21; ++j) {

@@ -104,8 +104,8 @@ TEST(ScreenModelTest, VaryingCurvatureFollowsItsHeading) {
 
 TEST(DeviationBasisTest, FieldIsOrthogonalToTheRigidAndRadiusModes) {
   const Monitor m = LoadMonitor(kDefaultMonitorPreset);
-  const DeviationBasis basis(m, m.curvature_per_mm, 11, 5);
-  EXPECT_EQ(basis.size(), 11 * 5 - 5);
+  const DeviationBasis basis(m, m.curvature_per_mm, 13, 6);
+  EXPECT_EQ(basis.size(), 13 * 6 - 5);
   // Inner products over a grid other than the one the basis was built on (so this is not a tautology up to
   // the quadrature): each mode against each basis field is small relative to the norms.
   Eigen::MatrixXd gram = Eigen::MatrixXd::Zero(5, basis.size());
@@ -133,7 +133,7 @@ TEST(DeviationBasisTest, RepresentsAPlantedBumpAfterTheGauge) {
   // The 2 mm bump of datasets/scenes/bulge-2mm.yaml, minus its projection onto the modes, is reproduced by the
   // basis to a fraction of its height (least squares over a grid).
   const Monitor m = LoadMonitor(kDefaultMonitorPreset);
-  const DeviationBasis basis(m, m.curvature_per_mm, 11, 5);
+  const DeviationBasis basis(m, m.curvature_per_mm, 13, 6);  // FitOptions' default
   std::vector<Eigen::Vector2d> grid;
   for (int j = 0; j < 31; ++j) {
     for (int i = 0; i < 61; ++i) grid.emplace_back(-1 + 2.0 * i / 60, -1 + 2.0 * j / 30);
@@ -151,7 +151,7 @@ TEST(DeviationBasisTest, RepresentsAPlantedBumpAfterTheGauge) {
   }
   const Eigen::VectorXd b_gauged = b - modes * modes.colPivHouseholderQr().solve(b);
   const Eigen::VectorXd fit = a * a.colPivHouseholderQr().solve(b_gauged);
-  EXPECT_LT((fit - b_gauged).cwiseAbs().maxCoeff(), 0.25);  // mm, of a 2 mm bump
+  EXPECT_LT((fit - b_gauged).cwiseAbs().maxCoeff(), 0.25);  // mm, of a 2 mm bump (measured: 0.20)
   EXPECT_GT(b_gauged.maxCoeff(), 1.6);
 }
 

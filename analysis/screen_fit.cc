@@ -1,0 +1,744 @@
+#include "analysis/screen_fit.h"
+
+#include <ceres/ceres.h>
+#include <ceres/product_manifold.h>
+#include <fmt/format.h>
+
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <memory>
+#include <numeric>
+#include <opencv2/calib3d.hpp>
+#include <opencv2/core.hpp>
+#include <opencv2/core/eigen.hpp>
+#include <random>
+#include <set>
+#include <unordered_map>
+
+#include "analysis/screen_fit_cost.h"
+#include "analysis/screen_model.h"
+#include "core/error.h"
+#include "core/math_util.h"
+#include "core/screen_geometry.h"
+
+namespace curvecheck {
+namespace {
+
+constexpr double kZ95 = 1.959963984540054;
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+using Pose = std::array<double, 7>;  // quaternion x y z w (centre_from_cam), camera position in the centre frame
+
+struct Obs {
+  int photo = 0, index = 0;  // photo and index in it
+  int feature = 0;           // index of the feature id among all ids
+  Eigen::Vector2d uv, detected;
+  double s_mm = 0, y_mm = 0;
+};
+
+// All parameters of one model: poses and shape.
+struct State {
+  std::vector<Pose> poses;
+  std::vector<double> core;  // CoreParameterCount
+  std::vector<double> dev;   // deviation coefficients (cylinder+deviation)
+};
+
+struct Setup {
+  const Monitor* nominal = nullptr;
+  const CameraModel* camera = nullptr;
+  const FitOptions* options = nullptr;
+  int photos = 0;
+  std::vector<Obs> obs;
+  std::vector<std::string> feature_ids;
+  double half_width_mm = 0;
+};
+
+double Ms(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+}
+
+std::unique_ptr<ReprojectionCost> MakeCost(const Setup& setup, ScreenModelKind kind, const DeviationBasis* basis,
+                                           const Obs& o) {
+  Eigen::VectorXd w;
+  if (kind == ScreenModelKind::kCylinderDeviation) w = basis->Weights(o.uv);
+  return std::make_unique<ReprojectionCost>(setup.camera, kind, o.s_mm, o.y_mm, setup.half_width_mm, o.detected,
+                                            std::move(w));
+}
+
+std::vector<const double*> Blocks(const State& st, int photo) {
+  std::vector<const double*> b = {st.poses[static_cast<size_t>(photo)].data()};
+  if (!st.core.empty()) b.push_back(st.core.data());
+  if (!st.dev.empty()) b.push_back(st.dev.data());
+  return b;
+}
+
+// The problem of one model over the active observations. Owns what Ceres does not.
+struct BuiltProblem {
+  std::unique_ptr<ceres::Problem> problem;
+  std::unique_ptr<ceres::LossFunction> loss;
+  std::unique_ptr<ceres::Manifold> pose_manifold;
+};
+
+BuiltProblem Build(const Setup& setup, ScreenModelKind kind, const DeviationBasis* basis,
+                   const std::vector<bool>& active, bool robust, State* st) {
+  BuiltProblem b;
+  ceres::Problem::Options po;
+  po.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  po.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  po.enable_fast_removal = false;
+  b.problem = std::make_unique<ceres::Problem>(po);
+  if (robust) {
+    b.loss = std::make_unique<ceres::HuberLoss>(setup.options->huber_sigmas * setup.options->expected_noise_px);
+  }
+  b.pose_manifold = std::make_unique<ceres::ProductManifold<ceres::EigenQuaternionManifold, ceres::EuclideanManifold<3>>>(
+      ceres::EigenQuaternionManifold(), ceres::EuclideanManifold<3>());
+  std::vector<bool> pose_used(static_cast<size_t>(setup.photos), false);
+  for (size_t i = 0; i < setup.obs.size(); ++i) {
+    if (!active[i]) continue;
+    const Obs& o = setup.obs[i];
+    std::vector<double*> blocks = {st->poses[static_cast<size_t>(o.photo)].data()};
+    if (!st->core.empty()) blocks.push_back(st->core.data());
+    if (!st->dev.empty()) blocks.push_back(st->dev.data());
+    b.problem->AddResidualBlock(MakeCost(setup, kind, basis, o).release(), b.loss.get(), blocks);
+    pose_used[static_cast<size_t>(o.photo)] = true;
+  }
+  for (int p = 0; p < setup.photos; ++p) {
+    if (pose_used[static_cast<size_t>(p)]) {
+      b.problem->SetManifold(st->poses[static_cast<size_t>(p)].data(), b.pose_manifold.get());
+    }
+  }
+  if (!st->dev.empty()) {
+    const double scale = setup.options->expected_noise_px / setup.options->deviation_prior_mm;
+    b.problem->AddResidualBlock(new CoefficientPrior(static_cast<int>(st->dev.size()), scale), nullptr,
+                                st->dev.data());
+  }
+  return b;
+}
+
+ceres::Solver::Summary Solve(const Setup& setup, BuiltProblem& b, State* st) {
+  ceres::Solver::Options so;
+  so.max_num_iterations = setup.options->max_iterations;
+  so.function_tolerance = 1e-10;
+  so.gradient_tolerance = 1e-12;
+  so.parameter_tolerance = 1e-10;
+  so.num_threads = 1;
+  so.logging_type = ceres::SILENT;
+  if (!st->core.empty() || !st->dev.empty()) {
+    // Poses touch disjoint residuals: eliminate them (Schur), leaving a small dense system in the shape.
+    so.linear_solver_type = ceres::DENSE_SCHUR;
+    auto ordering = std::make_shared<ceres::ParameterBlockOrdering>();
+    for (Pose& pose : st->poses) {
+      if (b.problem->HasParameterBlock(pose.data())) ordering->AddElementToGroup(pose.data(), 0);
+    }
+    if (!st->core.empty()) ordering->AddElementToGroup(st->core.data(), 1);
+    if (!st->dev.empty()) ordering->AddElementToGroup(st->dev.data(), 1);
+    so.linear_solver_ordering = ordering;
+  } else {
+    so.linear_solver_type = ceres::DENSE_QR;
+  }
+  ceres::Solver::Summary summary;
+  ceres::Solve(so, b.problem.get(), &summary);
+  return summary;
+}
+
+// Residuals detected - predicted of all observations (NaN where the point is behind the camera).
+std::vector<Eigen::Vector2d> Residuals(const Setup& setup, ScreenModelKind kind, const DeviationBasis* basis,
+                                       const State& st) {
+  std::vector<Eigen::Vector2d> r(setup.obs.size());
+  for (size_t i = 0; i < setup.obs.size(); ++i) {
+    const Obs& o = setup.obs[i];
+    double res[2];
+    const std::vector<const double*> blocks = Blocks(st, o.photo);
+    r[i] = MakeCost(setup, kind, basis, o)->Evaluate(blocks.data(), res, nullptr) ? Eigen::Vector2d(-res[0], -res[1])
+                                                                                  : Eigen::Vector2d(kNaN, kNaN);
+  }
+  return r;
+}
+
+double Median(std::vector<double> v) {
+  if (v.empty()) return kNaN;
+  const size_t mid = v.size() / 2;
+  std::nth_element(v.begin(), v.begin() + static_cast<long>(mid), v.end());
+  return v[mid];
+}
+
+// Robust per-coordinate noise: 1.4826 x the median absolute coordinate residual.
+double MadSigma(const std::vector<Eigen::Vector2d>& r) {
+  std::vector<double> a;
+  a.reserve(2 * r.size());
+  for (const Eigen::Vector2d& x : r) {
+    if (!x.allFinite()) continue;
+    a.push_back(std::abs(x.x()));
+    a.push_back(std::abs(x.y()));
+  }
+  return 1.4826 * Median(a);
+}
+
+// PnP against the nominal geometry on undistorted normalized coordinates (RANSAC, then iterative refinement).
+Pose InitialPose(const Setup& setup, int photo) {
+  const Monitor& m = *setup.nominal;
+  std::vector<cv::Point3d> object;
+  std::vector<Eigen::Vector2d> pixels;
+  for (const Obs& o : setup.obs) {
+    if (o.photo != photo) continue;
+    const Eigen::Vector3d p = SurfacePointFromUv(m, o.uv) - ScreenCentreInScreen(m);
+    object.emplace_back(p.x(), p.y(), p.z());
+    pixels.push_back(o.detected);
+  }
+  const std::vector<Eigen::Vector3d> rays = UnprojectPixels(*setup.camera, pixels);
+  std::vector<cv::Point2d> image;
+  for (const Eigen::Vector3d& v : rays) image.emplace_back(v.x() / v.z(), v.y() / v.z());
+  const cv::Matx33d k = cv::Matx33d::eye();
+  cv::Mat rvec, tvec;
+  std::vector<int> inliers;
+  const double focal = setup.camera->intrinsics.empty() ? 1000 : setup.camera->intrinsics[0];
+  bool ok = cv::solvePnPRansac(object, image, k, cv::noArray(), rvec, tvec, false, 200, 10.0 / focal, 0.99, inliers,
+                               cv::SOLVEPNP_EPNP);
+  if (ok && inliers.size() >= 6) {
+    std::vector<cv::Point3d> oi;
+    std::vector<cv::Point2d> ii;
+    for (int i : inliers) {
+      oi.push_back(object[static_cast<size_t>(i)]);
+      ii.push_back(image[static_cast<size_t>(i)]);
+    }
+    ok = cv::solvePnP(oi, ii, k, cv::noArray(), rvec, tvec, true, cv::SOLVEPNP_ITERATIVE);
+  }
+  if (!ok) ok = cv::solvePnP(object, image, k, cv::noArray(), rvec, tvec, false, cv::SOLVEPNP_SQPNP);
+  if (!ok) {
+    throw Error("photo " + std::to_string(photo), "the camera pose could not be initialized (PnP failed)",
+                "check that the detections belong to this pattern and camera model");
+  }
+  cv::Mat rmat;
+  cv::Rodrigues(rvec, rmat);
+  Eigen::Matrix3d cam_from_centre;
+  cv::cv2eigen(rmat, cam_from_centre);
+  Eigen::Vector3d t;
+  cv::cv2eigen(tvec, t);
+  const Eigen::Quaterniond q(cam_from_centre.transpose());
+  const Eigen::Vector3d c = -cam_from_centre.transpose() * t;
+  return {q.x(), q.y(), q.z(), q.w(), c.x(), c.y(), c.z()};
+}
+
+
+// Everything about one model's fit that the selection and the deviations need beyond ModelFit.
+struct ModelWork {
+  ScreenModelKind kind;
+  State state;
+  std::unique_ptr<DeviationBasis> basis;
+  std::vector<Eigen::Vector2d> robust_residuals;
+  Eigen::MatrixXd dev_covariance;  // of the deviation coefficients, scaled by the noise
+  bool robust_ok = false;
+};
+
+void Covariances(const Setup& setup, ModelWork& w, BuiltProblem& b, ModelFit* fit) {
+  State& st = w.state;
+  std::vector<std::pair<const double*, const double*>> pairs;
+  for (Pose& pose : st.poses) {
+    if (b.problem->HasParameterBlock(pose.data())) pairs.emplace_back(pose.data(), pose.data());
+  }
+  if (!st.core.empty()) pairs.emplace_back(st.core.data(), st.core.data());
+  if (!st.dev.empty()) pairs.emplace_back(st.dev.data(), st.dev.data());
+  ceres::Covariance::Options co;
+  co.num_threads = 1;
+  co.algorithm_type = ceres::SPARSE_QR;
+  auto covariance = std::make_unique<ceres::Covariance>(co);
+  bool ok = covariance->Compute(pairs, b.problem.get());
+  if (!ok) {
+    // Rank-deficient: report it and fall back to the pseudo-inverse (directions below 1e-12 of the largest
+    // eigenvalue of J^T J dropped).
+    co.algorithm_type = ceres::DENSE_SVD;
+    co.null_space_rank = -1;
+    co.min_reciprocal_condition_number = 1e-12;
+    covariance = std::make_unique<ceres::Covariance>(co);
+    ok = covariance->Compute(pairs, b.problem.get());
+    fit->ill_conditioned = true;
+    fit->condition_note += "rank-deficient Jacobian: some parameters are not determined by these photos; "
+                           "sigmas are from the pseudo-inverse. ";
+    if (!ok) {
+      fit->condition_note += "covariance could not be computed. ";
+      return;
+    }
+  }
+  const double var = fit->noise_px * fit->noise_px;
+  fit->cameras.assign(static_cast<size_t>(setup.photos), CameraEstimate{});
+  for (int p = 0; p < setup.photos; ++p) {
+    CameraEstimate& cam = fit->cameras[static_cast<size_t>(p)];
+    const Pose& pose = st.poses[static_cast<size_t>(p)];
+    cam.centre_from_cam = Eigen::Quaterniond(pose[3], pose[0], pose[1], pose[2]).normalized().toRotationMatrix();
+    cam.position_in_centre_mm = Eigen::Vector3d(pose[4], pose[5], pose[6]);
+    cam.position_sigma_mm.setConstant(kNaN);
+    if (!b.problem->HasParameterBlock(pose.data())) continue;
+    Eigen::Matrix<double, 6, 6, Eigen::RowMajor> c6;
+    if (covariance->GetCovarianceBlockInTangentSpace(pose.data(), pose.data(), c6.data())) {
+      cam.position_sigma_mm = (var * c6.bottomRightCorner<3, 3>().diagonal()).cwiseSqrt();
+    }
+  }
+  const int nc = static_cast<int>(st.core.size());
+  Eigen::MatrixXd core_cov = Eigen::MatrixXd::Zero(nc, nc);
+  if (nc > 0) {
+    Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> c(nc, nc);
+    if (covariance->GetCovarianceBlock(st.core.data(), st.core.data(), c.data())) core_cov = var * c;
+  }
+  if (!st.dev.empty()) {
+    const int nd = static_cast<int>(st.dev.size());
+    Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> c(nd, nd);
+    if (covariance->GetCovarianceBlock(st.dev.data(), st.dev.data(), c.data())) w.dev_covariance = var * c;
+  }
+  // Curvature: k (or the mean of k(s) over the width, k0 + k2/3, for varying curvature).
+  Eigen::VectorXd grad = Eigen::VectorXd::Zero(nc);
+  switch (w.kind) {
+    case ScreenModelKind::kFlat: break;
+    case ScreenModelKind::kVaryingCurvatureQuadratic: grad[2] = 1.0 / 3.0; [[fallthrough]];
+    default: grad[0] = 1; break;
+  }
+  if (nc > 0) {
+    fit->curvature_per_mm = grad.dot(Eigen::Map<const Eigen::VectorXd>(st.core.data(), nc));
+    fit->curvature_sigma_per_mm = std::sqrt(std::max(0.0, grad.dot(core_cov * grad)));
+  }
+  const auto add_extra = [&](const std::string& name, int i, double scale) {
+    fit->extra[name] = {scale * st.core[static_cast<size_t>(i)], scale * std::sqrt(std::max(0.0, core_cov(i, i)))};
+  };
+  if (w.kind == ScreenModelKind::kCylinderLean) add_extra("lean_deg", 1, kDegPerRad);
+  if (w.kind == ScreenModelKind::kVaryingCurvature || w.kind == ScreenModelKind::kVaryingCurvatureQuadratic) {
+    add_extra("curvature_centre_per_mm", 0, 1);
+    add_extra("k1_per_mm", 1, 1);
+    if (w.kind == ScreenModelKind::kVaryingCurvatureQuadratic) add_extra("k2_per_mm", 2, 1);
+  }
+}
+
+// Radius, its interval and the screen-frame camera positions from the curvature and its sigma.
+void RadiusFromCurvature(const Setup& setup, ModelFit* fit) {
+  const double k = fit->curvature_per_mm, sk = fit->curvature_sigma_per_mm;
+  const bool curved_model = fit->model != "flat";
+  const double lo = k - kZ95 * sk, hi = k + kZ95 * sk;
+  if (curved_model && (lo > 0 || hi < 0)) {
+    fit->radius_mm = 1 / k;
+    fit->radius_sigma_mm = sk / (k * k);
+    fit->radius_ci95_mm = {std::min(1 / lo, 1 / hi), std::max(1 / lo, 1 / hi)};
+  } else if (curved_model) {
+    fit->radius_lower_bound_mm = 1 / std::max(std::abs(lo), std::abs(hi));
+    fit->radius_ci95_mm = {fit->radius_lower_bound_mm, kInf};
+    const double k_nominal = setup.nominal->curvature_per_mm;
+    if (k_nominal != 0 && lo <= k_nominal && k_nominal <= hi) {
+      fit->ill_conditioned = true;
+      fit->condition_note += fmt::format(
+          "radius unobservable from these photos: the 95% interval of the curvature [{:.3g}, {:.3g}] /m holds both "
+          "flat and the nominal {:.0f} mm; photograph from closer or more obliquely. ",
+          lo * 1000, hi * 1000, 1 / k_nominal);
+    }
+  }
+  for (CameraEstimate& cam : fit->cameras) {
+    cam.position_in_screen_mm = cam.position_in_centre_mm;
+    if (fit->radius_mm) cam.position_in_screen_mm.z() -= *fit->radius_mm;
+  }
+}
+
+// Fits one model: robust pass (outlier flags for the common set), then called again by FitFinal.
+void FitRobust(const Setup& setup, ModelWork& w, const std::vector<bool>& active) {
+  BuiltProblem b = Build(setup, w.kind, w.basis.get(), active, true, &w.state);
+  const ceres::Solver::Summary s = Solve(setup, b, &w.state);
+  w.robust_ok = s.IsSolutionUsable();
+  w.robust_residuals = Residuals(setup, w.kind, w.basis.get(), w.state);
+}
+
+void FitFinal(const Setup& setup, ModelWork& w, const std::vector<bool>& inlier, ModelFit* fit) {
+  BuiltProblem b = Build(setup, w.kind, w.basis.get(), inlier, false, &w.state);
+  const ceres::Solver::Summary s = Solve(setup, b, &w.state);
+  fit->converged = s.termination_type == ceres::CONVERGENCE;
+  if (!fit->converged) {
+    fit->condition_note += fmt::format("solver: {} after {} iterations. ", s.message, s.iterations.size());
+  }
+  const std::vector<Eigen::Vector2d> r = Residuals(setup, w.kind, w.basis.get(), w.state);
+  double rss = 0;
+  int n_in = 0;
+  fit->residual_px.assign(static_cast<size_t>(setup.photos), {});
+  fit->outlier.assign(static_cast<size_t>(setup.photos), {});
+  for (size_t i = 0; i < setup.obs.size(); ++i) {
+    fit->residual_px[static_cast<size_t>(setup.obs[i].photo)].push_back(r[i]);
+    fit->outlier[static_cast<size_t>(setup.obs[i].photo)].push_back(!inlier[i]);
+    if (inlier[i] && r[i].allFinite()) {
+      rss += r[i].squaredNorm();
+      ++n_in;
+    }
+  }
+  const int n = 2 * n_in;
+  fit->parameters = static_cast<int>(w.state.core.size() + w.state.dev.size()) + 6 * setup.photos;
+  fit->rms_px = std::sqrt(rss / std::max(1, n_in));
+  fit->noise_px = std::sqrt(rss / std::max(1, n - fit->parameters));
+  fit->bic = n * std::log(std::max(rss, 1e-300) / n) + fit->parameters * std::log(static_cast<double>(n));
+  fit->shape = w.state.core;
+  fit->shape.insert(fit->shape.end(), w.state.dev.begin(), w.state.dev.end());
+  Covariances(setup, w, b, fit);
+  RadiusFromCurvature(setup, fit);
+}
+
+// k-fold over feature ids: refit without each fold (from the full solution), predict the fold.
+double HeldOut(const Setup& setup, const ModelWork& w, const std::vector<bool>& inlier) {
+  const int folds = setup.options->heldout_folds;
+  if (folds < 2) return kNaN;
+  std::vector<int> order(setup.feature_ids.size());
+  std::iota(order.begin(), order.end(), 0);
+  std::mt19937 rng(20261122);  // fixed: the same folds for every model
+  std::shuffle(order.begin(), order.end(), rng);
+  std::vector<int> fold_of(order.size());
+  for (size_t i = 0; i < order.size(); ++i) fold_of[static_cast<size_t>(order[i])] = static_cast<int>(i) % folds;
+  double sum = 0;
+  int count = 0;
+  for (int f = 0; f < folds; ++f) {
+    std::vector<bool> active(setup.obs.size());
+    std::vector<int> per_photo(static_cast<size_t>(setup.photos), 0);
+    for (size_t i = 0; i < setup.obs.size(); ++i) {
+      active[i] = inlier[i] && fold_of[static_cast<size_t>(setup.obs[i].feature)] != f;
+      if (active[i]) ++per_photo[static_cast<size_t>(setup.obs[i].photo)];
+    }
+    State st = w.state;
+    BuiltProblem b = Build(setup, w.kind, w.basis.get(), active, false, &st);
+    Solve(setup, b, &st);
+    const std::vector<Eigen::Vector2d> r = Residuals(setup, w.kind, w.basis.get(), st);
+    for (size_t i = 0; i < setup.obs.size(); ++i) {
+      const Obs& o = setup.obs[i];
+      if (!inlier[i] || fold_of[static_cast<size_t>(o.feature)] != f) continue;
+      if (per_photo[static_cast<size_t>(o.photo)] < 6 || !r[i].allFinite()) continue;
+      sum += r[i].squaredNorm();
+      ++count;
+    }
+  }
+  return count > 0 ? std::sqrt(sum / count) : kNaN;
+}
+
+// The simplest model whose BIC is within bic_margin of the lowest and whose held-out RMS is within
+// heldout_tolerance of the lowest.
+void Choose(const FitOptions& options, ScreenFitResult* result) {
+  const auto& c = result->candidates;
+  double best_bic = kInf, best_held = kInf;
+  int best_bic_i = -1, best_held_i = -1;
+  for (size_t i = 0; i < c.size(); ++i) {
+    if (!c[i].converged) continue;
+    if (c[i].bic < best_bic) best_bic = c[i].bic, best_bic_i = static_cast<int>(i);
+    if (c[i].heldout_rms_px < best_held) best_held = c[i].heldout_rms_px, best_held_i = static_cast<int>(i);
+  }
+  if (best_bic_i < 0) {
+    // Nothing converged: take the lowest BIC anyway and say so.
+    for (size_t i = 0; i < c.size(); ++i) {
+      if (c[i].bic < best_bic) best_bic = c[i].bic, best_bic_i = static_cast<int>(i);
+    }
+    result->chosen = best_bic_i;
+    result->choice_reason = "no model converged; the lowest BIC is shown";
+    return;
+  }
+  const bool use_held = best_held_i >= 0;
+  for (size_t i = 0; i < c.size(); ++i) {
+    if (!c[i].converged) continue;
+    const bool bic_ok = c[i].bic <= best_bic + options.bic_margin;
+    const bool held_ok = !use_held || c[i].heldout_rms_px <= best_held * (1 + options.heldout_tolerance);
+    if (bic_ok && held_ok) {
+      result->chosen = static_cast<int>(i);
+      const std::string name = c[i].model;
+      if (!use_held) {
+        result->choice_reason = fmt::format(
+            "{}: the simplest model within {:g} of the lowest BIC ({}); held-out errors were not computed", name,
+            options.bic_margin, c[static_cast<size_t>(best_bic_i)].model);
+      } else if (static_cast<int>(i) == best_bic_i && static_cast<int>(i) == best_held_i) {
+        result->choice_reason = fmt::format("BIC and held-out error both favour {}", name);
+      } else {
+        result->choice_reason = fmt::format(
+            "{}: the simplest model within {:g} of the lowest BIC ({}) and within {:g}% of the lowest held-out "
+            "error ({}, {:.4f} px)",
+            name, options.bic_margin, c[static_cast<size_t>(best_bic_i)].model, 100 * options.heldout_tolerance,
+            c[static_cast<size_t>(best_held_i)].model, best_held);
+      }
+      return;
+    }
+  }
+  result->chosen = best_bic_i;
+  result->choice_reason = fmt::format(
+      "BIC and held-out error disagree (lowest BIC: {}, lowest held-out error: {}); the lowest BIC is taken",
+      c[static_cast<size_t>(best_bic_i)].model, c[static_cast<size_t>(best_held_i)].model);
+}
+
+void Deviations(const Setup& setup, const ModelWork& w, ScreenFitResult* result) {
+  const FitOptions& opt = *setup.options;
+  const ModelFit& fit = result->Chosen();
+  const bool field = w.kind == ScreenModelKind::kCylinderDeviation;
+  const auto field_at = [&](const Eigen::Vector2d& uv) {
+    return field ? w.basis->Weights(uv).dot(Eigen::Map<const Eigen::VectorXd>(w.state.dev.data(),
+                                                                                static_cast<long>(w.state.dev.size())))
+                 : 0.0;
+  };
+  std::vector<int> index_in_photo(static_cast<size_t>(setup.photos), 0);
+  for (const Obs& o : setup.obs) {
+    FeatureDeviation d;
+    d.photo = o.photo;
+    d.id = setup.feature_ids[static_cast<size_t>(o.feature)];
+    d.uv = o.uv;
+    const Eigen::Vector2d r = fit.residual_px[static_cast<size_t>(o.photo)][static_cast<size_t>(o.index)];
+    d.outlier = fit.outlier[static_cast<size_t>(o.photo)][static_cast<size_t>(o.index)];
+    const std::vector<const double*> blocks = Blocks(w.state, o.photo);
+    Eigen::Vector2d q, dq_dn;
+    const bool ok = MakeCost(setup, w.kind, w.basis.get(), o)->PredictWithNormal(blocks.data(), &q, &dq_dn);
+    const double g = ok ? dq_dn.norm() : 0;
+    const double g_floor = std::max(g, 1e-6);
+    d.normal_mm = field_at(o.uv) + (g > 1e-6 && r.allFinite() ? dq_dn.dot(r) / (g * g) : 0.0);
+    d.sigma_mm = result->noise_px / g_floor;
+    result->deviations.push_back(d);
+  }
+  // Map.
+  result->map_nu = opt.map_nu;
+  result->map_nv = opt.map_nv;
+  result->map_mm.assign(static_cast<size_t>(opt.map_nu * opt.map_nv), kNaN);
+  result->map_sigma_mm.assign(result->map_mm.size(), kNaN);
+  for (int j = 0; j < opt.map_nv; ++j) {
+    for (int i = 0; i < opt.map_nu; ++i) {
+      const Eigen::Vector2d uv(-1 + (2 * i + 1.0) / opt.map_nu, -1 + (2 * j + 1.0) / opt.map_nv);
+      const size_t cell = static_cast<size_t>(j * opt.map_nu + i);
+      bool supported = false;
+      double sw = 0, swd = 0;
+      for (const FeatureDeviation& d : result->deviations) {
+        if (d.outlier) continue;
+        const double dist2 = (d.uv - uv).squaredNorm();
+        if (dist2 <= opt.map_support_uv * opt.map_support_uv) supported = true;
+        const double kern = std::exp(-0.5 * dist2 / (opt.map_smoothing_uv * opt.map_smoothing_uv));
+        const double wt = kern / (d.sigma_mm * d.sigma_mm);
+        sw += wt;
+        swd += wt * d.normal_mm;
+      }
+      if (!supported) continue;
+      if (field) {
+        const Eigen::VectorXd wv = w.basis->Weights(uv);
+        result->map_mm[cell] = field_at(uv);
+        result->map_sigma_mm[cell] =
+            w.dev_covariance.size() > 0 ? std::sqrt(std::max(0.0, wv.dot(w.dev_covariance * wv))) : kNaN;
+      } else if (sw > 0) {
+        const double sigma = 1 / std::sqrt(sw);
+        if (sigma > opt.map_max_sigma_mm) continue;
+        result->map_mm[cell] = swd / sw;
+        result->map_sigma_mm[cell] = sigma;
+      }
+    }
+  }
+}
+
+void CheckPhotos(const std::vector<PhotoObservations>& photos, const FitOptions& options) {
+  if (photos.empty()) throw Error("fit", "no photos to fit", "give at least one photo with detected features");
+  for (const PhotoObservations& p : photos) {
+    const std::string where = p.photo.empty() ? "fit" : p.photo;
+    if (p.ids.size() != p.display_px.size() || p.ids.size() != p.detected_px.size()) {
+      throw Error(where,
+                  fmt::format("{} ids, {} display positions and {} detections do not match", p.ids.size(),
+                              p.display_px.size(), p.detected_px.size()),
+                  "give one display position and one detection per feature id");
+    }
+    if (static_cast<int>(p.ids.size()) < options.min_features_per_photo) {
+      throw Error(where, fmt::format("only {} features", p.ids.size()),
+                  fmt::format("a photo needs at least {} detected features", options.min_features_per_photo));
+    }
+    std::set<std::string> seen;
+    for (size_t i = 0; i < p.ids.size(); ++i) {
+      if (!p.display_px[i].allFinite() || !p.detected_px[i].allFinite()) {
+        throw Error(where, fmt::format("feature '{}' has a position that is not finite", p.ids[i]),
+                    "drop features that were not detected");
+      }
+      if (!seen.insert(p.ids[i]).second) {
+        throw Error(where, fmt::format("feature '{}' appears twice", p.ids[i]), "give each feature once per photo");
+      }
+    }
+  }
+}
+
+}  // namespace
+
+void FitOptions::Check(const std::string& where) const {
+  if (models.empty()) throw Error(where, "no screen models to try", "give at least one, e.g. cylinder");
+  for (const std::string& m : models) ParseScreenModel(m, where);
+  const auto positive = [&](double v, const char* name) {
+    if (!(v > 0) || !std::isfinite(v)) {
+      throw Error(where, fmt::format("{} is {}, but must be a positive number", name, v), "");
+    }
+  };
+  positive(expected_noise_px, "expected_noise_px");
+  positive(huber_sigmas, "huber_sigmas");
+  positive(outlier_sigmas, "outlier_sigmas");
+  positive(deviation_prior_mm, "deviation_prior_mm");
+  positive(map_smoothing_uv, "map_smoothing_uv");
+  positive(map_support_uv, "map_support_uv");
+  positive(map_max_sigma_mm, "map_max_sigma_mm");
+  if (!(outlier_min_px >= 0)) throw Error(where, "outlier_min_px is negative", "give 0 or more");
+  if (!(bic_margin >= 0)) throw Error(where, "bic_margin is negative", "give 0 or more (10: very strong)");
+  if (!(heldout_tolerance >= 0)) throw Error(where, "heldout_tolerance is negative", "give e.g. 0.05");
+  if (heldout_folds < 0 || heldout_folds == 1) {
+    throw Error(where, fmt::format("heldout_folds is {}", heldout_folds), "give 0 (off) or 2 or more");
+  }
+  if (deviation_nu < 4 || deviation_nv < 4) {
+    throw Error(where, "the deviation field needs at least 4 x 4 coefficients", "raise deviation_nu/nv");
+  }
+  if (map_nu < 1 || map_nv < 1) throw Error(where, "the deviation map needs at least 1 x 1 cells", "");
+  if (max_iterations < 1) throw Error(where, "max_iterations must be at least 1", "");
+  if (min_features_per_photo < 6) throw Error(where, "min_features_per_photo below 6 leaves the pose free", "");
+}
+
+ScreenFitResult FitScreen(const Monitor& nominal, const CameraModel& camera,
+                          const std::vector<PhotoObservations>& photos, const FitOptions& options) {
+  nominal.Check("nominal monitor");
+  camera.Check("camera model");
+  options.Check("fit options");
+  CheckPhotos(photos, options);
+
+  Setup setup;
+  setup.nominal = &nominal;
+  setup.camera = &camera;
+  setup.options = &options;
+  setup.photos = static_cast<int>(photos.size());
+  setup.half_width_mm = 0.5 * nominal.width_mm;
+  std::unordered_map<std::string, int> feature_index;
+  for (size_t p = 0; p < photos.size(); ++p) {
+    for (size_t i = 0; i < photos[p].ids.size(); ++i) {
+      Obs o;
+      o.photo = static_cast<int>(p);
+      o.index = static_cast<int>(i);
+      auto [it, inserted] = feature_index.emplace(photos[p].ids[i], static_cast<int>(setup.feature_ids.size()));
+      if (inserted) setup.feature_ids.push_back(photos[p].ids[i]);
+      o.feature = it->second;
+      o.uv = UvFromDisplayPx(nominal, photos[p].display_px[i]);
+      o.s_mm = 0.5 * o.uv.x() * nominal.width_mm;
+      o.y_mm = -0.5 * o.uv.y() * nominal.height_mm;
+      o.detected = photos[p].detected_px[i];
+      setup.obs.push_back(o);
+    }
+  }
+
+  std::vector<ScreenModelKind> kinds;
+  for (ScreenModelKind k : AllScreenModels()) {
+    if (std::find(options.models.begin(), options.models.end(), ScreenModelName(k)) != options.models.end()) {
+      kinds.push_back(k);
+    }
+  }
+
+  // Initial poses from PnP against the nominal surface.
+  State initial;
+  for (int p = 0; p < setup.photos; ++p) initial.poses.push_back(InitialPose(setup, p));
+
+  // Pass 1: robust fits, in order of complexity; richer models start from the cylinder's solution.
+  std::vector<ModelWork> work;
+  std::vector<double> time_ms;
+  const std::vector<bool> all(setup.obs.size(), true);
+  work.reserve(kinds.size());
+  int cylinder = -1;  // index into work
+  for (ScreenModelKind kind : kinds) {
+    const auto t0 = std::chrono::steady_clock::now();
+    ModelWork w;
+    w.kind = kind;
+    const State* from = cylinder >= 0 ? &work[static_cast<size_t>(cylinder)].state : nullptr;
+    w.state.poses = from ? from->poses : initial.poses;
+    const double k0 = from ? from->core[0] : nominal.curvature_per_mm;
+    w.state.core.assign(static_cast<size_t>(CoreParameterCount(kind)), 0.0);
+    if (!w.state.core.empty()) w.state.core[0] = k0;
+    if (kind == ScreenModelKind::kCylinderDeviation) {
+      w.basis = std::make_unique<DeviationBasis>(nominal, k0, options.deviation_nu, options.deviation_nv);
+      w.state.dev.assign(static_cast<size_t>(w.basis->size()), 0.0);
+    }
+    FitRobust(setup, w, all);
+    time_ms.push_back(Ms(t0));
+    work.push_back(std::move(w));
+    if (kind == ScreenModelKind::kCylinder && work.back().robust_ok) cylinder = static_cast<int>(work.size()) - 1;
+  }
+
+  // Common outliers: observations that even the best-fitting model (lowest robust noise) does not explain.
+  int best = -1;
+  double best_sigma = kInf;
+  for (size_t i = 0; i < work.size(); ++i) {
+    const double s = MadSigma(work[i].robust_residuals);
+    if (work[i].robust_ok && s < best_sigma) best_sigma = s, best = static_cast<int>(i);
+  }
+  std::vector<bool> inlier(setup.obs.size(), true);
+  if (best >= 0) {
+    const double threshold = std::max(options.outlier_sigmas * best_sigma, options.outlier_min_px);
+    const auto& r = work[static_cast<size_t>(best)].robust_residuals;
+    for (size_t i = 0; i < r.size(); ++i) inlier[i] = r[i].allFinite() && r[i].norm() <= threshold;
+  }
+
+  ScreenFitResult result;
+  for (size_t i = 0; i < work.size(); ++i) {
+    const auto t0 = std::chrono::steady_clock::now();
+    ModelFit fit;
+    fit.model = ScreenModelName(work[i].kind);
+    FitFinal(setup, work[i], inlier, &fit);
+    fit.heldout_rms_px = HeldOut(setup, work[i], inlier);
+    fit.time_ms = time_ms[i] + Ms(t0);
+    result.candidates.push_back(std::move(fit));
+  }
+  Choose(options, &result);
+  result.noise_px = result.Chosen().noise_px;
+  Deviations(setup, work[static_cast<size_t>(result.chosen)], &result);
+
+  result.assumptions.push_back(fmt::format(
+      "pixel pitch fixed from the spec: {} x {} px over {:.2f} x {:.2f} mm ({:.4f} mm/px); scale is not observable "
+      "from photos, so radius and distances scale with it",
+      nominal.width_px, nominal.height_px, nominal.width_mm, nominal.height_mm, nominal.pixel_pitch_mm()));
+  result.assumptions.push_back(fmt::format(
+      "lens model fixed: {} as calibrated; its uncertainty is not propagated into the sigmas", camera.lensmodel));
+  result.assumptions.push_back(
+      "detection noise isotropic and Gaussian; sigmas scaled by the measured residual noise (reduced chi-square)");
+  result.assumptions.push_back(
+      "deviations are along the surface normal; displacements within the surface are not modelled");
+  if (std::find(kinds.begin(), kinds.end(), ScreenModelKind::kCylinderDeviation) != kinds.end()) {
+    result.assumptions.push_back(fmt::format(
+        "deviation field: {} x {} cubic B-splines with the rigid and radius modes removed (zero mean, no tilt, no "
+        "curvature relative to the fitted cylinder) and a {:g} mm prior",
+        options.deviation_nu, options.deviation_nv, options.deviation_prior_mm));
+  }
+  return result;
+}
+
+double RadiusCramerRaoBoundMm(const Monitor& true_monitor, const CameraModel& camera,
+                              const std::vector<CentrePose>& poses,
+                              const std::vector<std::vector<Eigen::Vector2d>>& display_px, double sigma_px) {
+  true_monitor.Check("true monitor");
+  camera.Check("camera model");
+  if (true_monitor.is_flat()) {
+    throw Error("Cramer-Rao bound", "the true monitor is flat: the radius is infinite", "give a curved monitor");
+  }
+  if (poses.size() != display_px.size() || poses.empty()) {
+    throw Error("Cramer-Rao bound", "give one pose per list of display positions", "");
+  }
+  State st;
+  st.core = {true_monitor.curvature_per_mm};
+  for (const CentrePose& p : poses) {
+    const Eigen::Quaterniond q(p.centre_from_cam);
+    st.poses.push_back({q.x(), q.y(), q.z(), q.w(), p.position_in_centre_mm.x(), p.position_in_centre_mm.y(),
+                        p.position_in_centre_mm.z()});
+  }
+  ceres::ProductManifold<ceres::EigenQuaternionManifold, ceres::EuclideanManifold<3>> manifold{
+      ceres::EigenQuaternionManifold(), ceres::EuclideanManifold<3>()};
+  ceres::Problem::Options po;
+  po.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  ceres::Problem pr(po);
+  for (size_t p = 0; p < poses.size(); ++p) {
+    for (const Eigen::Vector2d& px : display_px[p]) {
+      const Eigen::Vector2d uv = UvFromDisplayPx(true_monitor, px);
+      const double s = 0.5 * uv.x() * true_monitor.width_mm, y = -0.5 * uv.y() * true_monitor.height_mm;
+      // The detection is the noiseless prediction: the Jacobian does not depend on it.
+      pr.AddResidualBlock(new ReprojectionCost(&camera, ScreenModelKind::kCylinder, s, y, 0.5 * true_monitor.width_mm,
+                                               Eigen::Vector2d::Zero()),
+                          nullptr, {st.poses[p].data(), st.core.data()});
+    }
+    pr.SetManifold(st.poses[p].data(), &manifold);
+  }
+  ceres::Covariance::Options co;
+  co.algorithm_type = ceres::DENSE_SVD;
+  ceres::Covariance cov(co);
+  const std::vector<std::pair<const double*, const double*>> pairs = {{st.core.data(), st.core.data()}};
+  if (!cov.Compute(pairs, &pr)) {
+    throw Error("Cramer-Rao bound", "the radius is not observable in this configuration (singular Fisher matrix)",
+                "add features or photos from other positions");
+  }
+  double ckk = 0;
+  cov.GetCovarianceBlock(st.core.data(), st.core.data(), &ckk);
+  const double k = true_monitor.curvature_per_mm;
+  return sigma_px * std::sqrt(ckk) / (k * k);
+}
+
+}  // namespace curvecheck

@@ -1,0 +1,162 @@
+// The screen fit (issue 6 items 3-5): Ceres over all photos jointly, one pose per photo and one screen model
+// (analysis/screen_model.h), model selection by BIC and held-out features, and the deviation of the physical
+// screen from the chosen surface along its normal.
+//
+// Frames: the fitted screen's CENTRE frame (origin at the screen centre, x right, y up, +z toward the viewer);
+// camera frame x right, y down, z forward; pixels in mrcal's convention (centres at integers).
+// Residual of observation i of photo p (px):  r = q(X) - q_detected,  X = centre_from_cam_p^T (P(u, v; shape)
+// - c_p), with q the mrcal lens model (libmrcal through core/camera_model.h, with its gradient dq/dX), c_p the
+// camera position in the centre frame and P the model surface point. The lens model and the pixel pitch are
+// fixed (the photos cannot tell a larger, farther screen from a smaller, nearer one).
+#pragma once
+
+#include <Eigen/Core>
+#include <array>
+#include <map>
+#include <optional>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "core/camera_model.h"
+#include "core/monitor.h"
+
+namespace curvecheck {
+
+struct PhotoObservations {
+  std::string photo;                         // a name for reports
+  std::vector<std::string> ids;              // feature ids (the same id in several photos is the same feature)
+  std::vector<Eigen::Vector2d> display_px;   // the features' display positions (pattern.json)
+  std::vector<Eigen::Vector2d> detected_px;  // in the camera image
+};
+
+struct FitOptions {
+  // Models to try, by name (ScreenModelName), reported in order of complexity whatever the order here.
+  std::vector<std::string> models = {"flat",
+                                     "cylinder",
+                                     "cylinder+lean",
+                                     "varying-curvature",
+                                     "varying-curvature-quadratic",
+                                     "cylinder+deviation"};
+  // Expected detection noise per coordinate (px): scales the robust loss. Detectors give 0.02-0.2 px.
+  double expected_noise_px = 0.15;
+  // Huber loss threshold in units of expected_noise_px: residuals beyond it weigh linearly in the first,
+  // robust pass. 3 keeps ~99% efficiency on Gaussian noise.
+  double huber_sigmas = 3;
+  // An observation is an outlier when its residual length exceeds outlier_sigmas times the robust (MAD) noise
+  // of the best-fitting model, and at least outlier_min_px. Outliers are left out of the final fits.
+  double outlier_sigmas = 5;
+  double outlier_min_px = 0.5;
+  // k-fold cross-validation over features (by id, across photos); 0 turns held-out errors off (then the choice
+  // rests on BIC alone). Each fold refits from the full fit's solution.
+  int heldout_folds = 5;
+  // A richer model is chosen only if its BIC is lower than every simpler one's by more than bic_margin
+  // (10: "very strong" evidence on Kass and Raftery's scale), and its held-out RMS is within
+  // heldout_tolerance (relative) of the best held-out RMS.
+  double bic_margin = 10;
+  double heldout_tolerance = 0.05;
+  // Deviation field: B-spline coefficients across the width and the height (5 gauge modes are removed), and
+  // a weak zero-mean prior on them (mm) that bounds what the photos cannot see (a surface seen along its
+  // normal does not show a displacement along it).
+  // 13 x 6 resolves a Gaussian of sigma 0.12 x 0.3 in (u, v) to 10% of its height (the 2 mm bulge scene); it
+  // needs several hundred features to be chosen over the cylinder by BIC (73 parameters).
+  int deviation_nu = 13;
+  int deviation_nv = 6;
+  double deviation_prior_mm = 5;
+  // Deviation map: nu x nv samples over the screen, Gaussian smoothing of the per-feature deviations (in u, v
+  // units), NaN where no feature lies within map_support_uv or the smoothed sigma exceeds map_max_sigma_mm.
+  int map_nu = 41;
+  int map_nv = 13;
+  double map_smoothing_uv = 0.08;
+  double map_support_uv = 0.15;
+  double map_max_sigma_mm = 1.0;
+  // Solver: iterations per fit.
+  int max_iterations = 100;
+  // Fewer features per photo than this is an error (6 for the pose, plus margin for the shape).
+  int min_features_per_photo = 8;
+
+  // Throws Error naming `where` for values out of range or unknown model names.
+  void Check(const std::string& where) const;
+};
+
+struct CameraEstimate {
+  Eigen::Matrix3d centre_from_cam = Eigen::Matrix3d::Identity();
+  Eigen::Vector3d position_in_centre_mm = Eigen::Vector3d::Zero();
+  Eigen::Vector3d position_sigma_mm = Eigen::Vector3d::Zero();
+  // In the architecture's screen frame: origin on the fitted axis (centre frame shifted by -R in z); the centre
+  // frame itself when the radius is not a number (flat within its interval).
+  Eigen::Vector3d position_in_screen_mm = Eigen::Vector3d::Zero();
+};
+
+struct ModelFit {
+  std::string model;   // ScreenModelName
+  int parameters = 0;  // screen parameters + 6 per photo
+  // rms_px: RMS length of the 2D residual over the inliers; bic = n ln(RSS/n) + p ln(n) with n = 2 x inliers;
+  // heldout_rms_px: RMS length of the residuals of features left out of the fit (k-fold), NaN when off.
+  double rms_px = 0, bic = 0, heldout_rms_px = 0;
+  // Per-coordinate noise of this model's residuals, sqrt(RSS/(n - p)); scales this model's covariance.
+  double noise_px = 0;
+  // Curvature k = 1/R (for varying curvature: its mean over the width, k0 + k2/3) and its sigma.
+  double curvature_per_mm = 0, curvature_sigma_per_mm = 0;
+  std::optional<double> radius_mm, radius_sigma_mm;  // empty when flat is inside the 95% interval
+  double radius_lower_bound_mm = 0;                  // 95% lower bound of |R| when the radius is not a number
+  std::array<double, 2> radius_ci95_mm{};            // from k +- 1.96 sigma_k, inverted (+inf when it holds 0)
+  std::map<std::string, std::pair<double, double>> extra;  // e.g. "lean_deg" -> (value, sigma)
+  std::vector<CameraEstimate> cameras;                     // one per photo
+  std::vector<std::vector<Eigen::Vector2d>> residual_px;   // per photo, per observation (detected - predicted)
+  std::vector<std::vector<bool>> outlier;                  // left out of the final fit
+  bool ill_conditioned = false;
+  std::string condition_note;  // e.g. "radius unobservable: ..."
+  double time_ms = 0;          // this model's fits (robust, final, covariance, held-out folds)
+  bool converged = false;
+  // Shape parameters as fitted (CoreParameterCount values, then the deviation coefficients).
+  std::vector<double> shape;
+};
+
+struct FeatureDeviation {
+  int photo = 0;
+  std::string id;
+  Eigen::Vector2d uv = Eigen::Vector2d::Zero();
+  double normal_mm = 0, sigma_mm = 0;  // along the surface normal, toward the viewer; sigma from noise_px
+  bool outlier = false;
+};
+
+struct ScreenFitResult {
+  std::vector<ModelFit> candidates;  // every model tried, in order of complexity
+  int chosen = -1;                   // index into candidates
+  std::string choice_reason;         // "BIC and held-out error both favour cylinder", ...
+  double noise_px = 0;               // the chosen model's residual noise (per coordinate), scales its covariance
+  // Per feature and photo: displacement along the normal of the chosen model's base surface (its cylinder for
+  // cylinder+deviation, plus the fitted field) that explains the residual, mm.
+  std::vector<FeatureDeviation> deviations;
+  // Smoothed deviation map: map_nv rows of map_nu values (u fastest, u and v from -1 to 1 at the cell
+  // centres), mm, NaN where unsupported; map_sigma_mm alike.
+  int map_nu = 0, map_nv = 0;
+  std::vector<double> map_mm, map_sigma_mm;
+  std::vector<std::string> assumptions;  // "pixel pitch fixed from the spec: ...", "lens model fixed: ..."
+
+  const ModelFit& Chosen() const { return candidates.at(static_cast<size_t>(chosen)); }
+};
+
+// Fits every model of options.models to the photos and picks one (see FitOptions). Throws Error for invalid
+// input (no photos, mismatched sizes, too few features, non-finite numbers, an invalid camera or monitor).
+// A fit that does not converge or is ill-conditioned is a result (ModelFit.converged, ill_conditioned), not
+// an error.
+ScreenFitResult FitScreen(const Monitor& nominal, const CameraModel& camera,
+                          const std::vector<PhotoObservations>& photos, const FitOptions& options);
+
+// A camera pose for RadiusCramerRaoBoundMm: rotation and position of the camera in the centre frame.
+struct CentrePose {
+  Eigen::Matrix3d centre_from_cam = Eigen::Matrix3d::Identity();
+  Eigen::Vector3d position_in_centre_mm = Eigen::Vector3d::Zero();
+};
+
+// Cramer-Rao bound of the radius (mm) of the `cylinder` model for isotropic Gaussian pixel noise sigma_px
+// (per coordinate) at the given true configuration: monitor (its curvature is the truth, must be non-zero),
+// one pose and one list of display positions per photo. sigma_R = sigma_px sqrt([(J^T J)^-1]_kk) / k^2, with
+// J the Jacobian of all residuals with respect to the poses and k at the truth.
+double RadiusCramerRaoBoundMm(const Monitor& true_monitor, const CameraModel& camera,
+                              const std::vector<CentrePose>& poses,
+                              const std::vector<std::vector<Eigen::Vector2d>>& display_px, double sigma_px);
+
+}  // namespace curvecheck

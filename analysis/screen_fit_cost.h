@@ -1,0 +1,58 @@
+// The reprojection residual of the screen fit (one feature in one photo), with its analytic Jacobian.
+//
+//   r = q(X) - q_detected   (px),   X = centre_from_cam^T (P(s, y; shape) + d(u, v) n(s) - c)
+//
+// q: the mrcal lens model through libmrcal (core/camera_model.h ProjectPoints), whose gradient dq/dX is exact;
+// P, n: CoreScreenPoint (analysis/screen_model.h); d = w . z the deviation field (cylinder+deviation only);
+// centre_from_cam: unit quaternion (Eigen order x, y, z, w), c: the camera position in the centre frame (mm).
+// The chain rule dr/dparams = dq/dX dX/dparams uses Ceres Jets for dX/d(pose, core shape) and the closed form
+// dX/dz = centre_from_cam^T n w^T for the (linear) deviation coefficients.
+//
+// Parameter blocks, in order: pose (7: quaternion, then c), core shape (CoreParameterCount values; absent when
+// 0), deviation coefficients (w.size(); absent when empty). Evaluate returns false when the point is behind
+// the camera (X_z <= 0), so Ceres rejects that step.
+#pragma once
+
+#include <ceres/cost_function.h>
+
+#include <Eigen/Core>
+
+#include "analysis/screen_model.h"
+#include "core/camera_model.h"
+
+namespace curvecheck {
+
+class ReprojectionCost final : public ceres::CostFunction {
+ public:
+  // `camera` must outlive the cost function.
+  ReprojectionCost(const CameraModel* camera, ScreenModelKind kind, double s_mm, double y_mm, double half_width_mm,
+                   const Eigen::Vector2d& detected_px, Eigen::VectorXd deviation_weights = {});
+
+  bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override;
+
+  // The predicted pixel and the image motion per mm of displacement along the model surface's normal
+  // (px/mm), at the given parameters (same blocks as Evaluate). False when behind the camera.
+  bool PredictWithNormal(double const* const* parameters, Eigen::Vector2d* q_px, Eigen::Vector2d* dq_dnormal) const;
+
+ private:
+  const CameraModel* camera_;
+  ScreenModelKind kind_;
+  double s_mm_, y_mm_, half_width_mm_;
+  Eigen::Vector2d detected_px_;
+  Eigen::VectorXd w_;
+  int n_core_;
+};
+
+// Zero-mean Gaussian prior on a block of n coefficients: r = z * (noise_px / prior_sigma), so that the residual
+// is in the same units as a pixel residual of noise noise_px.
+class CoefficientPrior final : public ceres::CostFunction {
+ public:
+  CoefficientPrior(int n, double scale);
+  bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override;
+
+ private:
+  int n_;
+  double scale_;
+};
+
+}  // namespace curvecheck

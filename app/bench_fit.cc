@@ -1,0 +1,151 @@
+// `curvecheck bench fit`: the screen fit on synthetic truth (analysis/screen_fit.h). Observations are the true
+// surface points of a scene projected through its lens plus seeded Gaussian noise (no image, no detector: this
+// measures the fit alone).
+//   1. Speed: median over --runs of FitScreen with one model at a time (no held-out folds), for one photo of
+//      31 x 9 features and for ten photos of 42 x 12 features from ten camera positions; then the whole
+//      selection (every model, 5 folds) on the one photo.
+//   2. Accuracy: --seeds single-photo fits of the cylinder: radius bias, scatter against the Cramer-Rao bound
+//      of the same configuration, mean reported sigma, coverage of the 95% interval.
+#include "app/bench_fit.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <iostream>
+#include <memory>
+#include <numeric>
+#include <random>
+
+#include "analysis/screen_fit.h"
+#include "analysis/screen_fit_test_util.h"
+#include "analysis/screen_model.h"
+#include "app/machine_info.h"
+#include "capture/synthetic_camera.h"
+
+namespace curvecheck::app {
+namespace {
+
+struct BenchFitArgs {
+  std::string scene = "datasets/scenes/default.yaml";
+  int runs = 5;
+  int seeds = 1000;
+  double noise_px = 0.1;
+};
+
+double Median(std::vector<double> v) {
+  std::sort(v.begin(), v.end());
+  return v.empty() ? 0 : v[v.size() / 2];
+}
+
+double TimeMs(const std::function<void()>& f) {
+  const auto t0 = std::chrono::steady_clock::now();
+  f();
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+}
+
+int RunBenchFit(const BenchFitArgs& a) {
+  using testing::DisplayGrid;
+  using testing::Observe;
+  using testing::SceneSurface;
+  const SyntheticScene scene = LoadScene(a.scene);
+  std::cout << fmt::format("bench fit: {}; scene {}; noise {} px per coordinate; {} runs (median)\n",
+                           DescribeMachine(), a.scene, a.noise_px, a.runs);
+  // One photo.
+  std::mt19937_64 rng(1);
+  const std::vector<PhotoObservations> one = {
+      Observe(scene, DisplayGrid(scene.monitor, 31, 9), a.noise_px, rng, SceneSurface(scene))};
+  // Ten photos from positions spread over 1 m x 0.3 m, 1.3-1.6 m from the screen centre, looking at it.
+  std::vector<SyntheticScene> views;
+  std::vector<PhotoObservations> ten;
+  for (int i = 0; i < 10; ++i) {
+    SyntheticScene s = scene;
+    s.camera_position_in_screen =
+        scene.camera_position_in_screen + Eigen::Vector3d(-450 + 100 * i, (i % 2 ? 1 : -1) * 100, -100 + 25 * (i % 5));
+    s.screen_from_cam = ScreenFromCamLookAt(s.camera_position_in_screen, Eigen::Vector3d(0, 0, -s.monitor.radius_mm()),
+                                            Eigen::Vector3d(0, 1, 0));
+    views.push_back(s);
+  }
+  int ten_features = 0;
+  for (const SyntheticScene& s : views) {
+    ten.push_back(Observe(s, DisplayGrid(s.monitor, 42, 12), a.noise_px, rng, SceneSurface(s)));
+    ten_features += static_cast<int>(ten.back().ids.size());
+  }
+  std::cout << fmt::format("one photo: {} features; ten photos: {} features\n\n", one[0].ids.size(), ten_features);
+  std::cout << fmt::format("{:<28} {:>14} {:>14} {:>12}\n", "model (no held-out folds)", "1 photo ms", "10 photos ms",
+                           "parameters");
+  for (ScreenModelKind kind : AllScreenModels()) {
+    FitOptions o;
+    o.models = {ScreenModelName(kind)};
+    o.heldout_folds = 0;
+    std::vector<double> t1, t10;
+    int params = 0;
+    for (int r = 0; r < a.runs; ++r) {
+      t1.push_back(TimeMs([&] { FitScreen(scene.monitor, scene.camera, one, o); }));
+      t10.push_back(TimeMs([&] { params = FitScreen(scene.monitor, scene.camera, ten, o).Chosen().parameters; }));
+    }
+    std::cout << fmt::format("{:<28} {:>14.1f} {:>14.1f} {:>12}\n", ScreenModelName(kind), Median(t1), Median(t10),
+                             params);
+  }
+  std::vector<double> t_all;
+  ScreenFitResult all;
+  for (int r = 0; r < a.runs; ++r) {
+    t_all.push_back(TimeMs([&] { all = FitScreen(scene.monitor, scene.camera, one, FitOptions{}); }));
+  }
+  std::cout << fmt::format("\nwhole selection on one photo (6 models, 5 held-out folds each): {:.1f} ms; chose {} ({})\n",
+                           Median(t_all), all.Chosen().model, all.choice_reason);
+
+  // Accuracy over seeds.
+  Monitor truth = scene.monitor;
+  truth.curvature_per_mm = scene.truth.curvature_per_mm;
+  if (truth.is_flat()) {
+    std::cout << "true monitor flat: no radius statistics\n";
+    return 0;
+  }
+  const double r_true = truth.radius_mm();
+  const std::vector<Eigen::Vector2d> grid = DisplayGrid(scene.monitor, 31, 9);
+  const double crb =
+      RadiusCramerRaoBoundMm(truth, scene.camera, {testing::ScenePose(scene)}, {grid}, a.noise_px);
+  FitOptions o;
+  o.models = {"cylinder"};
+  o.heldout_folds = 0;
+  std::vector<double> radius, sigma;
+  int covered = 0;
+  for (int t = 0; t < a.seeds; ++t) {
+    std::mt19937_64 seed_rng(100000 + t);
+    const auto photo = Observe(scene, grid, a.noise_px, seed_rng, SceneSurface(scene));
+    const ModelFit c = FitScreen(scene.monitor, scene.camera, {photo}, o).Chosen();
+    if (!c.radius_mm) continue;
+    radius.push_back(*c.radius_mm);
+    sigma.push_back(*c.radius_sigma_mm);
+    covered += c.radius_ci95_mm[0] <= r_true && r_true <= c.radius_ci95_mm[1];
+  }
+  const double n = static_cast<double>(radius.size());
+  const double mean = std::accumulate(radius.begin(), radius.end(), 0.0) / n;
+  double var = 0;
+  for (double x : radius) var += (x - mean) * (x - mean);
+  const double scatter = std::sqrt(var / (n - 1));
+  std::cout << fmt::format(
+      "\nradius over {} seeds (cylinder, one photo, {} features): truth {:.1f} mm, bias {:+.4f} mm ({:+.3f} sigma, "
+      "standard error {:.4f}), scatter {:.4f} mm, Cramer-Rao bound {:.4f} mm (scatter/bound {:.3f}), mean reported "
+      "sigma {:.4f} mm, 95% interval coverage {:.1f}%\n",
+      radius.size(), grid.size(), r_true, mean - r_true, (mean - r_true) / scatter, scatter / std::sqrt(n), scatter,
+      crb, scatter / crb, std::accumulate(sigma.begin(), sigma.end(), 0.0) / n, 100.0 * covered / n);
+  return 0;
+}
+
+}  // namespace
+
+void AddBenchFitCommand(CLI::App& bench, std::function<int()>& run) {
+  auto args = std::make_shared<BenchFitArgs>();
+  CLI::App* fit = bench.add_subcommand(
+      "fit", "Screen fit on synthetic truth: time per model (1 and 10 photos), radius bias/scatter/CRB/coverage");
+  fit->add_option("--scene", args->scene, "Scene file (its true monitor and camera)")->capture_default_str();
+  fit->add_option("--runs", args->runs, "Timed runs per case (median reported)")->capture_default_str();
+  fit->add_option("--seeds", args->seeds, "Seeded single-photo fits for the radius statistics")->capture_default_str();
+  fit->add_option("--noise", args->noise_px, "Detection noise, px per coordinate")->capture_default_str();
+  fit->callback([&run, args] { run = [args] { return RunBenchFit(*args); }; });
+}
+
+}  // namespace curvecheck::app

@@ -228,6 +228,7 @@ void AddBenchCommand(CLI::App& app, std::function<int()>& run) {
   render->add_option("-o,--output", args->output, "Output folder")->capture_default_str();
   render->add_flag("--quick", args->quick, "A reduced set of settings (for smoke tests)");
   render->callback([&run, args] { run = [args] { return RunBenchRender(*args); }; });
+  AddBenchCaptureCommand(*bench, run);
 }
 
 }  // namespace curvecheck::app

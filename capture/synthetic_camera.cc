@@ -8,6 +8,11 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <ctime>
+#include <exception>
+#include <map>
+#include <memory>
+#include <mutex>
 #include <numbers>
 #include <opencv2/imgproc.hpp>
 #include <random>
@@ -25,6 +30,12 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 double MsSince(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
+// CPU time of the whole process (all threads), ms.
+double CpuMs() {
+  timespec t{};
+  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
+  return static_cast<double>(t.tv_sec) * 1e3 + static_cast<double>(t.tv_nsec) * 1e-6;
+}
 constexpr double kRadPerDeg = std::numbers::pi / 180;
 
 Eigen::Vector3d Vec3(const ConfigMap& c, const std::string& key) {
@@ -46,15 +57,24 @@ template <typename F>
 void ParallelRows(int rows, const F& body) {
   const int threads = ThreadCount();
   std::atomic<int> next{0};
+  std::exception_ptr failure;
+  std::mutex failure_mutex;
   auto work = [&] {
-    for (int y0 = next.fetch_add(4); y0 < rows; y0 = next.fetch_add(4)) {
-      for (int y = y0; y < std::min(rows, y0 + 4); ++y) body(y);
+    try {
+      for (int y0 = next.fetch_add(4); y0 < rows; y0 = next.fetch_add(4)) {
+        for (int y = y0; y < std::min(rows, y0 + 4); ++y) body(y);
+      }
+    } catch (...) {  // the first failure is rethrown on the calling thread; the others stop early
+      next = rows;
+      const std::lock_guard<std::mutex> lock(failure_mutex);
+      if (!failure) failure = std::current_exception();
     }
   };
   std::vector<std::thread> pool;
   for (int t = 1; t < threads; ++t) pool.emplace_back(work);
   work();
   for (auto& th : pool) th.join();
+  if (failure) std::rethrow_exception(failure);
 }
 
 // The true surface of TrueMonitor's header comment, in the true centre frame, with the maps between it, its
@@ -115,7 +135,16 @@ inline double FastAtan(double x) {
   }
   const double x2 = x * x;
   double p = 1.0 / 21;
-  for (int n = 9; n >= 0; --n) p = p * x2 + ((n % 2) ? -1.0 : 1.0) / (2 * n + 1);
+  p = p * x2 - 1.0 / 19;
+  p = p * x2 + 1.0 / 17;
+  p = p * x2 - 1.0 / 15;
+  p = p * x2 + 1.0 / 13;
+  p = p * x2 - 1.0 / 11;
+  p = p * x2 + 1.0 / 9;
+  p = p * x2 - 1.0 / 7;
+  p = p * x2 + 1.0 / 5;
+  p = p * x2 - 1.0 / 3;
+  p = p * x2 + 1.0;
   return offset + x * p;
 }
 
@@ -303,20 +332,21 @@ RayGrid::RayGrid(const CameraModel& camera, double spacing_px, double dense_px)
   // Nodes from -2 spacings to beyond the far edge so that every pixel has its 4 x 4 neighbourhood.
   nx_ = static_cast<int>(std::ceil((camera.width + 1) / spacing_)) + 4;
   ny_ = static_cast<int>(std::ceil((camera.height + 1) / spacing_)) + 4;
-  std::vector<Eigen::Vector2d> q;
-  q.reserve(static_cast<size_t>(nx_) * ny_);
-  for (int j = 0; j < ny_; ++j) {
+  normalized_.resize(static_cast<size_t>(nx_) * ny_);
+  ParallelRows(ny_, [&](int j) {  // mrcal's unprojection is iterative for most models: one row per call, all cores
+    std::vector<Eigen::Vector2d> q;
     for (int i = 0; i < nx_; ++i) q.push_back(Node(i, j));
-  }
-  const std::vector<Eigen::Vector3d> v = UnprojectPixels(camera, q);
-  normalized_.resize(v.size());
-  for (size_t k = 0; k < v.size(); ++k) {
-    if (!(v[k].z() > 0.05)) {
-      throw Error("camera model", fmt::format("{} sees rays at more than 87 deg from its axis", camera.lensmodel),
-                  "the synthetic camera supports lenses with a field of view below 174 deg");
+    const std::vector<Eigen::Vector3d> v = UnprojectPixels(camera, q);
+    for (int i = 0; i < nx_; ++i) {
+      const Eigen::Vector3d& r = v[static_cast<size_t>(i)];
+      if (!(r.z() > 0.05)) {
+        throw Error("camera model", fmt::format("{} sees rays at more than 87 deg from its axis", camera.lensmodel),
+                    "the synthetic camera supports lenses with a field of view below 174 deg");
+      }
+      normalized_[static_cast<size_t>(j) * nx_ + static_cast<size_t>(i)] =
+          Eigen::Vector2f(static_cast<float>(r.x() / r.z()), static_cast<float>(r.y() / r.z()));
     }
-    normalized_[k] = Eigen::Vector2f(static_cast<float>(v[k].x() / v[k].z()), static_cast<float>(v[k].y() / v[k].z()));
-  }
+  });
   dense_nx_ = static_cast<int>(std::ceil(camera.width / dense_spacing_)) + 2;
   dense_ny_ = static_cast<int>(std::ceil(camera.height / dense_spacing_)) + 2;
   dense_.resize(static_cast<size_t>(dense_nx_) * dense_ny_);
@@ -389,6 +419,32 @@ double RayGrid::MeasureErrorPx(const CameraModel& camera, int samples, uint64_t 
 
 namespace {
 
+// SharedRayGrid with a flag: *cached is set when the table came from the cache.
+std::shared_ptr<const RayGrid> SharedRayGrid(const CameraModel& camera, double spacing_px, const RayGrid** cached) {
+  static std::mutex mutex;
+  static std::vector<std::pair<std::string, std::shared_ptr<const RayGrid>>> cache;  // most recent last
+  std::string key = fmt::format("{} {}x{} {:a}", camera.lensmodel, camera.width, camera.height, spacing_px);
+  for (double p : camera.intrinsics) key += fmt::format(" {:a}", p);
+  {
+    const std::lock_guard<std::mutex> lock(mutex);
+    for (auto it = cache.begin(); it != cache.end(); ++it) {
+      if (it->first == key) {
+        auto entry = *it;
+        cache.erase(it);
+        cache.push_back(entry);
+        *cached = entry.second.get();
+        return entry.second;
+      }
+    }
+  }
+  // Built outside the lock (it takes all cores); two threads asking for a new lens at once both build it.
+  auto grid = std::make_shared<const RayGrid>(camera, spacing_px);
+  const std::lock_guard<std::mutex> lock(mutex);
+  cache.emplace_back(key, grid);
+  if (cache.size() > 4) cache.erase(cache.begin());
+  return grid;
+}
+
 // Per-scene precomputation for the ray tracer. Rays are traced in the upright true centre frame (the true
 // centre frame mapped through the inverse lean shear), where the true screen is the upright cylinder
 // k (x^2 + z^2) = 2 z: the camera origin is transformed once, directions by one fixed 3 x 3, and the quadratic's
@@ -401,7 +457,7 @@ struct Tracer {
   Eigen::Matrix3d upright_from_cam;
   Eigen::Vector3d o;         // camera in the upright true centre frame
   double k, c_term;          // curvature; c = k (o_x^2 + o_z^2) - 2 o_z
-  double u_from_s, v_from_y;  // u = s / (W/2), v = -y / (H/2)
+  double u_from_s, u_from_phi, v_from_y;  // u = s / (W/2) = phi / (k W/2), v = -y / (H/2)
   double px_per_u, py_per_v;  // display px + 0.5 = (u + 1) px_per_u
   double bezel_u, bezel_v;    // half-extent of bezel + display in u, v
   float room, bezel, black;
@@ -423,6 +479,7 @@ struct Tracer {
     c_term = k * (o.x() * o.x() + o.z() * o.z()) - 2 * o.z();
     const Monitor& m = s.monitor;
     u_from_s = 1 / geometry.half_w;
+    u_from_phi = k == 0 ? 0.0 : 1 / (k * geometry.half_w);
     v_from_y = -1 / geometry.half_h;
     px_per_u = 0.5 * m.width_px;
     py_per_v = 0.5 * m.height_px;
@@ -486,7 +543,7 @@ struct Tracer {
       const double den = 2 - k * pz;  // 1 + cos(phi)
       const double tan_half = k * px / den;
       const double phi = (den > 0 && std::abs(tan_half) <= 1) ? 2 * FastAtan(tan_half) : std::atan2(k * px, 1 - k * pz);
-      u = phi / k * u_from_s;
+      u = phi * u_from_phi;
     }
     if (!bump_support.empty()) {
       for (const Box& box : bump_support) {
@@ -548,6 +605,11 @@ struct Tracer {
 
 }  // namespace
 
+std::shared_ptr<const RayGrid> SharedRayGrid(const CameraModel& camera, double spacing_px) {
+  const RayGrid* cached = nullptr;
+  return SharedRayGrid(camera, spacing_px, &cached);
+}
+
 SyntheticPhoto RenderSyntheticPhoto(const SyntheticScene& s, const Image8& display, double ray_grid_px) {
   if (display.width != s.monitor.width_px || display.height != s.monitor.height_px) {
     throw Error("display image",
@@ -561,10 +623,16 @@ SyntheticPhoto RenderSyntheticPhoto(const SyntheticScene& s, const Image8& displ
   photo.bits = s.sensor.bits;
   photo.timing.threads = ThreadCount();
   auto t0 = Clock::now();
-  const RayGrid rays(s.camera, ray_grid_px);
+  double c0 = CpuMs();
+  const RayGrid* cached = nullptr;
+  const std::shared_ptr<const RayGrid> grid = SharedRayGrid(s.camera, ray_grid_px, &cached);
+  const RayGrid& rays = *grid;
+  photo.timing.rays_cached = cached != nullptr;
   photo.timing.rays_ms = MsSince(t0);
+  photo.timing.rays_cpu_ms = CpuMs() - c0;
 
   t0 = Clock::now();
+  c0 = CpuMs();
   const Tracer tracer(s, display);
   const int n = s.optics.supersample;
   const int samples_x = photo.width * n;
@@ -611,8 +679,10 @@ SyntheticPhoto RenderSyntheticPhoto(const SyntheticScene& s, const Image8& displ
   photo.timing.rays = static_cast<int64_t>(photo.width) * photo.height * n * n;
   photo.timing.refined_rays = refined_total;
   photo.timing.trace_ms = MsSince(t0);
+  photo.timing.trace_cpu_ms = CpuMs() - c0;
 
   t0 = Clock::now();
+  c0 = CpuMs();
   if (s.optics.blur == "gaussian" && s.optics.blur_px > 0) {
     cv::GaussianBlur(radiance, radiance, cv::Size(0, 0), s.optics.blur_px, s.optics.blur_px, cv::BORDER_REPLICATE);
   } else if (s.optics.blur == "disc" && s.optics.blur_px > 0) {
@@ -623,8 +693,10 @@ SyntheticPhoto RenderSyntheticPhoto(const SyntheticScene& s, const Image8& displ
     cv::filter2D(radiance, radiance, -1, kernel, cv::Point(-1, -1), 0, cv::BORDER_REPLICATE);
   }
   photo.timing.optics_ms = MsSince(t0);
+  photo.timing.optics_cpu_ms = CpuMs() - c0;
 
   t0 = Clock::now();
+  c0 = CpuMs();
   const double cx = 0.5 * (photo.width - 1), cy = 0.5 * (photo.height - 1), r2_corner = cx * cx + cy * cy;
   const double max_code = s.sensor.bits == 16 ? 65535.0 : 255.0;
   const double full_well = s.sensor.full_well_e, read2 = s.sensor.read_noise_e * s.sensor.read_noise_e;
@@ -654,6 +726,7 @@ SyntheticPhoto RenderSyntheticPhoto(const SyntheticScene& s, const Image8& displ
     }
   });
   photo.timing.sensor_ms = MsSince(t0);
+  photo.timing.sensor_cpu_ms = CpuMs() - c0;
   return photo;
 }
 

@@ -18,6 +18,7 @@
 #include <Eigen/Core>
 #include <cstdint>
 #include <filesystem>
+#include <memory>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
@@ -151,15 +152,19 @@ class RayGrid {
   std::vector<Eigen::Vector2d> dense_;  // (x/z, y/z) at (i * dense - 0.5, j * dense - 0.5)
 };
 
+// Wall-clock and process CPU time (all threads) per stage, ms. On a machine shared with other work the wall
+// times grow while the CPU times do not; cpu / wall shows how many cores the stage actually had.
 struct PhotoTiming {
-  double rays_ms = 0;    // ray table from the lens model (mrcal unprojection + interpolation)
-  double trace_ms = 0;   // intersection and display sampling, supersampled
-  double optics_ms = 0;  // blur
-  double sensor_ms = 0;  // vignetting, exposure, noise, gamma, quantization
+  double rays_ms = 0, rays_cpu_ms = 0;      // ray table from the lens model (0 when it came from the cache)
+  double trace_ms = 0, trace_cpu_ms = 0;    // intersection and display sampling, supersampled
+  double optics_ms = 0, optics_cpu_ms = 0;  // blur
+  double sensor_ms = 0, sensor_cpu_ms = 0;  // vignetting, exposure, noise, gamma, quantization
   int64_t rays = 0;
   int64_t refined_rays = 0;  // rays refined onto the deviation field (inside a bump's support)
+  bool rays_cached = false;  // the ray table was built by an earlier photo through the same lens
   int threads = 1;
   double total_ms() const { return rays_ms + trace_ms + optics_ms + sensor_ms; }
+  double total_cpu_ms() const { return rays_cpu_ms + trace_cpu_ms + optics_cpu_ms + sensor_cpu_ms; }
 };
 
 struct SyntheticPhoto {
@@ -168,8 +173,12 @@ struct SyntheticPhoto {
   PhotoTiming timing;
 };
 
+// The ray table for `camera` with grid spacing `spacing_px`, built on first use and kept for the process (the
+// last 4 lenses), so that a sweep of photos through one lens pays for mrcal's unprojection once. Thread-safe.
+std::shared_ptr<const RayGrid> SharedRayGrid(const CameraModel& camera, double spacing_px);
+
 // Renders the photo of `display` (the display image: gray or colour, the monitor's resolution) as the scene's
-// camera sees it. Runs on all cores. Throws Error if the display image does not match the monitor.
+// camera sees it. Runs on all cores; the ray table comes from SharedRayGrid. Throws Error if the display image does not match the monitor.
 SyntheticPhoto RenderSyntheticPhoto(const SyntheticScene& scene, const Image8& display, double ray_grid_px = 16);
 
 // truth.json: format curvecheck.truth/1 with the true geometry, the camera (model and pose) and, for each

@@ -237,9 +237,9 @@ int RunBenchAnalyze(const BenchAnalyzeArgs& a) {
 
 }  // namespace
 
-void AddBenchAnalyzeCommand(CLI::App* bench, std::function<int()>& run) {
+void AddBenchAnalyzeCommand(CLI::App& bench, std::function<int()>& run) {
   auto args = std::make_shared<BenchAnalyzeArgs>();
-  CLI::App* cmd = bench->add_subcommand(
+  CLI::App* cmd = bench.add_subcommand(
       "analyze", "The whole analysis on synthetic photos of a scene, many noise seeds: radius bias, sigma against "
                  "the Cramer-Rao bound, interval coverage, model choice, time per stage");
   cmd->add_option("--scene", args->scene, "Scene YAML, or the name of an embedded scene")->capture_default_str();

@@ -10,6 +10,9 @@
 #include <filesystem>
 #include <iostream>
 
+#include "app/bench_analyze.h"
+#include "app/bench_detect.h"
+#include "app/bench_fit.h"
 #include "app/machine_info.h"
 #include "app/render_options.h"
 #include "core/error.h"
@@ -228,6 +231,10 @@ void AddBenchCommand(CLI::App& app, std::function<int()>& run) {
   render->add_option("-o,--output", args->output, "Output folder")->capture_default_str();
   render->add_flag("--quick", args->quick, "A reduced set of settings (for smoke tests)");
   render->callback([&run, args] { run = [args] { return RunBenchRender(*args); }; });
+  AddBenchCaptureCommand(*bench, run);
+  AddBenchDetectCommand(*bench, run);
+  AddBenchFitCommand(*bench, run);
+  AddBenchAnalyzeCommand(*bench, run);
 }
 
 }  // namespace curvecheck::app

@@ -54,12 +54,12 @@ int RunSynth(const SynthArgs& a) {
   int visible = 0;
   for (const auto& f : truth["features"]) visible += f["visible"].get<bool>() ? 1 : 0;
   const PhotoTiming& t = photo.timing;
-  const double total = t.rays_ms + t.trace_ms + t.optics_ms + t.sensor_ms;
   std::cout << fmt::format(
-      "{} x {} px, {} rays in {:.0f} ms ({:.1f} M rays/s): rays {:.0f} ms, trace {:.0f} ms, optics {:.0f} ms, "
-      "sensor {:.0f} ms\n{} of {} features visible\nwrote {} and {}\n",
-      photo.width, photo.height, t.rays, total, t.rays / (t.trace_ms * 1e3), t.rays_ms, t.trace_ms, t.optics_ms,
-      t.sensor_ms, visible, truth["features"].size(), out.string(), truth_path.string());
+      "{} x {} px, {} rays in {:.0f} ms ({:.1f} M rays/s traced; CPU {:.0f} ms on {} threads): rays {:.0f} ms, "
+      "trace {:.0f} ms, optics {:.0f} ms, sensor {:.0f} ms\n{} of {} features visible\nwrote {} and {}\n",
+      photo.width, photo.height, t.rays, t.total_ms(), t.rays / (t.trace_ms * 1e3), t.total_cpu_ms(), t.threads,
+      t.rays_ms, t.trace_ms, t.optics_ms, t.sensor_ms, visible, truth["features"].size(), out.string(),
+      truth_path.string());
   return 0;
 }
 

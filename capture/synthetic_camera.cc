@@ -3,8 +3,16 @@
 #include <fmt/format.h>
 
 #include <Eigen/Geometry>
+#include <Eigen/LU>
+#include <array>
+#include <atomic>
 #include <chrono>
 #include <cmath>
+#include <ctime>
+#include <exception>
+#include <map>
+#include <memory>
+#include <mutex>
 #include <numbers>
 #include <opencv2/imgproc.hpp>
 #include <random>
@@ -12,6 +20,7 @@
 
 #include "core/config.h"
 #include "core/error.h"
+#include "core/math_util.h"
 #include "core/screen_geometry.h"
 #include "datasets/monitor_presets.h"
 #include "render/pattern.h"
@@ -21,18 +30,17 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 double MsSince(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
+// CPU time of the whole process (all threads), ms.
+double CpuMs() {
+  timespec t{};
+  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
+  return static_cast<double>(t.tv_sec) * 1e3 + static_cast<double>(t.tv_nsec) * 1e-6;
+}
 constexpr double kRadPerDeg = std::numbers::pi / 180;
 
 Eigen::Vector3d Vec3(const ConfigMap& c, const std::string& key) {
   const std::vector<double> v = c.Numbers(key, 3);
   return {v[0], v[1], v[2]};
-}
-
-// The true monitor as a Monitor (its own curvature; same size and pixel grid as the nominal one).
-Monitor TrueAsMonitor(const SyntheticScene& s) {
-  Monitor m = s.monitor;
-  m.curvature_per_mm = s.truth.curvature_per_mm;
-  return m;
 }
 
 // Catmull-Rom weights for fraction f.
@@ -41,26 +49,159 @@ Eigen::Vector4d CubicWeights(double f) {
   return {-0.5 * f3 + f2 - 0.5 * f, 1.5 * f3 - 2.5 * f2 + 1.0, -1.5 * f3 + 2.0 * f2 + 0.5 * f, 0.5 * f3 - 0.5 * f2};
 }
 
+int ThreadCount() { return static_cast<int>(std::max(1u, std::thread::hardware_concurrency())); }
+
+// body(y) for y in [0, rows) on all cores; rows are handed out in blocks of 4 as threads free up (rows that
+// see only the room are cheaper than rows across the display).
 template <typename F>
 void ParallelRows(int rows, const F& body) {
-  const int threads = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  const int threads = ThreadCount();
+  std::atomic<int> next{0};
+  std::exception_ptr failure;
+  std::mutex failure_mutex;
+  auto work = [&] {
+    try {
+      for (int y0 = next.fetch_add(4); y0 < rows; y0 = next.fetch_add(4)) {
+        for (int y = y0; y < std::min(rows, y0 + 4); ++y) body(y);
+      }
+    } catch (...) {  // the first failure is rethrown on the calling thread; the others stop early
+      next = rows;
+      const std::lock_guard<std::mutex> lock(failure_mutex);
+      if (!failure) failure = std::current_exception();
+    }
+  };
   std::vector<std::thread> pool;
-  for (int t = 0; t < threads; ++t) {
-    pool.emplace_back([&, t] {
-      for (int y = t; y < rows; y += threads) body(y);
-    });
-  }
+  for (int t = 1; t < threads; ++t) pool.emplace_back(work);
+  work();
   for (auto& th : pool) th.join();
+  if (failure) std::rethrow_exception(failure);
 }
+
+// The true surface of TrueMonitor's header comment, in the true centre frame, with the maps between it, its
+// upright (unleaned) cylinder and the nominal screen frame.
+struct TrueGeometry {
+  double k, half_w, half_h, cos_l, sin_l;
+  Eigen::Matrix3d shear, upright_from_true, rotation;
+  Eigen::Vector3d centre_in_screen;  // true screen centre in the nominal screen frame
+  const TrueMonitor* truth;
+
+  explicit TrueGeometry(const SyntheticScene& s) : truth(&s.truth) {
+    k = s.truth.curvature_per_mm;
+    half_w = 0.5 * s.monitor.width_mm;
+    half_h = 0.5 * s.monitor.height_mm;
+    const double l = s.truth.lean_deg * kRadPerDeg;
+    cos_l = std::cos(l);
+    sin_l = std::sin(l);
+    shear = s.truth.Shear();
+    upright_from_true = shear.inverse();
+    rotation = s.truth.Rotation();
+    centre_in_screen = ScreenCentreInScreen(s.monitor) + s.truth.translation_mm;
+  }
+  // phi = k s at u.
+  double Phi(double u) const { return k * u * half_w; }
+  // The leaned surface without deviation, C(u) + w a.
+  Eigen::Vector3d BasePoint(const Eigen::Vector2d& uv) const {
+    const double s = uv.x() * half_w, phi = k * s, h = Sinc(0.5 * phi), w = -uv.y() * half_h;
+    return {s * Sinc(phi), w * cos_l, s * 0.5 * phi * h * h + w * sin_l};
+  }
+  // Unit normal of the leaned surface: dC/du x a = (-sin(phi) cos(l), -cos(phi) sin(l), cos(phi) cos(l)).
+  Eigen::Vector3d Normal(const Eigen::Vector2d& uv) const {
+    const double phi = Phi(uv.x());
+    return Eigen::Vector3d(-std::sin(phi) * cos_l, -std::cos(phi) * sin_l, std::cos(phi) * cos_l).normalized();
+  }
+  Eigen::Vector3d Point(const Eigen::Vector2d& uv, Eigen::Vector3d* normal = nullptr) const {
+    const Eigen::Vector3d n = Normal(uv);
+    if (normal) *normal = n;
+    return BasePoint(uv) + truth->DeviationMm(uv) * n;
+  }
+  // (u, v) of the base surface point met by the upright cylinder's radius (in the plane y = const) through p.
+  Eigen::Vector2d BaseUv(const Eigen::Vector3d& p_true) const {
+    const Eigen::Vector3d p = upright_from_true * p_true;
+    const double s = k == 0 ? p.x() : std::atan2(k * p.x(), 1 - k * p.z()) / k;
+    return {s / half_w, -p.y() / half_h};
+  }
+};
+
+// atan(x) for |x| <= 1, within 1e-10 rad: reduced to |x| <= tan(pi/8) and summed as its odd series to x^21.
+inline double FastAtan(double x) {
+  constexpr double kTanPi8 = 0.41421356237309503;
+  double offset = 0;
+  if (x > kTanPi8) {
+    offset = std::numbers::pi / 4;
+    x = (x - 1) / (x + 1);
+  } else if (x < -kTanPi8) {
+    offset = -std::numbers::pi / 4;
+    x = (x + 1) / (1 - x);
+  }
+  const double x2 = x * x;
+  double p = 1.0 / 21;
+  p = p * x2 - 1.0 / 19;
+  p = p * x2 + 1.0 / 17;
+  p = p * x2 - 1.0 / 15;
+  p = p * x2 + 1.0 / 13;
+  p = p * x2 - 1.0 / 11;
+  p = p * x2 + 1.0 / 9;
+  p = p * x2 - 1.0 / 7;
+  p = p * x2 + 1.0 / 5;
+  p = p * x2 - 1.0 / 3;
+  p = p * x2 + 1.0;
+  return offset + x * p;
+}
+
+// SplitMix64 (Steele, Lea, Flood 2014): a small, fast generator, one stream per row seeded from (seed, row).
+struct SplitMix64 {
+  uint64_t state;
+  uint64_t Next() {
+    uint64_t z = (state += 0x9E3779B97F4A7C15ull);
+    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+    return z ^ (z >> 31);
+  }
+  double Uniform() { return static_cast<double>(Next() >> 11) * 0x1.0p-53; }  // [0, 1)
+  // Standard normal by Marsaglia's polar method (two per accepted pair; the second is kept).
+  double Normal() {
+    if (has_spare) {
+      has_spare = false;
+      return spare;
+    }
+    double a, b, r2;
+    do {
+      a = 2 * Uniform() - 1;
+      b = 2 * Uniform() - 1;
+      r2 = a * a + b * b;
+    } while (r2 >= 1 || r2 == 0);
+    const double f = std::sqrt(-2 * std::log(r2) / r2);
+    spare = b * f;
+    has_spare = true;
+    return a * f;
+  }
+  // Poisson by Knuth's product of uniforms (for small means only: about mean + 1 uniforms).
+  int Poisson(double mean) {
+    const double limit = std::exp(-mean);
+    int n = 0;
+    for (double p = Uniform(); p > limit; p *= Uniform()) ++n;
+    return n;
+  }
+  double spare = 0;
+  bool has_spare = false;
+};
 
 }  // namespace
 
 Eigen::Matrix3d TrueMonitor::Rotation() const {
   const Eigen::Vector3d r = rotation_deg * kRadPerDeg;
-  // Lean tilts the top (+y) toward the viewer (+z): a rotation about x by -lean.
   return (Eigen::AngleAxisd(r.z(), Eigen::Vector3d::UnitZ()) * Eigen::AngleAxisd(r.y(), Eigen::Vector3d::UnitY()) *
-          Eigen::AngleAxisd(r.x() - lean_deg * kRadPerDeg, Eigen::Vector3d::UnitX()))
+          Eigen::AngleAxisd(r.x(), Eigen::Vector3d::UnitX()))
       .toRotationMatrix();
+}
+
+Eigen::Matrix3d TrueMonitor::Shear() const {
+  // (x, w, z) upright -> (x, w cos(lambda), z + w sin(lambda)): the column through each point turns into the
+  // axis a = (0, cos(lambda), sin(lambda)) while x and z stay, so rows keep their arcs.
+  const double l = lean_deg * kRadPerDeg;
+  Eigen::Matrix3d m;
+  m << 1, 0, 0, 0, std::cos(l), 0, 0, std::sin(l), 1;
+  return m;
 }
 
 double TrueMonitor::DeviationMm(const Eigen::Vector2d& uv) const {
@@ -114,7 +255,10 @@ SyntheticScene SceneFromConfig(const ConfigMap& c, const std::filesystem::path& 
     }
     if (t.Has("translation_mm")) s.truth.translation_mm = Vec3(t, "translation_mm");
     if (t.Has("rotation_deg")) s.truth.rotation_deg = Vec3(t, "rotation_deg");
-    if (t.Has("lean_deg")) s.truth.lean_deg = t.Number("lean_deg");
+    if (t.Has("lean_deg")) {
+      s.truth.lean_deg = t.Number("lean_deg");
+      if (!(std::abs(s.truth.lean_deg) < 45)) t.Fail("lean_deg", "is not within +-45 deg", "give the axis tilt in degrees");
+    }
     if (t.Has("bumps")) {
       for (const ConfigMap& b : t.MapList("bumps")) {
         b.RejectUnknownKeys({"u", "v", "sigma_u", "sigma_v", "height_mm"});
@@ -176,12 +320,11 @@ SyntheticScene LoadScene(const std::filesystem::path& path) {
 }
 
 Eigen::Vector3d TrueSurfacePointInScreen(const SyntheticScene& s, const Eigen::Vector2d& uv, Eigen::Vector3d* normal) {
-  const Monitor mt = TrueAsMonitor(s);
-  const Eigen::Vector3d n_true = SurfaceNormalFromUv(mt, uv);
-  const Eigen::Vector3d p_true = SurfacePointFromUv(mt, uv) - ScreenCentreInScreen(mt) + s.truth.DeviationMm(uv) * n_true;
-  const Eigen::Matrix3d r = s.truth.Rotation();
-  if (normal) *normal = r * n_true;  // ignores the slope of the deviation field (smooth, small)
-  return ScreenCentreInScreen(s.monitor) + s.truth.translation_mm + r * p_true;
+  const TrueGeometry g(s);
+  Eigen::Vector3d n;
+  const Eigen::Vector3d p = g.Point(uv, &n);  // the normal ignores the slope of the deviation field (smooth, small)
+  if (normal) *normal = g.rotation * n;
+  return g.centre_in_screen + g.rotation * p;
 }
 
 RayGrid::RayGrid(const CameraModel& camera, double spacing_px, double dense_px)
@@ -189,28 +332,45 @@ RayGrid::RayGrid(const CameraModel& camera, double spacing_px, double dense_px)
   // Nodes from -2 spacings to beyond the far edge so that every pixel has its 4 x 4 neighbourhood.
   nx_ = static_cast<int>(std::ceil((camera.width + 1) / spacing_)) + 4;
   ny_ = static_cast<int>(std::ceil((camera.height + 1) / spacing_)) + 4;
-  std::vector<Eigen::Vector2d> q;
-  q.reserve(static_cast<size_t>(nx_) * ny_);
-  for (int j = 0; j < ny_; ++j) {
+  normalized_.resize(static_cast<size_t>(nx_) * ny_);
+  ParallelRows(ny_, [&](int j) {  // mrcal's unprojection is iterative for most models: one row per call, all cores
+    std::vector<Eigen::Vector2d> q;
     for (int i = 0; i < nx_; ++i) q.push_back(Node(i, j));
-  }
-  const std::vector<Eigen::Vector3d> v = UnprojectPixels(camera, q);
-  normalized_.resize(v.size());
-  for (size_t k = 0; k < v.size(); ++k) {
-    if (!(v[k].z() > 0.05)) {
-      throw Error("camera model", fmt::format("{} sees rays at more than 87 deg from its axis", camera.lensmodel),
-                  "the synthetic camera supports lenses with a field of view below 174 deg");
+    const std::vector<Eigen::Vector3d> v = UnprojectPixels(camera, q);
+    for (int i = 0; i < nx_; ++i) {
+      const Eigen::Vector3d& r = v[static_cast<size_t>(i)];
+      if (!(r.z() > 0.05)) {
+        throw Error("camera model", fmt::format("{} sees rays at more than 87 deg from its axis", camera.lensmodel),
+                    "the synthetic camera supports lenses with a field of view below 174 deg");
+      }
+      normalized_[static_cast<size_t>(j) * nx_ + static_cast<size_t>(i)] =
+          Eigen::Vector2f(static_cast<float>(r.x() / r.z()), static_cast<float>(r.y() / r.z()));
     }
-    normalized_[k] = Eigen::Vector2f(static_cast<float>(v[k].x() / v[k].z()), static_cast<float>(v[k].y() / v[k].z()));
-  }
+  });
   dense_nx_ = static_cast<int>(std::ceil(camera.width / dense_spacing_)) + 2;
   dense_ny_ = static_cast<int>(std::ceil(camera.height / dense_spacing_)) + 2;
   dense_.resize(static_cast<size_t>(dense_nx_) * dense_ny_);
-  for (int j = 0; j < dense_ny_; ++j) {
+  ParallelRows(dense_ny_, [&](int j) {
     for (int i = 0; i < dense_nx_; ++i) {
       dense_[static_cast<size_t>(j) * dense_nx_ + i] = Bicubic({i * dense_spacing_ - 0.5, j * dense_spacing_ - 0.5});
     }
-  }
+  });
+}
+
+void RayGrid::RowNodes(double y_px, std::vector<Eigen::Vector2d>* nodes) const {
+  const double gy = (y_px + 0.5) / dense_spacing_;
+  const int j = std::clamp(static_cast<int>(gy), 0, dense_ny_ - 2);
+  const double fy = gy - j;
+  nodes->resize(static_cast<size_t>(dense_nx_));
+  const Eigen::Vector2d* top = &dense_[static_cast<size_t>(j) * dense_nx_];
+  const Eigen::Vector2d* bottom = top + dense_nx_;
+  for (int i = 0; i < dense_nx_; ++i) (*nodes)[static_cast<size_t>(i)] = (1 - fy) * top[i] + fy * bottom[i];
+}
+
+void RayGrid::DenseColumn(double x_px, int* i, double* f) const {
+  const double gx = (x_px + 0.5) / dense_spacing_;
+  *i = std::clamp(static_cast<int>(gx), 0, dense_nx_ - 2);
+  *f = gx - *i;
 }
 
 Eigen::Vector2d RayGrid::Node(int i, int j) const { return {(i - 2) * spacing_ - 0.5, (j - 2) * spacing_ - 0.5}; }
@@ -259,81 +419,196 @@ double RayGrid::MeasureErrorPx(const CameraModel& camera, int samples, uint64_t 
 
 namespace {
 
-// Radiance (relative to a full white display pixel) seen along a ray in the screen frame.
+// SharedRayGrid with a flag: *cached is set when the table came from the cache.
+std::shared_ptr<const RayGrid> SharedRayGrid(const CameraModel& camera, double spacing_px, const RayGrid** cached) {
+  static std::mutex mutex;
+  static std::vector<std::pair<std::string, std::shared_ptr<const RayGrid>>> cache;  // most recent last
+  std::string key = fmt::format("{} {}x{} {:a}", camera.lensmodel, camera.width, camera.height, spacing_px);
+  for (double p : camera.intrinsics) key += fmt::format(" {:a}", p);
+  {
+    const std::lock_guard<std::mutex> lock(mutex);
+    for (auto it = cache.begin(); it != cache.end(); ++it) {
+      if (it->first == key) {
+        auto entry = *it;
+        cache.erase(it);
+        cache.push_back(entry);
+        *cached = entry.second.get();
+        return entry.second;
+      }
+    }
+  }
+  // Built outside the lock (it takes all cores); two threads asking for a new lens at once both build it.
+  auto grid = std::make_shared<const RayGrid>(camera, spacing_px);
+  const std::lock_guard<std::mutex> lock(mutex);
+  cache.emplace_back(key, grid);
+  if (cache.size() > 4) cache.erase(cache.begin());
+  return grid;
+}
+
+// Per-scene precomputation for the ray tracer. Rays are traced in the upright true centre frame (the true
+// centre frame mapped through the inverse lean shear), where the true screen is the upright cylinder
+// k (x^2 + z^2) = 2 z: the camera origin is transformed once, directions by one fixed 3 x 3, and the quadratic's
+// constant term is the same for every ray. Surface coordinates come from the hit point without atan2: on the
+// cylinder sin(phi) = k x and cos(phi) = 1 - k z, so phi = 2 atan(k x / (2 - k z)) (half-angle form).
 struct Tracer {
   const SyntheticScene& s;
   const Image8& display;
-  Monitor true_monitor;
-  Eigen::Matrix3d true_from_nominal;  // rotation
-  Eigen::Vector3d origin_true_centre;  // camera position in the true centre frame
-  std::vector<float> linear;           // display code -> linear light, per channel value 0..255
-  bool deviated;
+  TrueGeometry geometry;
+  Eigen::Matrix3d upright_from_cam;
+  Eigen::Vector3d o;         // camera in the upright true centre frame
+  double k, c_term;          // curvature; c = k (o_x^2 + o_z^2) - 2 o_z
+  double u_from_s, u_from_phi, v_from_y;  // u = s / (W/2) = phi / (k W/2), v = -y / (H/2)
+  double px_per_u, py_per_v;  // display px + 0.5 = (u + 1) px_per_u
+  double bezel_u, bezel_v;    // half-extent of bezel + display in u, v
+  float room, bezel, black;
+  double half_fill;
+  bool stripes;
+  std::array<std::array<float, 256>, 3> stripe_light;  // luma-weighted linear light of stripe R, G, B per code
+  std::array<float, 256> gray_light;                   // linear light per code (no stripes)
+  int channels;
+  struct Box {
+    double u0, u1, v0, v1;
+  };
+  std::vector<Box> bump_support;  // where a bump's 4-sigma support (grown by the parallax of its height) lies
 
-  Tracer(const SyntheticScene& scene, const Image8& img) : s(scene), display(img) {
-    true_monitor = TrueAsMonitor(s);
-    true_from_nominal = s.truth.Rotation().transpose();
-    origin_true_centre =
-        true_from_nominal * (s.camera_position_in_screen - ScreenCentreInScreen(s.monitor) - s.truth.translation_mm);
-    linear.resize(256);
+  Tracer(const SyntheticScene& scene, const Image8& img) : s(scene), display(img), geometry(scene) {
+    const Eigen::Matrix3d true_from_screen = geometry.rotation.transpose();
+    upright_from_cam = geometry.upright_from_true * true_from_screen * s.screen_from_cam;
+    o = geometry.upright_from_true * true_from_screen * (s.camera_position_in_screen - geometry.centre_in_screen);
+    k = geometry.k;
+    c_term = k * (o.x() * o.x() + o.z() * o.z()) - 2 * o.z();
+    const Monitor& m = s.monitor;
+    u_from_s = 1 / geometry.half_w;
+    u_from_phi = k == 0 ? 0.0 : 1 / (k * geometry.half_w);
+    v_from_y = -1 / geometry.half_h;
+    px_per_u = 0.5 * m.width_px;
+    py_per_v = 0.5 * m.height_px;
+    bezel_u = 1 + 2 * s.display.bezel_mm / m.width_mm;
+    bezel_v = 1 + 2 * s.display.bezel_mm / m.height_mm;
+    room = static_cast<float>(s.display.room);
+    bezel = static_cast<float>(s.display.bezel);
+    black = static_cast<float>(s.display.black);
+    half_fill = 0.5 * s.display.fill_factor;
+    stripes = s.display.rgb_stripes;
+    channels = display.channels;
+    static constexpr double kLuma[3] = {0.2126, 0.7152, 0.0722};
     for (int c = 0; c < 256; ++c) {
-      linear[static_cast<size_t>(c)] = static_cast<float>(s.display.black + (1 - s.display.black) * std::pow(c / 255.0, s.display.gamma));
+      const double light = s.display.black + (1 - s.display.black) * std::pow(c / 255.0, s.display.gamma);
+      for (int st = 0; st < 3; ++st) stripe_light[st][c] = static_cast<float>(3 * kLuma[st] * light);
+      gray_light[c] = static_cast<float>(light);
     }
-    deviated = !s.truth.bumps.empty();
+    for (const TrueMonitor::Bump& b : s.truth.bumps) {
+      // A ray meets the deviated surface at most |h| tan(incidence) from where it meets the base surface; 4 |h|
+      // covers incidences up to 76 deg.
+      const double grow_mm = 4 * std::abs(b.height_mm);
+      const double gu = grow_mm / geometry.half_w, gv = grow_mm / geometry.half_h;
+      bump_support.push_back({b.u - 4 * b.sigma_u - gu, b.u + 4 * b.sigma_u + gu, b.v - 4 * b.sigma_v - gv,
+                              b.v + 4 * b.sigma_v + gv});
+    }
   }
 
-  float Radiance(const Eigen::Vector3d& dir_screen) const {
-    const Eigen::Vector3d d = true_from_nominal * dir_screen;
-    const Eigen::Vector3d origin = origin_true_centre + ScreenCentreInScreen(true_monitor);
-    const std::optional<SurfaceHit> hit = IntersectSurface(true_monitor, origin, d);
-    if (!hit) return static_cast<float>(s.display.room);
-    Eigen::Vector2d uv = hit->uv;
-    if (deviated) {
-      // Newton steps onto the deviated surface: offset(p) - deviation(uv(p)) = 0 along the ray, with the
-      // offset's derivative n . d (the deviation's own slope is neglected: the field is smooth).
-      double t = hit->distance;
-      for (int k = 0; k < 4; ++k) {
-        const Eigen::Vector3d p = origin + t * d;
-        const Eigen::Vector2d puv = UvFromSurfacePoint(true_monitor, p);
-        const Eigen::Vector3d on = SurfacePointFromUv(true_monitor, puv);
-        const Eigen::Vector3d n = SurfaceNormalFromUv(true_monitor, puv);
-        const double g = n.dot(p - on) - s.truth.DeviationMm(puv);
-        const double nd = n.dot(d);
-        if (nd == 0) break;
-        t -= g / nd;
+  // Radiance (relative to a full white display pixel) along the ray o + t d, d in the upright frame.
+  // `refined` counts rays refined onto the deviation field.
+  float Radiance(const Eigen::Vector3d& d, int64_t* refined) const {
+    double t;
+    if (k == 0) {
+      if (!(d.z() < 0)) return room;
+      t = -o.z() / d.z();  // the plane z = 0
+    } else {
+      // k |p_xz|^2 - 2 p_z = 0 with p = o + t d: a t^2 + b t + c = 0; the viewer sees the larger root (the
+      // cancellation-free form as in IntersectSurface).
+      const double a = k * (d.x() * d.x() + d.z() * d.z());
+      const double b = 2 * (k * (o.x() * d.x() + o.z() * d.z()) - d.z());
+      const double disc = b * b - 4 * a * c_term;
+      if (!(disc >= 0) || a == 0) return room;
+      const double sq = std::sqrt(disc);
+      if (b >= 0) {
+        const double q = -0.5 * (b + sq);
+        if (q == 0) return room;
+        t = c_term / q;
+      } else {
+        t = -0.5 * (b - sq) / a;
       }
-      uv = UvFromSurfacePoint(true_monitor, origin + t * d);
     }
-    const Monitor& m = s.monitor;
-    const Eigen::Vector2d px = DisplayPxFromUv(m, uv);
-    const double fx_full = px.x() + 0.5, fy_full = px.y() + 0.5;
+    if (!(t > 0)) return room;
+    const double py = o.y() + t * d.y();
+    double v = py * v_from_y;
+    if (std::abs(v) > bezel_v && bump_support.empty()) return room;
+    const double px = o.x() + t * d.x();
+    double u;
+    if (k == 0) {
+      u = px * u_from_s;
+    } else {
+      const double pz = o.z() + t * d.z();
+      const double den = 2 - k * pz;  // 1 + cos(phi)
+      const double tan_half = k * px / den;
+      const double phi = (den > 0 && std::abs(tan_half) <= 1) ? 2 * FastAtan(tan_half) : std::atan2(k * px, 1 - k * pz);
+      u = phi * u_from_phi;
+    }
+    if (!bump_support.empty()) {
+      for (const Box& box : bump_support) {
+        if (u >= box.u0 && u <= box.u1 && v >= box.v0 && v <= box.v1) {
+          ++*refined;
+          Refine(d, t, &u, &v);
+          break;
+        }
+      }
+    }
+    return Shade(u, v);
+  }
+
+  // Moves (u, v) from the base surface onto the deviated one, P(u, v) + dev(u, v) n(u, v) = o + t d, in the
+  // true centre frame by fixed-point steps: intersect the ray with the tangent plane at the current deviated
+  // point, take off the deviation along the normal and project back onto the base surface. Each step shrinks
+  // the error by about |grad dev| tan(incidence) (a few per cent for these bumps); 6 steps reach 1e-9.
+  void Refine(const Eigen::Vector3d& d_upright, double t, double* u, double* v) const {
+    const Eigen::Vector3d origin = geometry.shear * o, d = geometry.shear * d_upright;
+    Eigen::Vector2d uv(*u, *v);
+    for (int iter = 0; iter < 6; ++iter) {
+      Eigen::Vector3d n;
+      const Eigen::Vector3d q = geometry.Point(uv, &n);
+      const double nd = n.dot(d);
+      if (nd == 0) break;
+      t = n.dot(q - origin) / nd;
+      uv = geometry.BaseUv(origin + t * d - geometry.truth->DeviationMm(uv) * n);
+    }
+    *u = uv.x();
+    *v = uv.y();
+  }
+
+  float Shade(double u, double v) const {
+    const double fx_full = (u + 1) * px_per_u, fy_full = (v + 1) * py_per_v;
     const int i = static_cast<int>(std::floor(fx_full)), j = static_cast<int>(std::floor(fy_full));
-    if (i < 0 || j < 0 || i >= m.width_px || j >= m.height_px) {
-      const double bu = 2 * s.display.bezel_mm / m.width_mm, bv = 2 * s.display.bezel_mm / m.height_mm;
-      const bool on_bezel = std::abs(uv.x()) <= 1 + bu && std::abs(uv.y()) <= 1 + bv;
-      return static_cast<float>(on_bezel ? s.display.bezel : s.display.room);
+    if (i < 0 || j < 0 || i >= display.width || j >= display.height) {
+      return (std::abs(u) <= bezel_u && std::abs(v) <= bezel_v) ? bezel : room;
     }
     const double fx = fx_full - i, fy = fy_full - j;
-    const double half_fill = 0.5 * s.display.fill_factor;
-    const size_t at = (static_cast<size_t>(j) * display.width + static_cast<size_t>(i)) * display.channels;
-    if (std::abs(fy - 0.5) > half_fill) return static_cast<float>(s.display.black);
-    if (!s.display.rgb_stripes) {
-      if (std::abs(fx - 0.5) > half_fill) return static_cast<float>(s.display.black);
-      double sum = 0;
-      for (int c = 0; c < display.channels && c < 3; ++c) sum += linear[display.pixels[at + static_cast<size_t>(c)]];
-      return static_cast<float>(sum / std::min(display.channels, 3));
+    if (std::abs(fy - 0.5) > half_fill) return black;
+    const size_t at = (static_cast<size_t>(j) * display.width + static_cast<size_t>(i)) * channels;
+    if (!stripes) {
+      if (std::abs(fx - 0.5) > half_fill) return black;
+      if (channels == 1) return gray_light[display.pixels[at]];
+      const int n = std::min(channels, 3);
+      float sum = 0;
+      for (int c = 0; c < n; ++c) sum += gray_light[display.pixels[at + static_cast<size_t>(c)]];
+      return sum / static_cast<float>(n);
     }
     // Stripes R, G, B left to right; a monochrome sensor weights them by luma, scaled so white stays 1.
     const int stripe = std::min(2, static_cast<int>(fx * 3));
     const double local = fx * 3 - stripe;
-    if (std::abs(local - 0.5) > half_fill) return static_cast<float>(s.display.black);
-    static constexpr double kLuma[3] = {0.2126, 0.7152, 0.0722};
+    if (std::abs(local - 0.5) > half_fill) return black;
     // Image8 colour is BGR(A): R is channel 2.
-    const int channel = display.channels >= 3 ? 2 - stripe : 0;
-    return static_cast<float>(3 * kLuma[stripe] * linear[display.pixels[at + static_cast<size_t>(channel)]]);
+    const int channel = channels >= 3 ? 2 - stripe : 0;
+    return stripe_light[stripe][display.pixels[at + static_cast<size_t>(channel)]];
   }
 };
 
 }  // namespace
+
+std::shared_ptr<const RayGrid> SharedRayGrid(const CameraModel& camera, double spacing_px) {
+  const RayGrid* cached = nullptr;
+  return SharedRayGrid(camera, spacing_px, &cached);
+}
 
 SyntheticPhoto RenderSyntheticPhoto(const SyntheticScene& s, const Image8& display, double ray_grid_px) {
   if (display.width != s.monitor.width_px || display.height != s.monitor.height_px) {
@@ -346,31 +621,68 @@ SyntheticPhoto RenderSyntheticPhoto(const SyntheticScene& s, const Image8& displ
   photo.width = s.camera.width;
   photo.height = s.camera.height;
   photo.bits = s.sensor.bits;
+  photo.timing.threads = ThreadCount();
   auto t0 = Clock::now();
-  const RayGrid rays(s.camera, ray_grid_px);
+  double c0 = CpuMs();
+  const RayGrid* cached = nullptr;
+  const std::shared_ptr<const RayGrid> grid = SharedRayGrid(s.camera, ray_grid_px, &cached);
+  const RayGrid& rays = *grid;
+  photo.timing.rays_cached = cached != nullptr;
   photo.timing.rays_ms = MsSince(t0);
+  photo.timing.rays_cpu_ms = CpuMs() - c0;
 
   t0 = Clock::now();
+  c0 = CpuMs();
   const Tracer tracer(s, display);
   const int n = s.optics.supersample;
-  cv::Mat radiance(photo.height, photo.width, CV_32F);
-  ParallelRows(photo.height, [&](int y) {
-    float* row = radiance.ptr<float>(y);
-    for (int x = 0; x < photo.width; ++x) {
-      double sum = 0;
-      for (int b = 0; b < n; ++b) {
-        for (int a = 0; a < n; ++a) {
-          const Eigen::Vector2d q(x + (a + 0.5) / n - 0.5, y + (b + 0.5) / n - 0.5);
-          sum += tracer.Radiance(s.screen_from_cam * rays.Ray(q));
-        }
-      }
-      row[x] = static_cast<float>(sum / (n * n));
+  const int samples_x = photo.width * n;
+  // The dense-table column and fraction of every sample's x, the same for all rows.
+  std::vector<int> column(static_cast<size_t>(samples_x));
+  std::vector<double> fraction(static_cast<size_t>(samples_x));
+  for (int x = 0; x < photo.width; ++x) {
+    for (int a = 0; a < n; ++a) {
+      const size_t at = static_cast<size_t>(x) * n + static_cast<size_t>(a);
+      rays.DenseColumn(x + (a + 0.5) / n - 0.5, &column[at], &fraction[at]);
     }
+  }
+  cv::Mat radiance(photo.height, photo.width, CV_32F);
+  std::atomic<int64_t> refined_total{0};
+  ParallelRows(photo.height, [&](int y) {
+    thread_local std::vector<Eigen::Vector2d> nodes;
+    thread_local std::vector<Eigen::Vector3d> row_dirs;
+    int64_t refined = 0;
+    float* row = radiance.ptr<float>(y);
+    std::fill(row, row + photo.width, 0.0f);
+    for (int b = 0; b < n; ++b) {
+      // Directions of this sample row at the dense columns, already in the upright frame (interpolation and the
+      // fixed 3 x 3 commute: both are linear).
+      rays.RowNodes(y + (b + 0.5) / n - 0.5, &nodes);
+      row_dirs.resize(nodes.size());
+      for (size_t i = 0; i < nodes.size(); ++i) {
+        row_dirs[i] = tracer.upright_from_cam * Eigen::Vector3d(nodes[i].x(), nodes[i].y(), 1.0);
+      }
+      for (int x = 0; x < photo.width; ++x) {
+        float sum = 0;
+        for (int a = 0; a < n; ++a) {
+          const size_t at = static_cast<size_t>(x) * n + static_cast<size_t>(a);
+          const size_t i = static_cast<size_t>(column[at]);
+          const double f = fraction[at];
+          sum += tracer.Radiance((1 - f) * row_dirs[i] + f * row_dirs[i + 1], &refined);
+        }
+        row[x] += sum;
+      }
+    }
+    const float scale = 1.0f / static_cast<float>(n * n);
+    for (int x = 0; x < photo.width; ++x) row[x] *= scale;
+    refined_total += refined;
   });
   photo.timing.rays = static_cast<int64_t>(photo.width) * photo.height * n * n;
+  photo.timing.refined_rays = refined_total;
   photo.timing.trace_ms = MsSince(t0);
+  photo.timing.trace_cpu_ms = CpuMs() - c0;
 
   t0 = Clock::now();
+  c0 = CpuMs();
   if (s.optics.blur == "gaussian" && s.optics.blur_px > 0) {
     cv::GaussianBlur(radiance, radiance, cv::Size(0, 0), s.optics.blur_px, s.optics.blur_px, cv::BORDER_REPLICATE);
   } else if (s.optics.blur == "disc" && s.optics.blur_px > 0) {
@@ -381,34 +693,40 @@ SyntheticPhoto RenderSyntheticPhoto(const SyntheticScene& s, const Image8& displ
     cv::filter2D(radiance, radiance, -1, kernel, cv::Point(-1, -1), 0, cv::BORDER_REPLICATE);
   }
   photo.timing.optics_ms = MsSince(t0);
+  photo.timing.optics_cpu_ms = CpuMs() - c0;
 
   t0 = Clock::now();
+  c0 = CpuMs();
   const double cx = 0.5 * (photo.width - 1), cy = 0.5 * (photo.height - 1), r2_corner = cx * cx + cy * cy;
   const double max_code = s.sensor.bits == 16 ? 65535.0 : 255.0;
+  const double full_well = s.sensor.full_well_e, read2 = s.sensor.read_noise_e * s.sensor.read_noise_e;
   photo.pixels.resize(static_cast<size_t>(photo.width) * photo.height);
   ParallelRows(photo.height, [&](int y) {
-    std::mt19937_64 rng(s.sensor.seed * 1000003ull + static_cast<uint64_t>(y));
-    std::normal_distribution<double> normal(0, 1);
+    // One stream per row, seeded from (seed, row), so the noise does not depend on the thread count.
+    SplitMix64 rng{s.sensor.seed * 0xD1B54A32D192ED03ull + static_cast<uint64_t>(y) * 0x9E3779B97F4A7C15ull};
+    rng.Next();
     const float* row = radiance.ptr<float>(y);
+    const double gain_y = s.optics.exposure, dy2 = (y - cy) * (y - cy);
+    uint16_t* out = &photo.pixels[static_cast<size_t>(y) * photo.width];
     for (int x = 0; x < photo.width; ++x) {
-      const double r2 = ((x - cx) * (x - cx) + (y - cy) * (y - cy)) / r2_corner;
-      double v = row[x] * s.optics.exposure * (1 - s.optics.vignetting * r2);
+      const double r2 = ((x - cx) * (x - cx) + dy2) / r2_corner;
+      double v = row[x] * gain_y * (1 - s.optics.vignetting * r2);
       if (s.sensor.noise) {
-        // Poisson-Gaussian: shot noise of the collected electrons (Gaussian approximation above 20 e, Poisson
-        // below) plus read noise.
-        const double electrons = std::max(0.0, v * s.sensor.full_well_e);
-        double e = electrons > 20 ? electrons + std::sqrt(electrons) * normal(rng)
-                                  : static_cast<double>(std::poisson_distribution<int>(electrons)(rng));
-        e += s.sensor.read_noise_e * normal(rng);
-        v = e / s.sensor.full_well_e;
+        // Poisson-Gaussian: shot noise of the collected electrons plus Gaussian read noise. Above 20 e the shot
+        // noise is Gaussian, and the sum of the two Gaussians is one Gaussian of variance e + read^2; below,
+        // Poisson plus read noise.
+        const double electrons = std::max(0.0, v * full_well);
+        const double e = electrons > 20 ? electrons + std::sqrt(electrons + read2) * rng.Normal()
+                                        : rng.Poisson(electrons) + s.sensor.read_noise_e * rng.Normal();
+        v = e / full_well;
       }
       v = std::clamp(v, 0.0, 1.0);
       if (s.sensor.gamma != 1) v = std::pow(v, 1 / s.sensor.gamma);
-      photo.pixels[static_cast<size_t>(y) * photo.width + static_cast<size_t>(x)] =
-          static_cast<uint16_t>(std::lround(v * max_code));
+      out[x] = static_cast<uint16_t>(v * max_code + 0.5);
     }
   });
   photo.timing.sensor_ms = MsSince(t0);
+  photo.timing.sensor_cpu_ms = CpuMs() - c0;
   return photo;
 }
 
@@ -424,6 +742,7 @@ nlohmann::json TruthJson(const SyntheticScene& s, const std::vector<Feature>& fe
                        {"translation_mm", {t.translation_mm.x(), t.translation_mm.y(), t.translation_mm.z()}},
                        {"rotation_deg", {t.rotation_deg.x(), t.rotation_deg.y(), t.rotation_deg.z()}},
                        {"lean_deg", t.lean_deg},
+                       {"lean_definition", kLeanDefinition},
                        {"bumps", bumps}};
   const Eigen::Vector3d& c = s.camera_position_in_screen;
   nlohmann::json rot = nlohmann::json::array();

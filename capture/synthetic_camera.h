@@ -2,12 +2,12 @@
 // showing a display image, through any mrcal lens model, with the exact image position of every feature.
 //
 // Geometry. The nominal monitor and its screen frame are as in core/screen_geometry.h. The true monitor is a
-// cylinder of its own curvature (same active width along the surface, same height and pixel grid), with a
-// smooth deviation field along its normal (positive toward the viewer, i.e. toward the axis), placed in the
-// nominal frame by a rotation and translation about the screen centre (lean = rotation about the x axis through
-// the centre). Rays come from the camera's lens model (mrcal unprojection, precomputed on a grid and
-// interpolated); they are intersected analytically with the true cylinder and refined by Newton steps onto the
-// deviated surface.
+// cylinder of its own curvature (same active width along the surface, same height and pixel grid), leaned (its
+// columns tilted, see TrueMonitor::lean_deg), with a smooth deviation field along its normal (positive toward
+// the viewer), and placed in the nominal frame by a rigid rotation and translation about the screen centre.
+// Rays come from the camera's lens model (mrcal unprojection, precomputed on a grid and interpolated); they
+// are intersected analytically with the true cylinder (mapped back through the lean's shear, so the cylinder
+// stays upright) and refined by fixed-point steps onto the deviated surface where a bump reaches.
 //
 // Radiometry. The display is physical pixels: nearest pixel of the display image, emitting over a fill factor
 // of each pixel, optionally as three vertical RGB stripes (a monochrome sensor weights them by Rec. 709 luma),
@@ -18,6 +18,7 @@
 #include <Eigen/Core>
 #include <cstdint>
 #include <filesystem>
+#include <memory>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
@@ -31,11 +32,20 @@ namespace curvecheck {
 class ConfigMap;
 struct Feature;
 
+// The true screen, in its own centre frame (origin at the screen centre, axes as the screen frame's): the point
+// of display position (u, v) is
+//   P(u, v) = C(u) + (-v H / 2) a + DeviationMm(u, v) n(u, v),   a = (0, cos(lambda), sin(lambda)),
+// where C(u) = (sin(k s)/k, 0, (1 - cos(k s))/k) is the arc of the true curvature k in the plane y = 0 at arc
+// length s = u W/2 (C(u) = (s, 0, 0) when flat), lambda = lean_deg, and n is the unit normal of the leaned
+// surface C(u) + w a (dC/du x a, toward the viewer). So every column is a straight segment of the true height
+// H along the tilted axis a, every row a horizontal arc of the true radius: an affine shear Shear() of the
+// upright cylinder, not a rigid rotation (which a camera pose could not tell from the camera moving). The
+// nominal screen frame then sees centre_nominal + translation_mm + Rotation() P(u, v).
 struct TrueMonitor {
   double curvature_per_mm = 0;                           // 1/R_true; 0 = flat
   Eigen::Vector3d translation_mm = Eigen::Vector3d::Zero();  // of the true screen centre in the nominal centre frame
-  Eigen::Vector3d rotation_deg = Eigen::Vector3d::Zero();    // about x, y, z through the centre (applied z y x)
-  double lean_deg = 0;  // about x through the centre; positive tilts the top toward the viewer
+  Eigen::Vector3d rotation_deg = Eigen::Vector3d::Zero();    // rigid, about x, y, z through the centre (applied z y x)
+  double lean_deg = 0;  // axis tilt lambda (above); positive moves the top edge toward the viewer; |lambda| < 45
   struct Bump {
     double u = 0, v = 0;              // centre in surface coordinates (-1..1)
     double sigma_u = 0.1, sigma_v = 0.1;
@@ -43,11 +53,21 @@ struct TrueMonitor {
   };
   std::vector<Bump> bumps;
 
-  // Rotation taking true-centre-frame vectors to the nominal centre frame.
+  // Rigid rotation taking true-centre-frame vectors to the nominal centre frame (rotation_deg only).
   Eigen::Matrix3d Rotation() const;
-  // Deviation along the normal at (u, v), mm.
+  // The lean as a linear map of the upright cylinder's centre frame onto the true centre frame:
+  // (x, y, z) -> (x, y cos(lambda), z + y sin(lambda)).
+  Eigen::Matrix3d Shear() const;
+  // Deviation along the normal at (u, v), mm. The photo's ray tracer ignores each bump beyond 4 sigma (where it
+  // is below exp(-8) = 3.4e-4 of its height); truth.json uses this full sum.
   double DeviationMm(const Eigen::Vector2d& uv) const;
 };
+
+// The definition of the lean, as written into truth.json.
+inline constexpr const char* kLeanDefinition =
+    "axis tilt: P(u,v) = C(u) + (-v H/2) (0, cos(lean), sin(lean)) in the true centre frame, C(u) the arc of the "
+    "true radius in the plane y = 0; positive lean moves the top edge toward the viewer; rows stay arcs of the "
+    "true radius, columns straight segments of length H; rotation_deg (rigid) and translation_mm apply after it";
 
 struct DisplayModel {
   double fill_factor = 0.85;  // emitting fraction of a pixel along each axis (or of each stripe)
@@ -113,6 +133,11 @@ class RayGrid {
   RayGrid(const CameraModel& camera, double spacing_px, double dense_px = 4);
   // Ray direction (camera frame, z = 1, not unit length) through pixel coordinates q.
   Eigen::Vector3d Ray(const Eigen::Vector2d& q) const;
+  // Row-coherent form of Ray(): the dense nodes' (x/z, y/z) interpolated to row y_px, one per dense column.
+  // Ray(q) with q.y() = y_px is the linear interpolation of nodes[i], nodes[i + 1] at DenseColumn(q.x()).
+  void RowNodes(double y_px, std::vector<Eigen::Vector2d>* nodes) const;
+  // Dense column i (clamped so that i + 1 exists) and fraction f for pixel x coordinate x_px.
+  void DenseColumn(double x_px, int* i, double* f) const;
   // Worst reprojection error (px) of interpolated rays over `samples` random pixels, against mrcal's projection.
   double MeasureErrorPx(const CameraModel& camera, int samples, uint64_t seed) const;
 
@@ -127,9 +152,19 @@ class RayGrid {
   std::vector<Eigen::Vector2d> dense_;  // (x/z, y/z) at (i * dense - 0.5, j * dense - 0.5)
 };
 
+// Wall-clock and process CPU time (all threads) per stage, ms. On a machine shared with other work the wall
+// times grow while the CPU times do not; cpu / wall shows how many cores the stage actually had.
 struct PhotoTiming {
-  double rays_ms = 0, trace_ms = 0, optics_ms = 0, sensor_ms = 0;
+  double rays_ms = 0, rays_cpu_ms = 0;      // ray table from the lens model (0 when it came from the cache)
+  double trace_ms = 0, trace_cpu_ms = 0;    // intersection and display sampling, supersampled
+  double optics_ms = 0, optics_cpu_ms = 0;  // blur
+  double sensor_ms = 0, sensor_cpu_ms = 0;  // vignetting, exposure, noise, gamma, quantization
   int64_t rays = 0;
+  int64_t refined_rays = 0;  // rays refined onto the deviation field (inside a bump's support)
+  bool rays_cached = false;  // the ray table was built by an earlier photo through the same lens
+  int threads = 1;
+  double total_ms() const { return rays_ms + trace_ms + optics_ms + sensor_ms; }
+  double total_cpu_ms() const { return rays_cpu_ms + trace_cpu_ms + optics_cpu_ms + sensor_cpu_ms; }
 };
 
 struct SyntheticPhoto {
@@ -138,8 +173,12 @@ struct SyntheticPhoto {
   PhotoTiming timing;
 };
 
+// The ray table for `camera` with grid spacing `spacing_px`, built on first use and kept for the process (the
+// last 4 lenses), so that a sweep of photos through one lens pays for mrcal's unprojection once. Thread-safe.
+std::shared_ptr<const RayGrid> SharedRayGrid(const CameraModel& camera, double spacing_px);
+
 // Renders the photo of `display` (the display image: gray or colour, the monitor's resolution) as the scene's
-// camera sees it. Runs on all cores. Throws Error if the display image does not match the monitor.
+// camera sees it. Runs on all cores; the ray table comes from SharedRayGrid. Throws Error if the display image does not match the monitor.
 SyntheticPhoto RenderSyntheticPhoto(const SyntheticScene& scene, const Image8& display, double ray_grid_px = 16);
 
 // truth.json: format curvecheck.truth/1 with the true geometry, the camera (model and pose) and, for each

@@ -90,7 +90,10 @@ void AddAnalyzeCommand(CLI::App& app, std::function<int()>& run) {
   cmd->add_option("--pattern,-p", args->patterns,
                   "pattern.json of the rendering shown in the photos: once for all photos, or once per photo "
                   "in order")
-      ->required();
+      ->required()
+      ->expected(1)
+      ->take_all()
+      ->allow_extra_args(false);
   cmd->add_option("photos", args->photos, "Photos (PNG/JPEG, 8 or 16 bit)")->required();
   cmd->add_option("-o,--output", args->output, "Output folder (created if missing)")->required();
   cmd->add_option("--detector", args->options.detect.detector,
@@ -103,7 +106,10 @@ void AddAnalyzeCommand(CLI::App& app, std::function<int()>& run) {
   cmd->add_option("--models", args->models,
                   "Screen models to try (default: all): flat, cylinder, cylinder+lean, varying-curvature, "
                   "varying-curvature-quadratic, cylinder+deviation")
-      ->delimiter(',');
+      ->delimiter(',')
+      ->expected(1)
+      ->take_all()
+      ->allow_extra_args(false);
   cmd->add_option("--expected-noise", args->options.fit.expected_noise_px,
                   "Expected detection noise per coordinate, px (scales the robust loss)")
       ->capture_default_str();

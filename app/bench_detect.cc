@@ -56,7 +56,7 @@ int RunBenchDetect(const BenchDetectArgs& a) {
   std::string csv = fmt::format("# curvecheck bench detect, scene {}, {} runs; {}\n", a.scene, a.runs, machine);
   csv += "pattern,detector,median_ms,min_ms,found,visible,mean_x_px,mean_y_px,rms_px,max_px,failure\n";
   const Eigen::Vector3d viewpoint = scene.camera_position_in_screen;
-  for (const std::string& which : {"checkerboard", "square", "apriltag"}) {
+  for (const std::string which : {"checkerboard", "square", "apriltag"}) {
     if (a.patterns.find(which) == std::string::npos) continue;
     PatternSpec spec;
     std::vector<Case> cases;

@@ -8,6 +8,7 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <ctime>
 #include <exception>
 #include <map>
@@ -489,6 +490,8 @@ struct Tracer {
     bezel = static_cast<float>(s.display.bezel);
     black = static_cast<float>(s.display.black);
     half_fill = 0.5 * s.display.fill_factor;
+    if (s.optics.blur == "gaussian") psf_sigma_px = s.optics.blur_px;
+    if (s.optics.blur == "disc") psf_sigma_px = 0.5 * s.optics.blur_px;
     stripes = s.display.rgb_stripes;
     channels = display.channels;
     static constexpr double kLuma[3] = {0.2126, 0.7152, 0.0722};
@@ -509,10 +512,17 @@ struct Tracer {
 
   // Radiance (relative to a full white display pixel) along the ray o + t d, d in the upright frame.
   // `refined` counts rays refined onto the deviation field.
-  float Radiance(const Eigen::Vector3d& d, int64_t* refined) const {
+  // Where the ray o + t d (d in the upright frame) meets the screen: true with the display pixel coordinates
+  // (fx, fy) = ((u + 1) Nx/2, (v + 1) Ny/2) (pixel i spans [i, i + 1)) when it lands on the display; false with
+  // the radiance of what it sees otherwise (bezel, room). `refined` counts rays refined onto the deviation field.
+  bool Hit(const Eigen::Vector3d& d, int64_t* refined, double* fx, double* fy, float* other) const {
+    const auto miss = [&](float radiance) {
+      *other = radiance;
+      return false;
+    };
     double t;
     if (k == 0) {
-      if (!(d.z() < 0)) return room;
+      if (!(d.z() < 0)) return miss(room);
       t = -o.z() / d.z();  // the plane z = 0
     } else {
       // k |p_xz|^2 - 2 p_z = 0 with p = o + t d: a t^2 + b t + c = 0; the viewer sees the larger root (the
@@ -520,20 +530,20 @@ struct Tracer {
       const double a = k * (d.x() * d.x() + d.z() * d.z());
       const double b = 2 * (k * (o.x() * d.x() + o.z() * d.z()) - d.z());
       const double disc = b * b - 4 * a * c_term;
-      if (!(disc >= 0) || a == 0) return room;
+      if (!(disc >= 0) || a == 0) return miss(room);
       const double sq = std::sqrt(disc);
       if (b >= 0) {
         const double q = -0.5 * (b + sq);
-        if (q == 0) return room;
+        if (q == 0) return miss(room);
         t = c_term / q;
       } else {
         t = -0.5 * (b - sq) / a;
       }
     }
-    if (!(t > 0)) return room;
+    if (!(t > 0)) return miss(room);
     const double py = o.y() + t * d.y();
     double v = py * v_from_y;
-    if (std::abs(v) > bezel_v && bump_support.empty()) return room;
+    if (std::abs(v) > bezel_v && bump_support.empty()) return miss(room);
     const double px = o.x() + t * d.x();
     double u;
     if (k == 0) {
@@ -554,7 +564,12 @@ struct Tracer {
         }
       }
     }
-    return Shade(u, v);
+    *fx = (u + 1) * px_per_u;
+    *fy = (v + 1) * py_per_v;
+    if (!(*fx >= 0 && *fy >= 0 && *fx < display.width && *fy < display.height)) {
+      return miss((std::abs(u) <= bezel_u && std::abs(v) <= bezel_v) ? bezel : room);
+    }
+    return true;
   }
 
   // Moves (u, v) from the base surface onto the deviated one, P(u, v) + dev(u, v) n(u, v) = o + t d, in the
@@ -576,22 +591,94 @@ struct Tracer {
     *v = uv.y();
   }
 
-  float Shade(double u, double v) const {
-    const double fx_full = (u + 1) * px_per_u, fy_full = (v + 1) * py_per_v;
-    const int i = static_cast<int>(std::floor(fx_full)), j = static_cast<int>(std::floor(fy_full));
-    if (i < 0 || j < 0 || i >= display.width || j >= display.height) {
-      return (std::abs(u) <= bezel_u && std::abs(v) <= bezel_v) ? bezel : room;
+  // The display's light at display pixel coordinates (fx, fy), on the display, averaged over the box of wx x wy
+  // display px centred there: the footprint of one sample. A camera pixel integrates the light over its area; the
+  // emitters (fill factor, RGB stripes: a third of a pixel each) are far finer than a sample at ordinary
+  // distances (0.78 camera px per display px for the default scene), so point samples alias them into a
+  // random texture that no real photo shows. The box average is exact for the separable emitter layout (stripes
+  // across, fill factor down), and equals the point sample as the box shrinks.
+  //
+  // When the optics blur the display's pixel structure away (psf_x, psf_y: the PSF's sigma in display px along
+  // each axis), the emitters are shaded by their mean over a pixel instead: a Gaussian of sigma s passes the
+  // pixel grid's fundamental (1 cycle per display px) at exp(-2 pi^2 s^2), under 1e-3 for s > 0.6 display px,
+  // so no real photo shows the structure there. Resolving it anyway would alias it, since the simulated blur
+  // acts after sampling and a real lens acts before.
+  float ShadeArea(double fx, double fy, double wx, double wy, double psf_x, double psf_y) const {
+    const double x0 = fx - 0.5 * wx, x1 = fx + 0.5 * wx, y0 = fy - 0.5 * wy, y1 = fy + 0.5 * wy;
+    // Tiny boxes, boxes that reach past the display's edge and huge ones (far away: many display pixels per
+    // sample, where the image content aliases anyway) are point-sampled.
+    if (!(wx > 1e-3 && wy > 1e-3) || wx > 16 || wy > 16 || x0 < 0 || y0 < 0 || x1 >= display.width ||
+        y1 >= display.height) {
+      return ShadePoint(fx, fy);
     }
+    const auto overlap = [](double a0, double a1, double b0, double b1) {
+      return std::max(0.0, std::min(a1, b1) - std::max(a0, b0));
+    };
+    const int i0 = static_cast<int>(x0), i1 = static_cast<int>(x1);
+    const int j0 = static_cast<int>(y0), j1 = static_cast<int>(y1);
+    double light = 0, lit_area = 0;
+    if (psf_x > kStructureBlurredPx && psf_y > kStructureBlurredPx) {
+      // Each pixel's mean light: its emitters' share of its area at their light, black elsewhere.
+      const double fill = 2 * half_fill;
+      for (int j = j0; j <= j1; ++j) {
+        const double oy = overlap(y0, y1, j, j + 1);
+        const size_t row = static_cast<size_t>(j) * display.width;
+        for (int i = i0; i <= i1; ++i) {
+          const double area_ij = overlap(x0, x1, i, i + 1) * oy;
+          const size_t at = (row + static_cast<size_t>(i)) * channels;
+          double emitted = 0;
+          if (!stripes) {
+            emitted = GrayLight(at);
+          } else {
+            for (int stripe = 0; stripe < 3; ++stripe) {
+              const int channel = channels >= 3 ? 2 - stripe : 0;
+              emitted += stripe_light[stripe][display.pixels[at + static_cast<size_t>(channel)]] / 3.0;
+            }
+          }
+          light += area_ij * (fill * fill * emitted + (1 - fill * fill) * black);
+        }
+      }
+      return static_cast<float>(light / ((x1 - x0) * (y1 - y0)));
+    }
+    for (int j = j0; j <= j1; ++j) {
+      const double oy = overlap(y0, y1, j + 0.5 - half_fill, j + 0.5 + half_fill);
+      if (oy <= 0) continue;
+      const size_t row = static_cast<size_t>(j) * display.width;
+      for (int i = i0; i <= i1; ++i) {
+        const size_t at = (row + static_cast<size_t>(i)) * channels;
+        if (!stripes) {
+          const double ox = overlap(x0, x1, i + 0.5 - half_fill, i + 0.5 + half_fill);
+          if (ox <= 0) continue;
+          light += ox * oy * GrayLight(at);
+          lit_area += ox * oy;
+          continue;
+        }
+        for (int stripe = 0; stripe < 3; ++stripe) {
+          const double ox = overlap(x0, x1, i + (stripe + 0.5 - half_fill) / 3, i + (stripe + 0.5 + half_fill) / 3);
+          if (ox <= 0) continue;
+          const int channel = channels >= 3 ? 2 - stripe : 0;
+          light += ox * oy * stripe_light[stripe][display.pixels[at + static_cast<size_t>(channel)]];
+          lit_area += ox * oy;
+        }
+      }
+    }
+    const double area = (x1 - x0) * (y1 - y0);
+    return static_cast<float>((light + black * (area - lit_area)) / area);
+  }
+
+  static constexpr double kStructureBlurredPx = 0.6;
+  double psf_sigma_px = 0;  // the optics' blur as a Gaussian sigma, camera px (a disc of radius r: r / 2)
+
+  // The light at the point (fx, fy) of the display.
+  float ShadePoint(double fx_full, double fy_full) const {
+    // Truncation is the floor for the non-negative values that reach it (std::floor is a call without SSE4.1).
+    const int i = static_cast<int>(fx_full), j = static_cast<int>(fy_full);
     const double fx = fx_full - i, fy = fy_full - j;
     if (std::abs(fy - 0.5) > half_fill) return black;
     const size_t at = (static_cast<size_t>(j) * display.width + static_cast<size_t>(i)) * channels;
     if (!stripes) {
       if (std::abs(fx - 0.5) > half_fill) return black;
-      if (channels == 1) return gray_light[display.pixels[at]];
-      const int n = std::min(channels, 3);
-      float sum = 0;
-      for (int c = 0; c < n; ++c) sum += gray_light[display.pixels[at + static_cast<size_t>(c)]];
-      return sum / static_cast<float>(n);
+      return GrayLight(at);
     }
     // Stripes R, G, B left to right; a monochrome sensor weights them by luma, scaled so white stays 1.
     const int stripe = std::min(2, static_cast<int>(fx * 3));
@@ -600,6 +687,15 @@ struct Tracer {
     // Image8 colour is BGR(A): R is channel 2.
     const int channel = channels >= 3 ? 2 - stripe : 0;
     return stripe_light[stripe][display.pixels[at + static_cast<size_t>(channel)]];
+  }
+
+  // Linear light of the (whole, unstriped) pixel at byte offset `at`: the mean of its colour channels.
+  float GrayLight(size_t at) const {
+    if (channels == 1) return gray_light[display.pixels[at]];
+    const int n = std::min(channels, 3);
+    float sum = 0;
+    for (int c = 0; c < n; ++c) sum += gray_light[display.pixels[at + static_cast<size_t>(c)]];
+    return sum / static_cast<float>(n);
   }
 };
 
@@ -650,10 +746,17 @@ SyntheticPhoto RenderSyntheticPhoto(const SyntheticScene& s, const Image8& displ
   ParallelRows(photo.height, [&](int y) {
     thread_local std::vector<Eigen::Vector2d> nodes;
     thread_local std::vector<Eigen::Vector3d> row_dirs;
-    int64_t refined = 0;
-    float* row = radiance.ptr<float>(y);
-    std::fill(row, row + photo.width, 0.0f);
-    for (int b = 0; b < n; ++b) {
+    // Per sample row of this camera row: display coordinates of every sample (NaN off the display) and the
+    // radiance of the samples that miss the display. One extra sample row (a camera pixel below) when n = 1, for
+    // the vertical footprint.
+    const int sample_rows = std::max(n, 2);
+    thread_local std::vector<double> fxs, fys;
+    thread_local std::vector<float> others;
+    fxs.assign(static_cast<size_t>(sample_rows) * samples_x, 0.0);
+    fys.assign(fxs.size(), 0.0);
+    others.assign(fxs.size(), 0.0f);
+    int64_t refined = 0, unused_refined = 0;
+    for (int b = 0; b < sample_rows; ++b) {
       // Directions of this sample row at the dense columns, already in the upright frame (interpolation and the
       // fixed 3 x 3 commute: both are linear).
       rays.RowNodes(y + (b + 0.5) / n - 0.5, &nodes);
@@ -661,15 +764,49 @@ SyntheticPhoto RenderSyntheticPhoto(const SyntheticScene& s, const Image8& displ
       for (size_t i = 0; i < nodes.size(); ++i) {
         row_dirs[i] = tracer.upright_from_cam * Eigen::Vector3d(nodes[i].x(), nodes[i].y(), 1.0);
       }
-      for (int x = 0; x < photo.width; ++x) {
-        float sum = 0;
-        for (int a = 0; a < n; ++a) {
-          const size_t at = static_cast<size_t>(x) * n + static_cast<size_t>(a);
-          const size_t i = static_cast<size_t>(column[at]);
-          const double f = fraction[at];
-          sum += tracer.Radiance((1 - f) * row_dirs[i] + f * row_dirs[i + 1], &refined);
+      const size_t base = static_cast<size_t>(b) * samples_x;
+      for (int sx = 0; sx < samples_x; ++sx) {
+        const size_t i = static_cast<size_t>(column[static_cast<size_t>(sx)]);
+        const double f = fraction[static_cast<size_t>(sx)];
+        double fx = 0, fy = 0;
+        float other = 0;
+        if (tracer.Hit((1 - f) * row_dirs[i] + f * row_dirs[i + 1], b < n ? &refined : &unused_refined, &fx, &fy,
+                       &other)) {
+          fxs[base + static_cast<size_t>(sx)] = fx;
+          fys[base + static_cast<size_t>(sx)] = fy;
+        } else {
+          fxs[base + static_cast<size_t>(sx)] = std::numeric_limits<double>::quiet_NaN();
+          others[base + static_cast<size_t>(sx)] = other;
         }
-        row[x] += sum;
+      }
+    }
+    // Footprint of a sample in display px: the bounding box of the parallelogram spanned by the differences to
+    // the neighbouring samples across (dx) and down (dy); one-sided at the ends, point samples where a
+    // neighbour is off the display.
+    float* row = radiance.ptr<float>(y);
+    std::fill(row, row + photo.width, 0.0f);
+    for (int b = 0; b < n; ++b) {
+      const size_t base = static_cast<size_t>(b) * samples_x;
+      const size_t below = static_cast<size_t>(b + 1 < sample_rows ? b + 1 : b - 1) * samples_x;
+      for (int sx = 0; sx < samples_x; ++sx) {
+        const size_t at = base + static_cast<size_t>(sx);
+        const double fx = fxs[at];
+        float value;
+        if (std::isnan(fx)) {
+          value = others[at];
+        } else {
+          const size_t left = sx > 0 ? at - 1 : at, right = sx + 1 < samples_x ? at + 1 : at;
+          const double span = static_cast<double>(right - left);
+          const double dxx = (fxs[right] - fxs[left]) / span, dxy = (fys[right] - fys[left]) / span;
+          const size_t v = below + static_cast<size_t>(sx);
+          const double dyx = fxs[v] - fx, dyy = fys[v] - fys[at];
+          const double wx = std::abs(dxx) + std::abs(dyx), wy = std::abs(dxy) + std::abs(dyy);
+          // The PSF in display px: footprints are per sample (1/n camera px).
+          const double psf_x = tracer.psf_sigma_px * n * wx, psf_y = tracer.psf_sigma_px * n * wy;
+          value = std::isnan(wx) || std::isnan(wy) ? tracer.ShadePoint(fx, fys[at])
+                                                   : tracer.ShadeArea(fx, fys[at], wx, wy, psf_x, psf_y);
+        }
+        row[sx / n] += value;
       }
     }
     const float scale = 1.0f / static_cast<float>(n * n);

@@ -109,6 +109,7 @@ struct ModelFit {
   std::string condition_note;  // e.g. "radius unobservable: ..."
   double time_ms = 0;          // this model's fits (robust, final, covariance, held-out folds)
   bool converged = false;
+  int iterations = 0;  // solver iterations, robust and final pass (held-out folds not counted)
   // Shape parameters as fitted (CoreParameterCount values, then the deviation coefficients).
   std::vector<double> shape;
 };
@@ -134,6 +135,9 @@ struct ScreenFitResult {
   int map_nu = 0, map_nv = 0;
   std::vector<double> map_mm, map_sigma_mm;
   std::vector<std::string> assumptions;  // "pixel pitch fixed from the spec: ...", "lens model fixed: ..."
+  // Models of options.models that were not tried, each with the reason (too few residuals for its parameters:
+  // fewer than 3 per parameter, e.g. the deviation field on a 15 x 4 board).
+  std::vector<std::string> skipped;
 
   const ModelFit& Chosen() const { return candidates.at(static_cast<size_t>(chosen)); }
 };

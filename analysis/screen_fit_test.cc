@@ -253,6 +253,30 @@ TEST(ScreenFitTest, SeveralPhotosAreFittedJointly) {
   }
 }
 
+TEST(ScreenFitTest, SparseBoardSkipsTheDeviationFieldAndSaysWhy) {
+  // The renderer's default board: 15 x 4 inner corners, 120 residuals, too few for 73 deviation coefficients.
+  const SyntheticScene scene = LoadScene(Scene("default"));
+  std::mt19937_64 rng(20);
+  const auto photo = Observe(scene, DisplayGrid(scene.monitor, 15, 4, 0.06), kNoisePx, rng, SceneSurface(scene));
+  ASSERT_EQ(photo.ids.size(), 60u);
+  const ScreenFitResult r = FitScreen(scene.monitor, scene.camera, {photo}, FitOptions{});
+  ASSERT_EQ(r.candidates.size(), 5u);
+  EXPECT_EQ(IndexOf(r, "cylinder+deviation"), -1);
+  ASSERT_EQ(r.skipped.size(), 1u);
+  EXPECT_THAT(r.skipped[0], ::testing::HasSubstr("cylinder+deviation not tried: 60 observations give 120 residuals"));
+  EXPECT_EQ(r.Chosen().model, "cylinder") << Table(r);
+  ASSERT_TRUE(r.Chosen().radius_mm.has_value());
+  EXPECT_LT(std::abs(*r.Chosen().radius_mm - 1000), 3 * *r.Chosen().radius_sigma_mm);
+  // Without a field the map is the smoothed per-feature deviations: supported cells near zero.
+  int finite = 0;
+  for (size_t i = 0; i < r.map_mm.size(); ++i) {
+    if (!std::isfinite(r.map_mm[i])) continue;
+    ++finite;
+    EXPECT_LT(std::abs(r.map_mm[i]), 4 * r.map_sigma_mm[i] + 0.05) << i;
+  }
+  EXPECT_GT(finite, 0);
+}
+
 TEST(ScreenFitTest, RejectsInvalidInputNamingIt) {
   const SyntheticScene scene = LoadScene(Scene("default"));
   std::mt19937_64 rng(19);

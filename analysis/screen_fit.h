@@ -103,7 +103,8 @@ struct ModelFit {
   std::array<double, 2> radius_ci95_mm{};            // from k +- 1.96 sigma_k, inverted (+inf when it holds 0)
   std::map<std::string, std::pair<double, double>> extra;  // e.g. "lean_deg" -> (value, sigma)
   std::vector<CameraEstimate> cameras;                     // one per photo
-  std::vector<std::vector<Eigen::Vector2d>> residual_px;   // per photo, per observation (detected - predicted)
+  // Per photo, per observation (detected - predicted); NaN where the fitted point falls behind the camera.
+  std::vector<std::vector<Eigen::Vector2d>> residual_px;
   std::vector<std::vector<bool>> outlier;                  // left out of the final fit
   bool ill_conditioned = false;
   std::string condition_note;  // e.g. "radius unobservable: ..."

@@ -277,6 +277,29 @@ TEST(ScreenFitTest, SparseBoardSkipsTheDeviationFieldAndSaysWhy) {
   EXPECT_GT(finite, 0);
 }
 
+TEST(ScreenFitTest, RadiusUnobservableFromANarrowStripIsReported) {
+  // Features only within 2% of the width around the centre column: the sagitta there is ~0.07 mm, which a
+  // camera 1.5 m away cannot see; the curvature's interval holds both flat and the nominal 1000R.
+  const SyntheticScene scene = LoadScene(Scene("default"));
+  std::vector<Eigen::Vector2d> strip;
+  for (int j = 0; j < 9; ++j) {
+    for (int i = 0; i < 5; ++i) {
+      strip.emplace_back(scene.monitor.width_px * (0.49 + 0.005 * i), scene.monitor.height_px * (0.1 + 0.1 * j));
+    }
+  }
+  std::mt19937_64 rng(21);
+  const auto photo = Observe(scene, strip, kNoisePx, rng, SceneSurface(scene));
+  FitOptions options;
+  options.models = {"flat", "cylinder"};
+  const ScreenFitResult r = FitScreen(scene.monitor, scene.camera, {photo}, options);
+  const ModelFit& cyl = r.candidates[static_cast<size_t>(IndexOf(r, "cylinder"))];
+  EXPECT_TRUE(cyl.ill_conditioned);
+  EXPECT_THAT(cyl.condition_note, ::testing::HasSubstr("radius unobservable from these photos"));
+  EXPECT_FALSE(cyl.radius_mm.has_value());
+  EXPECT_GT(cyl.curvature_sigma_per_mm, 1e-3 / 1.96);
+  EXPECT_EQ(r.Chosen().model, "flat") << Table(r);  // the simplest model the data support
+}
+
 TEST(ScreenFitTest, RejectsInvalidInputNamingIt) {
   const SyntheticScene scene = LoadScene(Scene("default"));
   std::mt19937_64 rng(19);

@@ -137,6 +137,8 @@ ceres::Solver::Summary Solve(const Setup& setup, BuiltProblem& b, State* st) {
     if (!st->core.empty()) ordering->AddElementToGroup(st->core.data(), 1);
     if (!st->dev.empty()) ordering->AddElementToGroup(st->dev.data(), 1);
     so.linear_solver_ordering = ordering;
+  } else if (ceres::IsSparseLinearAlgebraLibraryTypeAvailable(ceres::SUITE_SPARSE)) {
+    so.linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;  // poses only: block diagonal
   } else {
     so.linear_solver_type = ceres::DENSE_QR;
   }
@@ -232,6 +234,7 @@ struct ModelWork {
   std::vector<Eigen::Vector2d> robust_residuals;
   Eigen::MatrixXd dev_covariance;  // of the deviation coefficients, scaled by the noise
   bool robust_ok = false;
+  int robust_iterations = 0;
 };
 
 void Covariances(const Setup& setup, ModelWork& w, BuiltProblem& b, ModelFit* fit) {
@@ -342,6 +345,7 @@ void FitRobust(const Setup& setup, ModelWork& w, const std::vector<bool>& active
   BuiltProblem b = Build(setup, w.kind, w.basis.get(), active, true, &w.state);
   const ceres::Solver::Summary s = Solve(setup, b, &w.state);
   w.robust_ok = s.IsSolutionUsable();
+  w.robust_iterations = static_cast<int>(s.iterations.size());
   w.robust_residuals = Residuals(setup, w.kind, w.basis.get(), w.state);
 }
 
@@ -349,6 +353,7 @@ void FitFinal(const Setup& setup, ModelWork& w, const std::vector<bool>& inlier,
   BuiltProblem b = Build(setup, w.kind, w.basis.get(), inlier, false, &w.state);
   const ceres::Solver::Summary s = Solve(setup, b, &w.state);
   fit->converged = s.termination_type == ceres::CONVERGENCE;
+  fit->iterations = w.robust_iterations + static_cast<int>(s.iterations.size());
   if (!fit->converged) {
     fit->condition_note += fmt::format("solver: {} after {} iterations. ", s.message, s.iterations.size());
   }
@@ -497,9 +502,12 @@ void Deviations(const Setup& setup, const ModelWork& w, ScreenFitResult* result)
       const size_t cell = static_cast<size_t>(j * opt.map_nu + i);
       bool supported = false;
       double sw = 0, swd = 0;
+      const double reach2 = std::max(16 * opt.map_smoothing_uv * opt.map_smoothing_uv,
+                                     opt.map_support_uv * opt.map_support_uv);
       for (const FeatureDeviation& d : result->deviations) {
         if (d.outlier) continue;
         const double dist2 = (d.uv - uv).squaredNorm();
+        if (dist2 > reach2) continue;  // beyond 4 kernel sigmas: weight below 3e-4
         if (dist2 <= opt.map_support_uv * opt.map_support_uv) supported = true;
         const double kern = std::exp(-0.5 * dist2 / (opt.map_smoothing_uv * opt.map_smoothing_uv));
         const double wt = kern / (d.sigma_mm * d.sigma_mm);
@@ -627,7 +635,20 @@ ScreenFitResult FitScreen(const Monitor& nominal, const CameraModel& camera,
   const std::vector<bool> all(setup.obs.size(), true);
   work.reserve(kinds.size());
   int cylinder = -1;  // index into work
+  ScreenFitResult result;
   for (ScreenModelKind kind : kinds) {
+    // A model needs at least 3 residuals per parameter (shape and poses) to be worth fitting and comparing.
+    const int shape_parameters =
+        CoreParameterCount(kind) +
+        (kind == ScreenModelKind::kCylinderDeviation ? options.deviation_nu * options.deviation_nv - 5 : 0);
+    const int parameters = shape_parameters + 6 * setup.photos;
+    if (2 * static_cast<int>(setup.obs.size()) < 3 * parameters) {
+      result.skipped.push_back(fmt::format(
+          "{} not tried: {} observations give {} residuals, fewer than 3 per parameter ({} parameters); use a "
+          "denser pattern or more photos",
+          ScreenModelName(kind), setup.obs.size(), 2 * setup.obs.size(), parameters));
+      continue;
+    }
     const auto t0 = std::chrono::steady_clock::now();
     ModelWork w;
     w.kind = kind;
@@ -660,7 +681,6 @@ ScreenFitResult FitScreen(const Monitor& nominal, const CameraModel& camera,
     for (size_t i = 0; i < r.size(); ++i) inlier[i] = r[i].allFinite() && r[i].norm() <= threshold;
   }
 
-  ScreenFitResult result;
   for (size_t i = 0; i < work.size(); ++i) {
     const auto t0 = std::chrono::steady_clock::now();
     ModelFit fit;

@@ -103,12 +103,14 @@ struct ModelFit {
   std::array<double, 2> radius_ci95_mm{};            // from k +- 1.96 sigma_k, inverted (+inf when it holds 0)
   std::map<std::string, std::pair<double, double>> extra;  // e.g. "lean_deg" -> (value, sigma)
   std::vector<CameraEstimate> cameras;                     // one per photo
-  std::vector<std::vector<Eigen::Vector2d>> residual_px;   // per photo, per observation (detected - predicted)
+  // Per photo, per observation (detected - predicted); NaN where the fitted point falls behind the camera.
+  std::vector<std::vector<Eigen::Vector2d>> residual_px;
   std::vector<std::vector<bool>> outlier;                  // left out of the final fit
   bool ill_conditioned = false;
   std::string condition_note;  // e.g. "radius unobservable: ..."
   double time_ms = 0;          // this model's fits (robust, final, covariance, held-out folds)
   bool converged = false;
+  int iterations = 0;  // solver iterations, robust and final pass (held-out folds not counted)
   // Shape parameters as fitted (CoreParameterCount values, then the deviation coefficients).
   std::vector<double> shape;
 };
@@ -134,6 +136,9 @@ struct ScreenFitResult {
   int map_nu = 0, map_nv = 0;
   std::vector<double> map_mm, map_sigma_mm;
   std::vector<std::string> assumptions;  // "pixel pitch fixed from the spec: ...", "lens model fixed: ..."
+  // Models of options.models that were not tried, each with the reason (too few residuals for its parameters:
+  // fewer than 3 per parameter, e.g. the deviation field on a 15 x 4 board).
+  std::vector<std::string> skipped;
 
   const ModelFit& Chosen() const { return candidates.at(static_cast<size_t>(chosen)); }
 };

@@ -128,10 +128,38 @@ TEST(ScreenFitTest, AxisLeanOfOneDegreeChoosesTheLeanModel) {
   EXPECT_EQ(r.Chosen().model, "cylinder+lean") << Table(r);
   const ModelFit& lean = r.candidates[static_cast<size_t>(IndexOf(r, "cylinder+lean"))];
   const auto [deg, sigma] = lean.extra.at("lean_deg");
+  std::cout << "lean: chosen " << r.Chosen().model << ", lean " << deg << " +- " << sigma << " deg (truth 1)\n";
   EXPECT_LT(std::abs(deg - 1.0), 1.96 * sigma) << deg << " +- " << sigma;
   EXPECT_LT(sigma, 0.2);
   ASSERT_TRUE(lean.radius_mm.has_value());
   EXPECT_LT(std::abs(*lean.radius_mm - 1000), 3 * *lean.radius_sigma_mm);
+}
+
+// The lean's reported sigma against its scatter over seeds, and its bias (cylinder+lean alone, no folds).
+TEST(ScreenFitAccuracyTest, AxisLeanStatistics) {
+  const SyntheticScene scene = LoadScene(Scene("default"));
+  const std::vector<Eigen::Vector2d> grid = DisplayGrid(scene.monitor, 31, 9);
+  FitOptions options;
+  options.models = {"cylinder+lean"};
+  options.heldout_folds = 0;
+  constexpr int kTrials = 100;
+  std::vector<double> lean, sigma;
+  for (int t = 0; t < kTrials; ++t) {
+    std::mt19937_64 rng(5000 + t);
+    const auto photo = Observe(scene, grid, kNoisePx, rng, AxisLeanSurface(scene, 1.0));
+    const auto [deg, s] = FitScreen(scene.monitor, scene.camera, {photo}, options).Chosen().extra.at("lean_deg");
+    lean.push_back(deg);
+    sigma.push_back(s);
+  }
+  const double mean = std::accumulate(lean.begin(), lean.end(), 0.0) / kTrials;
+  double var = 0;
+  for (double x : lean) var += (x - mean) * (x - mean);
+  const double scatter = std::sqrt(var / (kTrials - 1));
+  const double mean_sigma = std::accumulate(sigma.begin(), sigma.end(), 0.0) / kTrials;
+  std::cout << "lean over " << kTrials << " seeds: bias " << mean - 1.0 << " deg, scatter " << scatter
+            << " deg, mean reported sigma " << mean_sigma << " deg\n";
+  EXPECT_LT(std::abs(mean - 1.0), 3 * scatter / std::sqrt(kTrials));
+  EXPECT_NEAR(mean_sigma, scatter, 0.2 * scatter);
 }
 
 // Switch on (remove DISABLED_) once TrueMonitor::lean_deg is the axis tilt of cylinder+lean (another branch).
@@ -183,6 +211,9 @@ TEST(ScreenFitTest, TwoMillimetreBulgeChoosesTheDeviationModelAndIsLocated) {
   const Eigen::VectorXd coef = modes.colPivHouseholderQr().solve(truth);
   const Eigen::Vector2d at_peak(bump.u, bump.v);
   const double truth_at_peak = scene.truth.DeviationMm(at_peak) - basis.Modes(at_peak).dot(coef);
+  std::cout << "bulge: chosen " << r.Chosen().model << ", map peak " << r.map_mm[static_cast<size_t>(peak)] << " +- "
+            << r.map_sigma_mm[static_cast<size_t>(peak)] << " mm at (u, v) = (" << pu << ", " << pv
+            << "); gauged truth " << truth_at_peak << " mm at (" << bump.u << ", " << bump.v << ")\n";
   EXPECT_NEAR(r.map_mm[static_cast<size_t>(peak)], truth_at_peak, 0.25 * truth_at_peak)
       << "gauged truth at the bump " << truth_at_peak;
   // The per-feature deviations near the bump agree with the map there.
@@ -251,6 +282,53 @@ TEST(ScreenFitTest, SeveralPhotosAreFittedJointly) {
           << p << " " << a;
     }
   }
+}
+
+TEST(ScreenFitTest, SparseBoardSkipsTheDeviationFieldAndSaysWhy) {
+  // The renderer's default board: 15 x 4 inner corners, 120 residuals, too few for 73 deviation coefficients.
+  const SyntheticScene scene = LoadScene(Scene("default"));
+  std::mt19937_64 rng(20);
+  const auto photo = Observe(scene, DisplayGrid(scene.monitor, 15, 4, 0.06), kNoisePx, rng, SceneSurface(scene));
+  ASSERT_EQ(photo.ids.size(), 60u);
+  const ScreenFitResult r = FitScreen(scene.monitor, scene.camera, {photo}, FitOptions{});
+  ASSERT_EQ(r.candidates.size(), 5u);
+  EXPECT_EQ(IndexOf(r, "cylinder+deviation"), -1);
+  ASSERT_EQ(r.skipped.size(), 1u);
+  EXPECT_THAT(r.skipped[0], ::testing::HasSubstr("cylinder+deviation not tried: 60 observations give 120 residuals"));
+  EXPECT_EQ(r.Chosen().model, "cylinder") << Table(r);
+  ASSERT_TRUE(r.Chosen().radius_mm.has_value());
+  EXPECT_LT(std::abs(*r.Chosen().radius_mm - 1000), 3 * *r.Chosen().radius_sigma_mm);
+  // Without a field the map is the smoothed per-feature deviations: supported cells near zero.
+  int finite = 0;
+  for (size_t i = 0; i < r.map_mm.size(); ++i) {
+    if (!std::isfinite(r.map_mm[i])) continue;
+    ++finite;
+    EXPECT_LT(std::abs(r.map_mm[i]), 4 * r.map_sigma_mm[i] + 0.05) << i;
+  }
+  EXPECT_GT(finite, 0);
+}
+
+TEST(ScreenFitTest, RadiusUnobservableFromANarrowStripIsReported) {
+  // Features only within 2% of the width around the centre column: the sagitta there is ~0.07 mm, which a
+  // camera 1.5 m away cannot see; the curvature's interval holds both flat and the nominal 1000R.
+  const SyntheticScene scene = LoadScene(Scene("default"));
+  std::vector<Eigen::Vector2d> strip;
+  for (int j = 0; j < 9; ++j) {
+    for (int i = 0; i < 5; ++i) {
+      strip.emplace_back(scene.monitor.width_px * (0.49 + 0.005 * i), scene.monitor.height_px * (0.1 + 0.1 * j));
+    }
+  }
+  std::mt19937_64 rng(21);
+  const auto photo = Observe(scene, strip, kNoisePx, rng, SceneSurface(scene));
+  FitOptions options;
+  options.models = {"flat", "cylinder"};
+  const ScreenFitResult r = FitScreen(scene.monitor, scene.camera, {photo}, options);
+  const ModelFit& cyl = r.candidates[static_cast<size_t>(IndexOf(r, "cylinder"))];
+  EXPECT_TRUE(cyl.ill_conditioned);
+  EXPECT_THAT(cyl.condition_note, ::testing::HasSubstr("radius unobservable from these photos"));
+  EXPECT_FALSE(cyl.radius_mm.has_value());
+  EXPECT_GT(cyl.curvature_sigma_per_mm, 1e-3 / 1.96);
+  EXPECT_EQ(r.Chosen().model, "flat") << Table(r);  // the simplest model the data support
 }
 
 TEST(ScreenFitTest, RejectsInvalidInputNamingIt) {

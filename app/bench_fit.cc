@@ -73,20 +73,20 @@ int RunBenchFit(const BenchFitArgs& a) {
     ten_features += static_cast<int>(ten.back().ids.size());
   }
   std::cout << fmt::format("one photo: {} features; ten photos: {} features\n\n", one[0].ids.size(), ten_features);
-  std::cout << fmt::format("{:<28} {:>14} {:>14} {:>12}\n", "model (no held-out folds)", "1 photo ms", "10 photos ms",
-                           "parameters");
+  std::cout << fmt::format("{:<28} {:>15} {:>15} {:>12}\n", "model (no held-out folds)", "1 photo ms (it)",
+                           "10 photos (it)", "parameters");
   for (ScreenModelKind kind : AllScreenModels()) {
     FitOptions o;
     o.models = {ScreenModelName(kind)};
     o.heldout_folds = 0;
     std::vector<double> t1, t10;
-    int params = 0;
+    ModelFit f1, f10;
     for (int r = 0; r < a.runs; ++r) {
-      t1.push_back(TimeMs([&] { FitScreen(scene.monitor, scene.camera, one, o); }));
-      t10.push_back(TimeMs([&] { params = FitScreen(scene.monitor, scene.camera, ten, o).Chosen().parameters; }));
+      t1.push_back(TimeMs([&] { f1 = FitScreen(scene.monitor, scene.camera, one, o).Chosen(); }));
+      t10.push_back(TimeMs([&] { f10 = FitScreen(scene.monitor, scene.camera, ten, o).Chosen(); }));
     }
-    std::cout << fmt::format("{:<28} {:>14.1f} {:>14.1f} {:>12}\n", ScreenModelName(kind), Median(t1), Median(t10),
-                             params);
+    std::cout << fmt::format("{:<28} {:>9.1f} ({:>3}) {:>9.1f} ({:>3}) {:>12}\n", ScreenModelName(kind), Median(t1),
+                             f1.iterations, Median(t10), f10.iterations, f10.parameters);
   }
   std::vector<double> t_all;
   ScreenFitResult all;

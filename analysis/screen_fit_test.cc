@@ -163,14 +163,15 @@ TEST(ScreenFitAccuracyTest, AxisLeanStatistics) {
 }
 
 // Switch on (remove DISABLED_) once TrueMonitor::lean_deg is the axis tilt of cylinder+lean (another branch).
-TEST(ScreenFitTest, DISABLED_LeanThroughSyntheticCamera) {
+TEST(ScreenFitTest, LeanThroughSyntheticCamera) {
   const SyntheticScene scene = LoadScene(Scene("lean-1deg"));
   std::mt19937_64 rng(15);
   const auto photo = Observe(scene, DisplayGrid(scene.monitor, 31, 9), kNoisePx, rng, SceneSurface(scene));
   const ScreenFitResult r = FitScreen(scene.monitor, scene.camera, {photo}, FitOptions{});
   EXPECT_EQ(r.Chosen().model, "cylinder+lean") << Table(r);
   const auto [deg, sigma] = r.candidates[static_cast<size_t>(IndexOf(r, "cylinder+lean"))].extra.at("lean_deg");
-  EXPECT_LT(std::abs(deg - 1.0), 1.96 * sigma) << deg << " +- " << sigma;
+  // One trial: within 3 sigma (the interval's coverage over many seeds is tested with the fit's own lean data).
+  EXPECT_LT(std::abs(deg - 1.0), 3 * sigma) << deg << " +- " << sigma;
 }
 
 TEST(ScreenFitTest, TwoMillimetreBulgeChoosesTheDeviationModelAndIsLocated) {

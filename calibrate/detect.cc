@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <cstdlib>
 #include <chrono>
 #include <cmath>
 #include <mrgingham/mrgingham.hh>
@@ -61,7 +62,11 @@ bool DetectOpenCv(const cv::Mat& gray, const BoardSpec& b, const DetectOptions& 
 bool DetectMrgingham(const cv::Mat& gray, const BoardSpec& b, Detection& d) {
   d.detector = "mrgingham";
   std::vector<mrgingham::PointDouble> pts;
-  if (mrgingham::find_chessboard_from_image_array(pts, nullptr, b.corners_x, gray) < 0) return false;
+  // A non-null refinement buffer asks mrgingham to refine every corner (it reallocs it; we free it).
+  signed char* levels = nullptr;
+  const int found = mrgingham::find_chessboard_from_image_array(pts, &levels, b.corners_x, gray);
+  free(levels);
+  if (found < 0) return false;
   if (pts.size() != static_cast<size_t>(b.corner_count())) return false;
   for (const auto& p : pts) d.corners_px.emplace_back(p.x, p.y);
   return true;

@@ -137,6 +137,7 @@ def structure(inp, observations, residuals):
 
 
 def candidate(inp, observations, lensmodel, index):
+    detected = observations[..., 2] > 0  # before the solve: mrcal marks outliers in place
     t0 = time.time()
     oi, stats, lensmodel = solve(inp, observations, lensmodel)
     t_solve = time.time() - t0
@@ -153,7 +154,7 @@ def candidate(inp, observations, lensmodel, index):
     out = dict(lensmodel=lensmodel, nparams=int(mrcal.lensmodel_num_params(lensmodel)),
                rms_px=float(np.sqrt(np.mean(residuals[inl] ** 2) * 2)),
                worst_px=float(np.sqrt(np.max(np.sum(residuals[inl] ** 2, axis=-1)))),
-               noutliers=int(np.sum(~inl & (observations[..., 2] > 0))), ninliers=int(np.sum(inl)),
+               noutliers=int(np.sum(~inl & detected)), ninliers=int(np.sum(inl)),
                per_photo_rms_px=per_photo, solve_s=t_solve,
                residuals_px=residuals.reshape(nframes, -1, 2).tolist(),
                inlier=inl.reshape(nframes, -1).tolist(),

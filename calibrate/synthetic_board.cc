@@ -95,7 +95,7 @@ SyntheticBoardSet MakeSyntheticBoardSet(const SyntheticBoardOptions& o) {
   scene.optics.blur_px = o.blur_px;
   scene.sensor.noise = o.noise;
   const double fx = o.camera.intrinsics[0];
-  const double board_mm = (o.corners_x + 1) * set.board.square_mm;
+  const double board_mm = (o.corners_x + 1) * set.board.square_mm, board_h_mm = (o.corners_y + 1) * set.board.square_mm;
   const int w = o.camera.width, h = o.camera.height;
   std::mt19937_64 rng(o.seed);
   std::uniform_real_distribution<double> uni(-1, 1), unit(0, 1);
@@ -107,7 +107,7 @@ SyntheticBoardSet MakeSyntheticBoardSet(const SyntheticBoardOptions& o) {
     for (int attempt = 0; attempt < 400 && !placed; ++attempt) {
       const double shrink = 1.0 - attempt / 400.0;  // pull the target toward the centre if it will not fit
       const double fill = o.fill_far + (o.fill_near - o.fill_far) * (k % 2 == 0 ? 0.6 + 0.4 * unit(rng) : 0.4 * unit(rng));
-      const double distance = fx * board_mm / (fill * w);
+      const double distance = std::max(fx * board_mm / (fill * w), fx * board_h_mm / (fill * h));
       const double tilt = o.max_tilt_deg * kDeg * std::sqrt(unit(rng));
       const double azimuth = 2 * M_PI * unit(rng);
       const Eigen::Vector3d dir(std::sin(tilt) * std::cos(azimuth), std::sin(tilt) * std::sin(azimuth), std::cos(tilt));

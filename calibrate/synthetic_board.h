@@ -25,7 +25,8 @@ struct SyntheticBoardOptions {
   double pixel_pitch_mm = 0.25;
   double max_tilt_deg = 45;    // angle between the camera's view of the board and the board's normal
   double max_roll_deg = 20;
-  // Board width (with its outer squares) as a fraction of the image width at the closest and farthest views.
+  // Board size (with its outer squares) as a fraction of the image size (the tighter of width and height) at the
+  // closest and farthest views.
   double fill_near = 0.85, fill_far = 0.4;
   double blur_px = 0.8;        // Gaussian optics blur, camera px
   bool noise = true;           // Poisson-Gaussian sensor noise (capture's Sensor defaults)

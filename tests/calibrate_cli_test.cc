@@ -16,6 +16,11 @@
 
 #include "calibrate/synthetic_board.h"
 #include "core/camera_model.h"
+#include "core/correction.h"
+#include "core/file_io.h"
+#include "core/screen_geometry.h"
+#include "render/pattern.h"
+#include "render/pattern_json.h"
 #include "tests/cli_test_util.h"
 
 namespace curvecheck {
@@ -111,6 +116,18 @@ TEST_F(CalibrateCli, BadInputFailsWithOneLine) {
   ExpectOneLineFailure(Curvecheck({"calibrate", png, "-o", (dir_ / "cam.cameramodel").string(), "--board", "9x6",
                                    "--square-mm", "25", "--detector", "mrgingham"}),
                        {"--detector", "square NxN"});
+  // The monitor as the target must be flat: a checkerboard rendered for a curved monitor is refused.
+  const Monitor curved = MonitorFromDiagonal("34 1900R", 3440, 1440, 34, 1900);
+  const Eigen::Vector3d viewpoint = ScreenCentreInScreen(curved) + Eigen::Vector3d(0, 0, 800);
+  const Pattern p = BuildPattern(PatternSpec(), curved, viewpoint, TangentPlaneAtCentre(curved));
+  const fs::path pattern = dir_ / "curved.json";
+  WriteFileAtomic(pattern, PatternToJson(p, curved, viewpoint, {{"name", "exact"}}).dump());
+  ExpectOneLineFailure(Curvecheck({"calibrate", png, "-o", (dir_ / "cam.cameramodel").string(), "--board-from",
+                                   pattern.string()}),
+                       {"curved.json", "curved monitor", "flat"});
+  ExpectOneLineFailure(Curvecheck({"calibrate", png, "-o", (dir_ / "cam.cameramodel").string(), "--board-from",
+                                   pattern.string(), "--square-mm", "5"}),
+                       {"--square-mm", "comes from --board-from"});
 }
 
 // Real photos that no one here made: OpenCV's sample set (opencv-doc: left01..14.jpg, 13 photos, 640x480, a 9x6

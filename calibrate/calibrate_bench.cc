@@ -4,8 +4,8 @@
 //   build/calibrate/calibrate_bench [--views 30] [--width 6000 --height 4000] [--dir DIR] [--runs 3]
 //
 // The photos are rendered once into DIR (kept: rendering is not what is measured) and read back from PNG by the
-// detection, as `curvecheck calibrate` does. Prints the machine, the median of `runs` runs of each stage, and
-// the accuracy of the result against the true lens.
+// detection, as `curvecheck calibrate` does. Prints the machine, each run, the median of `runs` runs of each
+// stage and the candidate table. Timings on the shared 2-core machine depend on its load: quote them with it.
 #include <fmt/format.h>
 
 #include <algorithm>

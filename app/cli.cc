@@ -8,6 +8,7 @@
 
 #include "app/analyze_command.h"
 #include "app/bench_command.h"
+#include "app/calibrate_command.h"
 #include "app/capture_command.h"
 #include "app/capture_synth_command.h"
 #include "app/commands.h"
@@ -28,7 +29,6 @@ struct Planned {
   const char* issue;
 };
 constexpr Planned kPlanned[] = {
-    {"calibrate", "calibrate the camera with mrcal from chessboard photos", "issue 5 (calibrate)"},
     {"sweep", "stability sweeps over scene factors", "issue 7"},
 };
 
@@ -77,6 +77,8 @@ int Main(int argc, char** argv) {
   // `capture` (issue 4 item 3): webcam, DSLR, sessions, import; app/capture_command.cc.
   CLI::App* capture = AddCaptureCommand(app, run);
   AddCaptureSynthCommand(*capture, run);
+  // `calibrate` (issue 5): app/calibrate_command.cc.
+  AddCalibrateCommand(app, run);
 
   for (const Planned& p : kPlanned) {
     CLI::App* cmd = app.add_subcommand(p.name, std::string(p.summary) + " [not implemented yet: " + p.issue + "]");

@@ -145,21 +145,28 @@ TEST_F(Cli, BadViewpoints) {
 }
 
 TEST_F(Cli, PlannedSubcommandsFailHonestly) {
-  for (const char* sub : {"calibrate", "analyze", "sweep"}) {
+  for (const char* sub : {"sweep"}) {
     const CliRun r = Curvecheck({sub, "--monitor", "default"});
     ExpectFailure(r, {"not implemented yet", "nothing was done"});
     EXPECT_THAT(r.out, Not(HasSubstr("written")));
   }
 }
 
-TEST_F(Cli, DemoRunsWhatExists) {
+TEST_F(Cli, DemoRunsEndToEndAndFindsTheTrueRadius) {
+  // render -> synthetic capture (24 MP) -> analyze on the default scene, whose true monitor is the nominal 1000R.
   const CliRun r = Curvecheck({"demo", "-o", (dir_ / "demo").string()});
-  ASSERT_EQ(r.code, 0) << r.err;
-  EXPECT_THAT(r.out, AllOf(HasSubstr("geometry self-check"), HasSubstr("not yet available"),
-                           HasSubstr("mapping error max")));
-  for (const char* f : {"checkerboard.png", "checkerboard.json", "apriltag.png", "apriltag.json"}) {
+  ASSERT_EQ(r.code, 0) << r.err << r.out;
+  EXPECT_THAT(r.out, AllOf(HasSubstr("verification: PASS"), HasSubstr("inside its 95% interval"),
+                           HasSubstr("model cylinder")));
+  for (const char* f : {"pattern.png", "pattern.json", "photo.png", "photo.truth.json", "analysis/result.json",
+                        "analysis/overlay-photo.png", "datasets/scenes/default.yaml"}) {
     EXPECT_TRUE(fs::exists(dir_ / "demo" / f)) << f;
   }
+  const nlohmann::json result = nlohmann::json::parse(Slurp(dir_ / "demo" / "analysis" / "result.json"));
+  const nlohmann::json& fit = result["fit"];
+  EXPECT_LE(fit["radius_ci95_mm"][0].get<double>(), 1000.0);
+  EXPECT_GE(fit["radius_ci95_mm"][1].get<double>(), 1000.0);
+  EXPECT_LT(fit["radius_sigma_mm"].get<double>(), 5.0);
 }
 
 }  // namespace

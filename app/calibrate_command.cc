@@ -1,0 +1,126 @@
+// `curvecheck calibrate (--board NxM --square-mm S | --board-from pattern.json) photos... -o cam.cameramodel`:
+// detects the board in every photo (in parallel), solves every candidate lens model with mrcal, chooses the
+// simplest adequate one, prints the candidate table and writes the chosen model (a mrcal .cameramodel with its
+// optimization inputs) and cam.calibration.json (the report: per-photo and per-corner residuals, outliers,
+// every candidate's figures, the uncertainty grid).
+#include "app/calibrate_command.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <chrono>
+#include <filesystem>
+#include <iostream>
+
+#include "calibrate/calibrate.h"
+#include "core/error.h"
+#include "core/file_io.h"
+
+namespace curvecheck::app {
+namespace {
+namespace fs = std::filesystem;
+
+struct CalibrateArgs {
+  std::string board, board_from, output, lensmodel = "auto", detector = "auto";
+  double square_mm = 0, focal_px = 0, distance_mm = 1000;
+  int splined_nx = 16, threads = 0, search_max_px = 1600;
+  bool no_cross_validate = false;
+  std::vector<std::string> photos;
+};
+
+int RunCalibrate(const CalibrateArgs& a) {
+  const fs::path out = a.output;
+  if (out.extension() != ".cameramodel") {
+    throw Error("-o", fmt::format("'{}' does not end in .cameramodel", a.output), "write e.g. -o cam.cameramodel");
+  }
+  const fs::path report_path = fs::path(out).replace_extension(".calibration.json");
+  if (a.board.empty() == a.board_from.empty()) {
+    throw Error("--board", "give exactly one of --board NxM (with --square-mm) and --board-from pattern.json", "");
+  }
+  if (!a.board_from.empty() && a.square_mm != 0) {
+    throw Error("--square-mm", "the square size comes from --board-from's pattern.json", "drop --square-mm");
+  }
+  std::vector<fs::path> photos;
+  std::error_code ec;
+  for (const std::string& p : a.photos) {
+    if (!fs::is_regular_file(p, ec)) throw Error(p, "is not a file", "give the photos' paths (shell globs work)");
+    if (fs::exists(out, ec) && fs::equivalent(p, out, ec)) throw Error(p, "is also the output", "choose another -o");
+    photos.emplace_back(p);
+  }
+  const BoardSpec board = a.board_from.empty() ? BoardFromText(a.board, a.square_mm) : BoardFromPatternJson(a.board_from);
+  DetectOptions d;
+  d.detector = a.detector;
+  d.threads = a.threads;
+  d.search_max_px = a.search_max_px;
+  CalibrateOptions c;
+  if (a.lensmodel != "auto") c.lensmodels = {a.lensmodel};
+  c.splined_nx = a.splined_nx;
+  c.focal_px = a.focal_px;
+  c.distance_mm = a.distance_mm;
+  c.cross_validate = !a.no_cross_validate;
+  c.Check();
+
+  const auto t0 = std::chrono::steady_clock::now();
+  const std::vector<Detection> detections = DetectChessboards(photos, board, d);
+  const double detect_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  int found = 0;
+  for (const Detection& det : detections) {
+    found += det.found ? 1 : 0;
+    if (!det.found) std::cout << fmt::format("{}: {}; not used\n", det.photo.string(), det.problem);
+  }
+  std::cout << fmt::format("detection: board {}x{} ({} mm squares) in {} of {} photos, {:.2f} s wall\n",
+                           board.corners_x, board.corners_y, board.square_mm, found, photos.size(), detect_s);
+  const CalibrationResult r = Calibrate(detections, board, c);
+  std::cout << CandidateTable(r);
+  const CandidateResult& ch = r.Chosen();
+  std::cout << fmt::format(
+      "optimization: {:.2f} s wall (all candidates{}); RMS {:.3f} px, {} outliers of {} corners\n"
+      "projection uncertainty at {}: median {:.3f} px over the central half of the imager, median {:.3f} px and "
+      "max {:.3f} px where the board was seen\n",
+      r.optimize_s, c.cross_validate ? " and cross-validation" : "", ch.rms_px, ch.noutliers,
+      ch.noutliers + ch.ninliers, c.distance_mm > 0 ? fmt::format("{} mm", c.distance_mm) : "infinity",
+      ch.SigmaCentralMedian(r.width, r.height), ch.SigmaObservedMedian(), ch.SigmaObservedMax());
+  nlohmann::json report = CalibrationJson(r);
+  report["detect_s"] = detect_s;
+  report["uncertainty"]["distance_mm"] = c.distance_mm > 0 ? nlohmann::json(c.distance_mm) : nlohmann::json("infinity");
+  report["model"] = out.filename().string();
+  WriteFileAtomic(out, ch.model_text);
+  WriteFileAtomic(report_path, report.dump(1) + "\n");
+  std::cout << fmt::format("wrote {} and {}\n", out.string(), report_path.string());
+  return 0;
+}
+
+}  // namespace
+
+void AddCalibrateCommand(CLI::App& app, std::function<int()>& run) {
+  auto a = std::make_shared<CalibrateArgs>();
+  CLI::App* cmd = app.add_subcommand(
+      "calibrate", "Calibrate the camera with mrcal from chessboard photos: detect, solve the candidate lens models, "
+                   "keep the simplest adequate one; writes CAM.cameramodel and CAM.calibration.json");
+  cmd->add_option("photos", a->photos, "Chessboard photos (one camera, one resolution)")->required();
+  cmd->add_option("-o,--output", a->output, "Output camera model (.cameramodel)")->required();
+  cmd->add_option("--board", a->board, "Inner corners across x down, e.g. 9x6");
+  cmd->add_option("--square-mm", a->square_mm, "Square edge in mm (with --board)");
+  cmd->add_option("--board-from", a->board_from,
+                  "pattern.json of a checkerboard rendered by `curvecheck render` for a FLAT monitor: the monitor "
+                  "is the target, squares sized by its pixel pitch");
+  cmd->add_option("--lensmodel", a->lensmodel,
+                  "auto (OPENCV4, OPENCV8 and a splined model; the simplest adequate one wins) or one mrcal "
+                  "LENSMODEL_... name")
+      ->capture_default_str();
+  cmd->add_option("--detector", a->detector, "auto | opencv | mrgingham (square boards only)")->capture_default_str();
+  cmd->add_option("--search-max-px", a->search_max_px,
+                  "Longest side of the reduced copy the board search runs on (0 = full size); corners are refined "
+                  "at full resolution")
+      ->capture_default_str();
+  cmd->add_option("--threads", a->threads, "Photos detected in parallel (0 = all cores)")->capture_default_str();
+  cmd->add_option("--focal-px", a->focal_px, "Focal length seed, px (0 = estimate with OpenCV)")->capture_default_str();
+  cmd->add_option("--distance-mm", a->distance_mm,
+                  "Distance at which uncertainty and cross-validation differences are evaluated (0 = infinity)")
+      ->capture_default_str();
+  cmd->add_option("--splined-nx", a->splined_nx, "Knots across of the splined candidate")->capture_default_str();
+  cmd->add_flag("--no-cross-validate", a->no_cross_validate, "Skip the two-halves cross-validation (faster)");
+  cmd->callback([&run, a] { run = [a] { return RunCalibrate(*a); }; });
+}
+
+}  // namespace curvecheck::app

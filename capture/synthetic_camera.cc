@@ -10,7 +10,6 @@
 #include <cmath>
 #include <ctime>
 #include <exception>
-#include <map>
 #include <memory>
 #include <mutex>
 #include <numbers>
@@ -82,7 +81,7 @@ void ParallelRows(int rows, const F& body) {
 // upright (unleaned) cylinder and the nominal screen frame.
 struct TrueGeometry {
   double k, half_w, half_h, cos_l, sin_l;
-  Eigen::Matrix3d shear, upright_from_true, rotation;
+  Eigen::Matrix3d shear, upright_from_true, rotation;  // upright_from_true = shear^-1
   Eigen::Vector3d centre_in_screen;  // true screen centre in the nominal screen frame
   const TrueMonitor* truth;
 
@@ -114,12 +113,6 @@ struct TrueGeometry {
     const Eigen::Vector3d n = Normal(uv);
     if (normal) *normal = n;
     return BasePoint(uv) + truth->DeviationMm(uv) * n;
-  }
-  // (u, v) of the base surface point met by the upright cylinder's radius (in the plane y = const) through p.
-  Eigen::Vector2d BaseUv(const Eigen::Vector3d& p_true) const {
-    const Eigen::Vector3d p = upright_from_true * p_true;
-    const double s = k == 0 ? p.x() : std::atan2(k * p.x(), 1 - k * p.z()) / k;
-    return {s / half_w, -p.y() / half_h};
   }
 };
 
@@ -583,11 +576,13 @@ struct Tracer {
     double v = py * v_from_y;
     if (std::abs(v) > bezel_v && bump_support.empty()) return room;
     const double px = o.x() + t * d.x();
-    double u;
+    double u, sin_phi = 0, cos_phi = 1;
     if (k == 0) {
       u = px * u_from_s;
     } else {
       const double pz = o.z() + t * d.z();
+      sin_phi = k * px;
+      cos_phi = 1 - k * pz;
       const double den = 2 - k * pz;  // 1 + cos(phi)
       const double tan_half = k * px / den;
       const double phi = (den > 0 && std::abs(tan_half) <= 1) ? 2 * FastAtan(tan_half) : std::atan2(k * px, 1 - k * pz);
@@ -597,7 +592,7 @@ struct Tracer {
       for (const Box& box : bump_support) {
         if (u >= box.u0 && u <= box.u1 && v >= box.v0 && v <= box.v1) {
           ++*refined;
-          Refine(d, t, &u, &v);
+          Refine(d, sin_phi, cos_phi, &u, &v);
           break;
         }
       }
@@ -608,31 +603,34 @@ struct Tracer {
   // Moves (u, v) from the base surface onto the deviated one, P(u, v) + dev(u, v) n(u, v) = o + t d, in the
   // true centre frame by fixed-point steps: intersect the ray with the tangent plane at the current deviated
   // point, take off the deviation along the normal and project back onto the base surface (TrueGeometry's
-  // BasePoint, Normal and BaseUv, written out with one sincos per step). Each step shrinks the error by about
+  // BasePoint and Normal, written out with one sincos per step; (u, v) of a point from its upright image). Each step shrinks the error by about
   // |grad dev| tan(incidence) (0.01 for the 2 mm bulge scene, below 0.1 for any bump less steep than 1:10 seen
   // at less than 45 deg), so stopping after a step below 1e-5 in u, v leaves below 1e-6 (0.6 um on a 1.2 m
   // panel, 0.003 display px); at most 8 steps.
-  void Refine(const Eigen::Vector3d& d_upright, double t, double* u, double* v) const {
+  // sin_phi, cos_phi: of the base hit's angle (exact there: k x and 1 - k z on the cylinder); each step gets
+  // them from its own point the same way, so no step calls sin or cos.
+  void Refine(const Eigen::Vector3d& d_upright, double sin_phi, double cos_phi, double* u, double* v) const {
     const Eigen::Vector3d origin = geometry.shear * o, d = geometry.shear * d_upright;
     const double cl = geometry.cos_l, sl = geometry.sin_l, tan_l = sl / cl;
-    double uu = *u, vv = *v;
+    double uu = *u, vv = *v, sn = sin_phi, cs = cos_phi;
     for (int iter = 0; iter < 8; ++iter) {
-      const double arc = uu * geometry.half_w, phi = k * arc, w = -vv * geometry.half_h;
-      const double sn = std::sin(phi), cs = std::cos(phi);
+      const double arc = uu * geometry.half_w, w = -vv * geometry.half_h;
       const double x = k == 0 ? arc : sn / k, z = k == 0 ? 0.0 : (1 - cs) / k;
       const Eigen::Vector3d base(x, w * cl, z + w * sl);
       const Eigen::Vector3d n = Eigen::Vector3d(-sn * cl, -cs * sl, cs * cl) / std::sqrt(sn * sn * cl * cl + cs * cs);
       const double dev = geometry.truth->DeviationMm({uu, vv});
       const double nd = n.dot(d);
       if (nd == 0) break;
-      t = (n.dot(base - origin) + dev) / nd;
+      const double t = (n.dot(base - origin) + dev) / nd;
       const Eigen::Vector3d p = origin + t * d - dev * n;
       const double px = p.x(), py = p.y() / cl, pz = p.z() - p.y() * tan_l;  // upright
       double next_u = px * u_from_s;
       if (k != 0) {
         // atan2(a, b) = 2 atan(a / (hypot(a, b) + b)) for b > 0 (|angle| < 90 deg), else the library's.
-        const double a = k * px, b = 1 - k * pz;
-        next_u = (b > 0 ? 2 * FastAtan(a / (std::sqrt(a * a + b * b) + b)) : std::atan2(a, b)) * u_from_phi;
+        const double a = k * px, b = 1 - k * pz, r = std::sqrt(a * a + b * b);
+        next_u = (b > 0 ? 2 * FastAtan(a / (r + b)) : std::atan2(a, b)) * u_from_phi;
+        sn = a / r;
+        cs = b / r;
       }
       const double next_v = py * v_from_y;
       const bool done = std::max(std::abs(next_u - uu), std::abs(next_v - vv)) < 1e-5;

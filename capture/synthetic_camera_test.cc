@@ -77,6 +77,25 @@ TEST(SyntheticCamera, RayGridInterpolationBelowOneThousandthPixel) {
   EXPECT_LT(err, 0.001);
 }
 
+// The tracer's row-coherent rays (RowNodes at DenseColumn) are Ray()'s, which MeasureErrorPx checked above.
+TEST(SyntheticCamera, RowCoherentRaysEqualPointRays) {
+  const CameraModel cam = ScaledCamera(ReadCameraModel(Datasets() / "cameras/default-24mp-opencv8.cameramodel"), 0.2);
+  const RayGrid grid(cam, 16);
+  std::vector<Eigen::Vector2d> nodes;
+  double worst = 0;
+  for (double y : {-0.5, -0.375, 0.0, 13.7, 400.25, cam.height - 0.5}) {
+    grid.RowNodes(y, &nodes);
+    for (double x : {-0.5, -0.125, 3.3, 611.9, cam.width - 0.5}) {
+      int i;
+      double f;
+      grid.DenseColumn(x, &i, &f);
+      const Eigen::Vector2d n = (1 - f) * nodes[static_cast<size_t>(i)] + f * nodes[static_cast<size_t>(i) + 1];
+      worst = std::max(worst, (Eigen::Vector3d(n.x(), n.y(), 1) - grid.Ray({x, y})).norm());
+    }
+  }
+  EXPECT_LT(worst, 1e-12);
+}
+
 // A pinhole camera looking straight at a flat monitor sees the display through an exact homography.
 TEST(SyntheticCamera, PinholeOnFlatMonitorIsAnExactHomography) {
   SyntheticScene s;

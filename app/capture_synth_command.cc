@@ -7,6 +7,9 @@
 
 #include <filesystem>
 #include <iostream>
+#include <optional>
+#include <string>
+#include <vector>
 
 #include "capture/synthetic_camera.h"
 #include "core/error.h"
@@ -21,6 +24,8 @@ namespace fs = std::filesystem;
 struct SynthArgs {
   std::string scene, display, output;
   double ray_grid_px = 16;
+  std::vector<std::string> overrides;  // --set KEY=VALUE
+  std::optional<double> scale;         // --scale: imager scale
 };
 
 int RunSynth(const SynthArgs& a) {
@@ -33,7 +38,8 @@ int RunSynth(const SynthArgs& a) {
       throw Error(out.string(), "is an input of this command", "choose another output path");
     }
   }
-  const SyntheticScene scene = LoadScene(a.scene);
+  SyntheticScene scene = LoadScene(a.scene, a.overrides);
+  if (a.scale) scene.camera = ScaledCamera(scene.camera, *a.scale);
   const fs::path pattern_json = fs::path(a.display).replace_extension(".json");
   const PatternFile pattern = ReadPatternJson(pattern_json);
   if (pattern.monitor.width_px != scene.monitor.width_px || pattern.monitor.height_px != scene.monitor.height_px) {
@@ -49,6 +55,8 @@ int RunSynth(const SynthArgs& a) {
   truth["display_image"] = a.display;
   truth["pattern_json"] = pattern_json.string();
   truth["photo"] = out.filename().string();
+  truth["scene_overrides"] = a.overrides;
+  truth["imager_scale"] = a.scale.value_or(1.0);
   WriteSyntheticPhoto(out, photo);
   WriteFileAtomic(truth_path, truth.dump(1) + "\n");
   int visible = 0;
@@ -75,6 +83,11 @@ void AddCaptureSynthCommand(CLI::App& capture, std::function<int()>& run) {
       ->required();
   cmd->add_option("-o,--output", args->output, "Output photo (PNG)")->required();
   cmd->add_option("--ray-grid-px", args->ray_grid_px, "Spacing of the unprojection grid, px")->capture_default_str();
+  cmd->add_option("--set", args->overrides,
+                  "Override a scene field, KEY=VALUE with a dotted key (repeatable), e.g. --set optics.blur=none "
+                  "--set sensor.noise=false --set true_monitor.lean_deg=0.5");
+  cmd->add_option("--scale", args->scale,
+                  "Shrink the camera's imager by this factor (0..1], lens scaled with it: quick previews and tests");
   cmd->callback([&run, args] { run = [args] { return RunSynth(*args); }; });
 }
 

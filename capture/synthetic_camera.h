@@ -115,7 +115,14 @@ struct SyntheticScene {
 //                   sigma_v, height_mm}] }      all optional; default: the nominal monitor
 //   display / optics / sensor: the fields of DisplayModel / Optics / Sensor, all optional
 SyntheticScene SceneFromConfig(const ConfigMap& config, const std::filesystem::path& scene_dir);
-SyntheticScene LoadScene(const std::filesystem::path& path);
+// `overrides` are "dotted.key=value" settings applied to the file's YAML before it is read (value in YAML, e.g.
+// "optics.blur=none", "sensor.noise=false", "true_monitor.lean_deg=0.5"); they go through the same checks.
+SyntheticScene LoadScene(const std::filesystem::path& path, const std::vector<std::string>& overrides = {});
+
+// The same lens on an imager scaled by `scale` (0 < scale <= 1; size rounded): fx, fy scaled, the principal
+// point moved so that q' + 0.5 = scale (q + 0.5), distortion unchanged (it acts on normalized coordinates). For
+// quick previews and tests. Throws Error for models without the fx, fy, cx, cy core (CAHVOR, CAHVORE).
+CameraModel ScaledCamera(const CameraModel& camera, double scale);
 
 // Camera rotation from a viewing direction: camera z toward look_at, x = z cross up, y = z cross x (down).
 Eigen::Matrix3d ScreenFromCamLookAt(const Eigen::Vector3d& position, const Eigen::Vector3d& look_at,

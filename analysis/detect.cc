@@ -244,7 +244,7 @@ double RefineSigmaPx(const std::vector<std::pair<std::string, Eigen::Vector2d>>&
   if (o.prefilter_sigma_px >= 0) return o.prefilter_sigma_px;
   const double pitch = DisplayPitchPx(found, pattern);
   if (pitch <= 0.5) return 0;
-  const double sigma = 0.8 * pitch;
+  const double sigma = 2.0 * pitch;
   notes.push_back(fmt::format("display pixels are {:.2f} px in the photo: refined on a Gaussian-smoothed copy "
                               "(sigma {:.2f} px) against the screen-door grid",
                               pitch, sigma));

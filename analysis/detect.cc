@@ -213,17 +213,47 @@ cv::Mat To8Bit(const cv::Mat& photo) {
   return out;
 }
 
-// cornerSubPix takes 8-bit or float images.
-cv::Mat ForSubPix(const cv::Mat& photo) {
-  if (photo.depth() == CV_8U) return photo;
-  cv::Mat out;
-  photo.convertTo(out, CV_32F);
-  return out;
+// The display's pixel pitch in the photo (camera px per display px): median over pairs of features of their
+// image distance over their display distance (pattern.json display_px); 0 if there are too few.
+double DisplayPitchPx(const std::vector<std::pair<std::string, Eigen::Vector2d>>& found, const PatternFile& pattern) {
+  std::map<std::string, Eigen::Vector2d> display;
+  for (const Feature& f : pattern.features) {
+    if (f.display_px) display[f.id] = *f.display_px;
+  }
+  std::vector<std::pair<Eigen::Vector2d, Eigen::Vector2d>> pts;  // image, display
+  const size_t step = std::max<size_t>(1, found.size() / 40);
+  for (size_t i = 0; i < found.size(); i += step) {
+    const auto it = display.find(found[i].first);
+    if (it != display.end()) pts.emplace_back(found[i].second, it->second);
+  }
+  std::vector<double> ratios;
+  for (size_t i = 0; i < pts.size(); ++i) {
+    for (size_t j = i + 1; j < pts.size(); ++j) {
+      const double d = (pts[i].second - pts[j].second).norm();
+      if (d > 20) ratios.push_back((pts[i].first - pts[j].first).norm() / d);
+    }
+  }
+  if (ratios.empty()) return 0;
+  std::nth_element(ratios.begin(), ratios.begin() + ratios.size() / 2, ratios.end());
+  return ratios[ratios.size() / 2];
+}
+
+// The refinement's smoothing (DetectOptions::prefilter_sigma_px), with a note when it is used.
+double RefineSigmaPx(const std::vector<std::pair<std::string, Eigen::Vector2d>>& found, const PatternFile& pattern,
+                     const DetectOptions& o, std::vector<std::string>& notes) {
+  if (o.prefilter_sigma_px >= 0) return o.prefilter_sigma_px;
+  const double pitch = DisplayPitchPx(found, pattern);
+  if (pitch <= 0.5) return 0;
+  const double sigma = 2.0 * pitch;
+  notes.push_back(fmt::format("display pixels are {:.2f} px in the photo: refined on a Gaussian-smoothed copy "
+                              "(sigma {:.2f} px) against the screen-door grid",
+                              pitch, sigma));
+  return sigma;
 }
 
 // Why a board detector found nothing: tags instead, another board size, or nothing at all.
 std::string DiagnoseBoardFailure(const cv::Mat& gray8, const PatternInfo& info, const std::string& detector) {
-  const std::vector<DetectedTag> tags = detect_internal::RunAprilTag(gray8, 4, 0, 0);
+  const std::vector<DetectedTag> tags = detect_internal::RunAprilTag(gray8, 2, 0, 0);
   if (!tags.empty()) {
     std::set<int> ids;
     for (const DetectedTag& t : tags) ids.insert(t.id);
@@ -241,16 +271,20 @@ std::string DiagnoseBoardFailure(const cv::Mat& gray8, const PatternInfo& info, 
 }
 
 // One board detector, oriented and named; false with `failure` set if it found nothing usable.
-bool DetectBoard(const std::string& detector, const cv::Mat& photo, const cv::Mat& gray8, const PatternInfo& info,
-                 const DetectOptions& o, Detection& out) {
+bool DetectBoard(const std::string& detector, const cv::Mat& photo, const cv::Mat& gray8, const PatternFile& pattern,
+                 const PatternInfo& info, const DetectOptions& o, Detection& out) {
   const cv::Size inner(info.cols - 1, info.rows - 1);
   std::optional<CornerGrid> grid;
+  cv::Mat coarse_input = gray8;
+  if (detector != "opencv-classic" && o.prefilter_sigma_px > 0) {
+    cv::GaussianBlur(gray8, coarse_input, cv::Size(0, 0), o.prefilter_sigma_px);
+  }
   if (detector == "mrgingham") {
-    grid = detect_internal::RunMrgingham(gray8, inner.width);
+    grid = detect_internal::RunMrgingham(coarse_input, inner.width);
   } else if (detector == "opencv-sb") {
-    grid = detect_internal::RunOpenCvSb(gray8, inner, o.sb_accuracy);
+    grid = detect_internal::RunOpenCvSb(coarse_input, inner, o.sb_accuracy);
   } else {
-    grid = detect_internal::RunOpenCvClassic(gray8, ForSubPix(photo), inner, o.classic_max_px);
+    grid = detect_internal::RunOpenCvClassic(gray8, inner, o.classic_max_px);
   }
   if (!grid) {
     out.failure = fmt::format("pattern not found: no checkerboard of {}x{} inner corners ({})", inner.width,
@@ -264,6 +298,13 @@ bool DetectBoard(const std::string& detector, const cv::Mat& photo, const cv::Ma
     return false;
   }
   out.notes.push_back(orient.note);
+  if (detector == "opencv-classic") {
+    std::vector<std::pair<std::string, Eigen::Vector2d>> coarse;
+    for (size_t d = 0; d < grid->px.size(); ++d) {
+      coarse.emplace_back(fmt::format("c{}", orient.corner_index[d]), Eigen::Vector2d(grid->px[d].x, grid->px[d].y));
+    }
+    detect_internal::RefineXCorners(photo, RefineSigmaPx(coarse, pattern, o, out.notes), *grid);
+  }
   out.features.clear();
   for (size_t d = 0; d < grid->px.size(); ++d) {
     DetectedFeature f;
@@ -280,8 +321,8 @@ bool DetectBoard(const std::string& detector, const cv::Mat& photo, const cv::Ma
 
 // Board corners of kind "both", predicted from the nearest tags and refined by cornerSubPix inside the clean
 // X-junction (the tags' borders are 1/6 of a square from each corner).
-void BoardCornersFromTags(const cv::Mat& subpix, const std::vector<DetectedTag>& tags, const PatternInfo& info,
-                          Detection& out) {
+void BoardCornersFromTags(const cv::Mat& photo, double sigma_px, const std::vector<DetectedTag>& tags,
+                          const PatternInfo& info, Detection& out) {
   struct TagOnPlane {
     const DetectedTag* tag;
     Eigen::Vector2d centre_mm;
@@ -292,7 +333,6 @@ void BoardCornersFromTags(const cv::Mat& subpix, const std::vector<DetectedTag>&
     for (int k = 0; k < 4; ++k) c += info.pattern_mm.at(fmt::format("t{}.{}", t.id, k)) / 4;
     placed.push_back({&t, c});
   }
-  const cv::TermCriteria stop(cv::TermCriteria::EPS + cv::TermCriteria::COUNT, 40, 1e-3);
   int predicted = 0, refused = 0;
   for (int k = 0; k < (info.cols - 1) * (info.rows - 1); ++k) {
     const std::string id = fmt::format("c{}", k);
@@ -318,14 +358,13 @@ void BoardCornersFromTags(const cv::Mat& subpix, const std::vector<DetectedTag>&
     const double square_px = std::min((Apply(*h, p + Eigen::Vector2d(info.square_mm, 0)) - guess).norm(),
                                       (Apply(*h, p + Eigen::Vector2d(0, info.square_mm)) - guess).norm());
     const int half = std::clamp(static_cast<int>(std::floor(0.12 * square_px)), 2, 30);
-    if (guess.x() < half + 1 || guess.y() < half + 1 || guess.x() > subpix.cols - half - 2 ||
-        guess.y() > subpix.rows - half - 2) {
+    if (guess.x() < half + 1 || guess.y() < half + 1 || guess.x() > photo.cols - half - 2 ||
+        guess.y() > photo.rows - half - 2) {
       continue;
     }
     ++predicted;
-    std::vector<cv::Point2f> one{cv::Point2f(static_cast<float>(guess.x()), static_cast<float>(guess.y()))};
-    cv::cornerSubPix(subpix, one, cv::Size(half, half), cv::Size(-1, -1), stop);
-    const Eigen::Vector2d refined(one[0].x, one[0].y);
+    const cv::Point2d r = detect_internal::RefineXCorner(photo, sigma_px, cv::Point2d(guess.x(), guess.y()), half);
+    const Eigen::Vector2d refined(r.x, r.y);
     const double moved = (refined - guess).norm();
     if (!refined.allFinite() || moved > half) {
       ++refused;
@@ -343,8 +382,8 @@ void BoardCornersFromTags(const cv::Mat& subpix, const std::vector<DetectedTag>&
   }
 }
 
-void DetectTags(const cv::Mat& photo, const cv::Mat& gray8, const PatternInfo& info, const DetectOptions& o,
-                Detection& out) {
+void DetectTags(const cv::Mat& photo, const cv::Mat& gray8, const PatternFile& pattern, const PatternInfo& info,
+                const DetectOptions& o, Detection& out) {
   std::vector<DetectedTag> found =
       detect_internal::RunAprilTag(gray8, o.apriltag_decimate, o.apriltag_max_hamming, o.apriltag_threads);
   if (found.empty()) {
@@ -376,10 +415,15 @@ void DetectTags(const cv::Mat& photo, const cv::Mat& gray8, const PatternInfo& i
   if (!doubled.empty()) {
     out.notes.push_back(fmt::format("tags seen more than once (kept the strongest): {}", TagIdRanges(doubled)));
   }
+  std::vector<std::pair<std::string, Eigen::Vector2d>> coarse;
+  for (const auto& [id, t] : by_id) {
+    for (int k = 0; k < 4; ++k) coarse.emplace_back(fmt::format("t{}.{}", id, k), t.px[static_cast<size_t>(k)]);
+  }
+  const double sigma = RefineSigmaPx(coarse, pattern, o, out.notes);
   std::vector<DetectedTag> tags;
   int unrefined = 0;
   for (auto& [id, t] : by_id) {
-    if (o.refine_tags && !detect_internal::RefineTagCorners(photo, t)) ++unrefined;
+    if (o.refine_tags && !detect_internal::RefineTagCorners(photo, t, sigma)) ++unrefined;
     tags.push_back(t);
   }
   if (unrefined > 0) {
@@ -399,7 +443,7 @@ void DetectTags(const cv::Mat& photo, const cv::Mat& gray8, const PatternInfo& i
       out.features.push_back(std::move(f));
     }
   }
-  if (info.kind == "both") BoardCornersFromTags(ForSubPix(photo), tags, info, out);
+  if (info.kind == "both") BoardCornersFromTags(photo, sigma, tags, info, out);
 }
 
 }  // namespace
@@ -436,6 +480,9 @@ void DetectOptions::Check(const std::string& where) const {
   range("apriltag_max_hamming", apriltag_max_hamming, 0, 2, "use 0, 1 or 2 (larger needs gigabytes of tables)");
   range("apriltag_threads", apriltag_threads, 0, 256, "use 0 for all cores");
   if (classic_max_px != 0) range("classic_max_px", classic_max_px, 200, 1e6, "use 0 (full resolution) or >= 200");
+  if (prefilter_sigma_px != -1) {
+    range("prefilter_sigma_px", prefilter_sigma_px, 0, 10, "use -1 (auto), 0 (none) or a sigma in px up to 10");
+  }
   range("upright_max_deg", upright_max_deg, 1e-9, 45, "use an angle in (0, 45] deg, e.g. 40");
   range("screen_neighbours", screen_neighbours, 5, 100, "use 5..100, e.g. 8");
   range("outlier_sigmas", outlier_sigmas, 1e-9, 1e6, "use a positive number of sigmas, e.g. 5");
@@ -509,15 +556,15 @@ Detection DetectFeatures(const cv::Mat& photo_gray, const PatternFile& pattern, 
   out.detector = detector;
   const cv::Mat gray8 = To8Bit(photo_gray);
   if (detector == "apriltag") {
-    DetectTags(photo_gray, gray8, info, options, out);
-  } else if (!DetectBoard(detector, photo_gray, gray8, info, options, out)) {
+    DetectTags(photo_gray, gray8, pattern, info, options, out);
+  } else if (!DetectBoard(detector, photo_gray, gray8, pattern, info, options, out)) {
     if (options.detector == "auto" && out.failure.starts_with("pattern not found")) {
       // auto: classic is fast but less robust to strong perspective and blur; try SB before giving up.
       const std::string first = out.failure;
       out = Detection();
       out.detector = "opencv-sb";
       out.notes.push_back(fmt::format("opencv-classic failed ({}); used opencv-sb", first));
-      DetectBoard("opencv-sb", photo_gray, gray8, info, options, out);
+      DetectBoard("opencv-sb", photo_gray, gray8, pattern, info, options, out);
     }
     if (out.failure.starts_with("pattern not found")) out.failure = DiagnoseBoardFailure(gray8, info, out.detector);
   }

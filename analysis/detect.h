@@ -7,10 +7,13 @@
 //   opencv-sb       OpenCV findChessboardCornersSB at full resolution (its own sub-pixel corners; histogram
 //                   equalization only as a retry, it costs accuracy).
 //   opencv-classic  OpenCV findChessboardCorners on a copy scaled down by an integer factor to at most
-//                   `classic_max_px` on its longer side (global threshold, then with histogram equalization; not
-//                   the adaptive thresholds, which take a minute on photos of other boards), then cornerSubPix at
-//                   full resolution with a window of 0.3 x the distance to the nearest corner.
-//   apriltag        AprilTag 3 tag36h11; corners moved by -0.5 px to pixel centres at integers, then refined at
+//                   `classic_max_px` on its longer side (area averaging; global threshold, then with histogram
+//                   equalization; not the adaptive thresholds, which take a minute on photos of other boards),
+//                   then cornerSubPix at full resolution with a window of 0.3 x the distance to the nearest corner
+//                   (on a smoothed patch, see prefilter_sigma_px).
+//   apriltag        AprilTag 3 tag36h11 on a copy shrunk by `apriltag_decimate` with area averaging and smoothed
+//                   (0.8 px; AprilTag's own decimation samples single pixels, which aliases the display's pixel
+//                   grid); corners moved by -0.5 px to pixel centres at integers, then refined at
 //                   full resolution from the tag's outer border: each of the four edges is located along its
 //                   normal at ~1 px steps and fitted with a quadratic curve (lens distortion and screen curvature
 //                   bend the edges), adjacent curves intersected. Kind "both": the checkerboard corners are
@@ -50,8 +53,8 @@ namespace curvecheck {
 struct DetectOptions {
   // auto | mrgingham | opencv-sb | opencv-classic | apriltag (see above).
   std::string detector = "auto";
-  // AprilTag quad_decimate: the quad search runs on an image decimated by this factor (1 = full resolution).
-  // 2 is ~4x faster than 1 at 24 MP; the corners are refined at full resolution afterwards either way. 1..8.
+  // AprilTag: the detector runs on a copy shrunk by this factor (1 = full resolution). 2 is ~3x faster than 1 at
+  // 24 MP; the corners are refined at full resolution afterwards either way. 1..8.
   int apriltag_decimate = 2;
   // AprilTag: largest number of corrected bits accepted (tag36h11 codes are >= 11 bits apart). 0..3.
   int apriltag_max_hamming = 1;
@@ -63,6 +66,14 @@ struct DetectOptions {
   int classic_max_px = 1600;
   // opencv-sb: add CALIB_CB_ACCURACY (upsampling; ~5x slower, a little more accurate).
   bool sb_accuracy = false;
+  // Gaussian smoothing (sigma, px) of the neighbourhood of each feature before its full-resolution refinement, and
+  // of the whole photo before opencv-sb and mrgingham when set explicitly. -1 = auto: 2 x the display's pixel
+  // pitch in the photo (estimated from the coarse detections and pattern.json's display positions) when that
+  // pitch exceeds 0.5 camera px, i.e. when the camera resolves the screen-door grid of the display; else 0.
+  // Measured on the default 24 MP scene (0.8 camera px per display pixel, strong moire): opencv-classic RMS vs
+  // truth 7.0 px at sigma 0.63, 1.5 px at 1.5, 0.9 px at 3. A symmetric blur moves neither straight edges nor
+  // X-corners. opencv-sb and mrgingham get no smoothing in auto.
+  double prefilter_sigma_px = -1;
   // Orientation rule (2): largest angle between the board's up and the image's up, deg, in (0, 45].
   double upright_max_deg = 40;
   // Screening: neighbours per local homography (>= 5), threshold in robust sigmas and its floor in px.

@@ -77,7 +77,7 @@ std::optional<CornerGrid> RunOpenCvSb(const cv::Mat& gray8, cv::Size inner, bool
   return g;
 }
 
-std::optional<CornerGrid> RunOpenCvClassic(const cv::Mat& gray8, const cv::Mat& full, cv::Size inner, int max_px) {
+std::optional<CornerGrid> RunOpenCvClassic(const cv::Mat& gray8, cv::Size inner, int max_px) {
   const int factor = ScaleFactor(gray8, max_px);
   const cv::Mat small = Shrink(gray8, factor);
   // The global threshold first (milliseconds on a clean photo), then with histogram equalization. Not the
@@ -94,24 +94,38 @@ std::optional<CornerGrid> RunOpenCvClassic(const cv::Mat& gray8, const cv::Mat& 
   g.height = inner.height;
   // Pixel i of the shrunk copy averages full-resolution pixels factor*i .. factor*i + factor - 1.
   for (const cv::Point2f& p : corners) g.px.emplace_back(factor * p.x + 0.5 * (factor - 1), factor * p.y + 0.5 * (factor - 1));
-  const cv::TermCriteria stop(cv::TermCriteria::EPS + cv::TermCriteria::COUNT, 40, 1e-3);
+  g.quality.assign(g.px.size(), 1.0);
+  return g;
+}
+
+cv::Point2d RefineXCorner(const cv::Mat& image, double sigma_px, cv::Point2d guess, int half) {
+  const int pad = half + 4 + static_cast<int>(std::ceil(3 * sigma_px));
+  const cv::Rect roi(static_cast<int>(std::floor(guess.x)) - pad, static_cast<int>(std::floor(guess.y)) - pad,
+                     2 * pad + 1, 2 * pad + 1);
+  cv::Point origin;
+  const cv::Mat patch = SmoothedPatch(image, roi, sigma_px, &origin);
+  if (patch.cols <= 2 * half + 3 || patch.rows <= 2 * half + 3) return guess;  // cut by the image edge
+  std::vector<cv::Point2f> one{cv::Point2f(static_cast<float>(guess.x - origin.x), static_cast<float>(guess.y - origin.y))};
+  cv::cornerSubPix(patch, one, cv::Size(half, half), cv::Size(-1, -1),
+                   cv::TermCriteria(cv::TermCriteria::EPS + cv::TermCriteria::COUNT, 40, 1e-3));
+  return cv::Point2d(one[0].x + origin.x, one[0].y + origin.y);
+}
+
+void RefineXCorners(const cv::Mat& image, double sigma_px, CornerGrid& g) {
+  const std::vector<cv::Point2d> coarse = g.px;
   for (int j = 0; j < g.height; ++j) {
     for (int i = 0; i < g.width; ++i) {
-      const cv::Point2d& p = g.px[static_cast<size_t>(j * g.width + i)];
+      const cv::Point2d& p = coarse[static_cast<size_t>(j * g.width + i)];
       double nearest = 1e9;
       for (const auto& [di, dj] : kNeighbours) {
         const int ii = i + di, jj = j + dj;
         if (ii < 0 || jj < 0 || ii >= g.width || jj >= g.height) continue;
-        nearest = std::min(nearest, cv::norm(g.px[static_cast<size_t>(jj * g.width + ii)] - p));
+        nearest = std::min(nearest, cv::norm(coarse[static_cast<size_t>(jj * g.width + ii)] - p));
       }
       const int half = std::clamp(static_cast<int>(std::lround(0.3 * nearest)), 3, 40);
-      std::vector<cv::Point2f> one{cv::Point2f(static_cast<float>(p.x), static_cast<float>(p.y))};
-      cv::cornerSubPix(full, one, cv::Size(half, half), cv::Size(-1, -1), stop);
-      g.px[static_cast<size_t>(j * g.width + i)] = cv::Point2d(one[0].x, one[0].y);
+      g.px[static_cast<size_t>(j * g.width + i)] = RefineXCorner(image, sigma_px, p, half);
     }
   }
-  g.quality.assign(g.px.size(), 1.0);
-  return g;
 }
 
 BoardOrientation ResolveBoardOrientation(const CornerGrid& grid, const cv::Mat& image, int cols, int rows,

@@ -24,9 +24,16 @@ std::optional<CornerGrid> RunMrgingham(const cv::Mat& gray8, int gridn);
 // it fails without.
 std::optional<CornerGrid> RunOpenCvSb(const cv::Mat& gray8, cv::Size inner, bool accuracy);
 // findChessboardCorners on a copy scaled down by an integer factor to at most max_px on the longer side (0 =
-// full resolution), then cornerSubPix on `full` (8-bit or float) with a window of 0.3 x the distance to the
-// nearest grid neighbour, clamped to 3..40 px half-width.
-std::optional<CornerGrid> RunOpenCvClassic(const cv::Mat& gray8, const cv::Mat& full, cv::Size inner, int max_px);
+// full resolution); the coarse corners mapped to full resolution (refine them with RefineXCorners).
+std::optional<CornerGrid> RunOpenCvClassic(const cv::Mat& gray8, cv::Size inner, int max_px);
+
+// cornerSubPix at full resolution on each point of the grid, on a patch of `image` (any depth) smoothed by a
+// Gaussian of sigma_px if > 0, with a half-window of 0.3 x the distance to the nearest grid neighbour, clamped to
+// 3..40 px.
+void RefineXCorners(const cv::Mat& image, double sigma_px, CornerGrid& grid);
+
+// cornerSubPix of one X-corner with the given half-window on a smoothed patch; returns the refined position.
+cv::Point2d RefineXCorner(const cv::Mat& image, double sigma_px, cv::Point2d guess, int half);
 
 // Board inner corner indices of every grid point, or the failure.
 struct BoardOrientation {

@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cmath>
 #include <memory>
+#include <opencv2/imgproc.hpp>
 #include <thread>
 
 namespace curvecheck::detect_internal {
@@ -190,7 +191,11 @@ double SampleBilinear(const cv::Mat& image, double x, double y) {
   const int x0 = std::min(static_cast<int>(x), image.cols - 2), y0 = std::min(static_cast<int>(y), image.rows - 2);
   const double fx = x - x0, fy = y - y0;
   double v00, v01, v10, v11;
-  if (image.depth() == CV_16U) {
+  if (image.depth() == CV_32F) {
+    const float* r0 = image.ptr<float>(y0);
+    const float* r1 = image.ptr<float>(y0 + 1);
+    v00 = r0[x0], v01 = r0[x0 + 1], v10 = r1[x0], v11 = r1[x0 + 1];
+  } else if (image.depth() == CV_16U) {
     const uint16_t* r0 = image.ptr<uint16_t>(y0);
     const uint16_t* r1 = image.ptr<uint16_t>(y0 + 1);
     v00 = r0[x0], v01 = r0[x0 + 1], v10 = r1[x0], v11 = r1[x0 + 1];
@@ -202,16 +207,32 @@ double SampleBilinear(const cv::Mat& image, double x, double y) {
   return (1 - fy) * ((1 - fx) * v00 + fx * v01) + fy * ((1 - fx) * v10 + fx * v11);
 }
 
+cv::Mat SmoothedPatch(const cv::Mat& image, cv::Rect roi, double sigma_px, cv::Point* origin) {
+  roi &= cv::Rect(0, 0, image.cols, image.rows);
+  *origin = roi.tl();
+  cv::Mat patch;
+  image(roi).convertTo(patch, CV_32F);
+  if (sigma_px > 0 && !patch.empty()) cv::GaussianBlur(patch, patch, cv::Size(0, 0), sigma_px, sigma_px, cv::BORDER_REFLECT);
+  return patch;
+}
+
 std::vector<DetectedTag> RunAprilTag(const cv::Mat& gray8, int decimate, int max_hamming, int threads) {
   const std::unique_ptr<apriltag_family_t, void (*)(apriltag_family_t*)> family(tag36h11_create(), tag36h11_destroy);
   const std::unique_ptr<apriltag_detector_t, void (*)(apriltag_detector_t*)> detector(apriltag_detector_create(),
                                                                                       apriltag_detector_destroy);
   apriltag_detector_add_family_bits(detector.get(), family.get(), max_hamming);
-  detector->quad_decimate = static_cast<float>(decimate);
+  detector->quad_decimate = 1;
   detector->quad_sigma = 0;
   detector->refine_edges = true;
   detector->nthreads = threads > 0 ? threads : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
-  image_u8_t im{gray8.cols, gray8.rows, static_cast<int32_t>(gray8.step[0]), const_cast<uint8_t*>(gray8.ptr<uint8_t>(0))};
+  cv::Mat small;
+  if (decimate > 1) {
+    cv::resize(gray8, small, cv::Size(gray8.cols / decimate, gray8.rows / decimate), 0, 0, cv::INTER_AREA);
+  } else {
+    small = gray8.clone();
+  }
+  cv::GaussianBlur(small, small, cv::Size(0, 0), 0.8);
+  image_u8_t im{small.cols, small.rows, static_cast<int32_t>(small.step[0]), small.ptr<uint8_t>(0)};
   zarray_t* found = apriltag_detector_detect(detector.get(), &im);
   std::vector<DetectedTag> out;
   for (int i = 0; i < zarray_size(found); ++i) {
@@ -221,21 +242,41 @@ std::vector<DetectedTag> RunAprilTag(const cv::Mat& gray8, int decimate, int max
     t.id = det->id;
     t.hamming = det->hamming;
     t.decision_margin = det->decision_margin;
-    // AprilTag puts pixel centres at +0.5 (dependencies.md); curvecheck at integers.
-    for (int k = 0; k < 4; ++k) t.px[static_cast<size_t>(k)] = Eigen::Vector2d(det->p[k][0] - 0.5, det->p[k][1] - 0.5);
+    // AprilTag puts pixel centres at +0.5 (dependencies.md); curvecheck at integers. Pixel i of the shrunk copy
+    // averages full-resolution pixels decimate*i .. decimate*i + decimate - 1.
+    for (int k = 0; k < 4; ++k) {
+      t.px[static_cast<size_t>(k)] =
+          decimate * Eigen::Vector2d(det->p[k][0] - 0.5, det->p[k][1] - 0.5) + Eigen::Vector2d::Constant(0.5 * (decimate - 1));
+    }
     out.push_back(t);
   }
   apriltag_detections_destroy(found);
   return out;
 }
 
-bool RefineTagCorners(const cv::Mat& image, DetectedTag& tag) {
-  std::array<Eigen::Vector2d, 4> px = tag.px;
+bool RefineTagCorners(const cv::Mat& image, DetectedTag& tag, double sigma_px) {
+  // The tag's neighbourhood: its corners plus the profile half-width (<= 12 px), the possible corner error and
+  // 3 sigma of filter support.
+  Eigen::Vector2d lo = tag.px[0], hi = tag.px[0];
+  for (const Eigen::Vector2d& p : tag.px) {
+    lo = lo.cwiseMin(p);
+    hi = hi.cwiseMax(p);
+  }
+  const int pad = 16 + static_cast<int>(std::ceil(3 * sigma_px));
+  const cv::Rect roi(static_cast<int>(std::floor(lo.x())) - pad, static_cast<int>(std::floor(lo.y())) - pad,
+                     static_cast<int>(std::ceil(hi.x() - lo.x())) + 2 * pad + 1,
+                     static_cast<int>(std::ceil(hi.y() - lo.y())) + 2 * pad + 1);
+  cv::Point origin;
+  const cv::Mat patch = SmoothedPatch(image, roi, sigma_px, &origin);
+  if (patch.cols < 2 || patch.rows < 2) return false;
+  const Eigen::Vector2d shift(origin.x, origin.y);
+  std::array<Eigen::Vector2d, 4> px;
+  for (int k = 0; k < 4; ++k) px[static_cast<size_t>(k)] = tag.px[static_cast<size_t>(k)] - shift;
   double rms = 0;
   for (int pass = 0; pass < 2; ++pass) {
-    if (!RefinePass(image, px, rms)) return false;
+    if (!RefinePass(patch, px, rms)) return false;
   }
-  tag.px = px;
+  for (int k = 0; k < 4; ++k) tag.px[static_cast<size_t>(k)] = px[static_cast<size_t>(k)] + shift;
   tag.edge_rms_px = rms;
   return true;
 }

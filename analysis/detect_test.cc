@@ -366,8 +366,8 @@ TEST(Detect, BlankAndOtherPatternsFailWithAReason) {
             "(opencv-classic): a different pattern, or part of it outside the photo?");
   EXPECT_TRUE(d.features.empty());
   // Tags where a board was expected.
-  EXPECT_TRUE(DetectFeatures(tag_shot.photo, board_shot.pattern, With("auto"))
-                  .failure.starts_with("different pattern: the photo shows tag36h11 tags (0..35)"));
+  EXPECT_THAT(DetectFeatures(tag_shot.photo, board_shot.pattern, With("auto")).failure,
+              ::testing::StartsWith("different pattern: the photo shows tag36h11 tags (0..35)"));
   // Usage errors throw.
   EXPECT_THAT(MessageOf([&] { DetectFeatures(blank, board_shot.pattern, With("apriltag")); }),
               ::testing::HasSubstr("cannot detect a plain checkerboard"));

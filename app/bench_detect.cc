@@ -33,6 +33,7 @@ struct BenchDetectArgs {
   int runs = 3;
   std::string output;
   std::string patterns = "checkerboard,square,apriltag";
+  bool uniform_display = false;
 };
 
 struct Case {
@@ -46,11 +47,17 @@ int RunBenchDetect(const BenchDetectArgs& a) {
     throw Error("--scene", fmt::format("'{}' does not exist", a.scene),
                 "give a scene file (datasets/scenes/*.yaml) or run from the repository root");
   }
-  const SyntheticScene scene = LoadScene(a.scene);
+  SyntheticScene scene = LoadScene(a.scene);
+  if (a.uniform_display) {  // as the detect tests: no screen-door grid, finer supersampling
+    scene.display.fill_factor = 1;
+    scene.display.rgb_stripes = false;
+    scene.optics.supersample = 4;
+  }
   Renderer renderer;
   const std::string machine = DescribeMachine();
-  std::cout << fmt::format("bench detect: scene {} ({}x{} px camera), median of {} runs; {}\n", a.scene,
-                           scene.camera.width, scene.camera.height, a.runs, machine);
+  std::cout << fmt::format("bench detect: scene {}{} ({}x{} px camera), median of {} runs; {}\n", a.scene,
+                           a.uniform_display ? " with a uniform display" : "", scene.camera.width,
+                           scene.camera.height, a.runs, machine);
   std::cout << fmt::format("{:<14} {:<30} {:>9} {:>9} {:>6} {:>17} {:>8} {:>8}  {}\n", "pattern", "detector",
                            "median ms", "min ms", "found", "mean px", "rms px", "max px", "failure/notes");
   std::string csv = fmt::format("# curvecheck bench detect, scene {}, {} runs; {}\n", a.scene, a.runs, machine);
@@ -65,7 +72,7 @@ int RunBenchDetect(const BenchDetectArgs& a) {
       c.options.detector = detector;
       return c;
     };
-    if (which == std::string("apriltag")) {
+    if (which == "apriltag") {
       spec.kind = PatternKind::kAprilTag;
       for (int dec : {1, 2, 4}) {
         Case c = with(fmt::format("apriltag decimate {}", dec), "apriltag");
@@ -75,13 +82,23 @@ int RunBenchDetect(const BenchDetectArgs& a) {
         c.options.refine_tags = false;
         cases.push_back(c);
       }
+      for (double sigma : {1.5, 3.0}) {
+        Case c = with(fmt::format("apriltag decimate 2 smooth {:g}", sigma), "apriltag");
+        c.options.prefilter_sigma_px = sigma;
+        cases.push_back(c);
+      }
       cases.push_back(with("auto", "auto"));
     } else {
-      if (which == std::string("square")) {
+      if (which == "square") {
         spec.cols = spec.rows = 11;
         cases.push_back(with("mrgingham", "mrgingham"));
       }
       cases.push_back(with("opencv-classic", "opencv-classic"));
+      for (double sigma : {1.5, 3.0}) {
+        Case c = with(fmt::format("opencv-classic smooth {:g}", sigma), "opencv-classic");
+        c.options.prefilter_sigma_px = sigma;
+        cases.push_back(c);
+      }
       cases.push_back(with("opencv-sb", "opencv-sb"));
       cases.push_back(with("auto", "auto"));
     }
@@ -109,7 +126,7 @@ int RunBenchDetect(const BenchDetectArgs& a) {
     file.method = "exact";
     file.features = pattern.features;
     const std::string label =
-        which == std::string("apriltag")
+        which == "apriltag"
             ? fmt::format("tags {}x{}", spec.tag_cols, spec.tag_rows)
             : fmt::format("board {}x{}", spec.cols, spec.rows);
     for (const Case& c : cases) {
@@ -137,6 +154,9 @@ int RunBenchDetect(const BenchDetectArgs& a) {
       const double median = times[times.size() / 2];
       std::string info = d.failure;
       if (info.empty() && c.options.detector == "auto") info = "-> " + d.detector;
+      for (const std::string& note : d.notes) {
+        if (note.starts_with("display pixels")) info += (info.empty() ? "" : "; ") + note.substr(0, note.find(':'));
+      }
       std::cout << fmt::format("{:<14} {:<30} {:>9.1f} {:>9.1f} {:>6} {:>8.4f},{:>8.4f} {:>8.4f} {:>8.4f}  {}\n", label,
                                c.label, median, times.front(), fmt::format("{}/{}", n, truth.size()), mean.x(),
                                mean.y(), rms, worst, info);
@@ -164,6 +184,8 @@ void AddBenchDetectCommand(CLI::App& bench, std::function<int()>& run) {
   cmd->add_option("--runs", args->runs, "Timed runs per detector (median reported)")->capture_default_str();
   cmd->add_option("--patterns", args->patterns, "Which of checkerboard,square,apriltag")->capture_default_str();
   cmd->add_option("-o,--output", args->output, "Folder for detect_bench.csv (none: print only)");
+  cmd->add_flag("--uniform-display", args->uniform_display,
+                "Display pixels uniform (fill factor 1, no RGB stripes) and 4x4 supersampling: no moire");
   cmd->callback([&run, args] { run = [args] { return RunBenchDetect(*args); }; });
 }
 

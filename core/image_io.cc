@@ -32,8 +32,10 @@ void WritePng16(const std::filesystem::path& path, int width, int height, const 
   WriteFileAtomic(path, std::string_view(reinterpret_cast<const char*>(bytes.data()), bytes.size()));
 }
 
-Image8 ReadImage8(const std::filesystem::path& path) {
-  const std::string bytes = ReadFileToString(path);
+Image8 ReadImage8(const std::filesystem::path& path) { return DecodeImage8(ReadFileToString(path), path.string()); }
+
+Image8 DecodeImage8(std::string_view bytes, const std::string& source) {
+  const std::filesystem::path path(source);
   const cv::Mat raw(1, static_cast<int>(bytes.size()), CV_8U, const_cast<char*>(bytes.data()));
   cv::Mat img;
   try {

@@ -4,6 +4,8 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <string>
+#include <string_view>
 #include <vector>
 
 namespace curvecheck {
@@ -21,6 +23,9 @@ struct Image8 {
 // Reads an image as 8-bit (16-bit files are scaled down). Throws Error naming the file if it is missing,
 // truncated or not an image.
 Image8 ReadImage8(const std::filesystem::path& path);
+// The same from the bytes of an image file; `source` names it in errors. The entry point for the fuzzer
+// (fuzz/fuzz_image.cc) and for images already in memory.
+Image8 DecodeImage8(std::string_view bytes, const std::string& source);
 
 // Colour-maps a float map (NaN = no data, drawn dark grey; infinity = failure, drawn magenta) on [0, max_value]
 // with a perceptual colour scale (OpenCV's viridis) and writes it as PNG; values above max_value saturate.

@@ -237,7 +237,11 @@ nlohmann::json PatternToJson(const Pattern& p, const Monitor& m, const Eigen::Ve
 }
 
 PatternFile ReadPatternJson(const std::filesystem::path& path) {
-  const std::string text = ReadFileToString(path);
+  return ParsePatternJson(ReadFileToString(path), path.string());
+}
+
+PatternFile ParsePatternJson(const std::string& text, const std::string& source) {
+  const std::filesystem::path path(source);
   const Reader r(path);
   PatternFile out;
   try {

@@ -24,6 +24,9 @@ bool ParsesOrThrowsError(F&& read) {
     read();
     return true;
   } catch (const Error& e) {
+    // CURVECHECK_FUZZ_VERBOSE=1 prints each refusal (to check what a corpus file exercises).
+    static const bool verbose = std::getenv("CURVECHECK_FUZZ_VERBOSE") != nullptr;
+    if (verbose) std::fprintf(stderr, "Error: %s\n", e.what());
     // An Error must explain itself: empty messages would reach the user as a bare "Error".
     if (e.problem().empty()) {
       std::fprintf(stderr, "finding: curvecheck::Error with an empty problem (where '%s')\n", e.where().c_str());

@@ -298,7 +298,15 @@ SyntheticScene SceneFromConfig(const ConfigMap& c, const std::filesystem::path& 
     if (n.Has("full_well_e")) s.sensor.full_well_e = n.PositiveNumber("full_well_e");
     if (n.Has("read_noise_e")) s.sensor.read_noise_e = n.Number("read_noise_e");
     if (n.Has("noise")) s.sensor.noise = n.IsWord("noise", "true");
-    if (n.Has("seed")) s.sensor.seed = static_cast<uint64_t>(n.Number("seed"));
+    if (n.Has("seed")) {
+      // A whole number that a double holds exactly; anything else (negative, fractional, 1e30) would be an
+      // undefined conversion (found by fuzz_scene).
+      const double seed = n.Number("seed");
+      if (!(seed >= 0 && seed <= 9007199254740992.0 && seed == std::floor(seed))) {
+        n.Fail("seed", fmt::format("is {}", seed), "give a whole number from 0 to 2^53");
+      }
+      s.sensor.seed = static_cast<uint64_t>(seed);
+    }
     if (n.Has("bits")) s.sensor.bits = n.PositiveInt("bits");
     if (s.sensor.bits != 8 && s.sensor.bits != 16) n.Fail("bits", "is not 8 or 16", "choose 8 or 16");
   }

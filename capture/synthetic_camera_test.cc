@@ -378,3 +378,19 @@ TEST(SyntheticCamera, SensorNoiseHasTheModelsMeanAndVariance) {
 }
 }  // namespace
 }  // namespace curvecheck
+
+namespace curvecheck {
+namespace {
+
+TEST(SyntheticCamera, SeedMustBeAWholeNumber) {
+  const std::filesystem::path scenes = std::filesystem::path(std::getenv("CURVECHECK_SOURCE_DIR")) / "datasets/scenes";
+  EXPECT_EQ(LoadScene(scenes / "default.yaml", {"sensor.seed=12345"}).sensor.seed, 12345u);
+  for (const char* bad : {"sensor.seed=-1", "sensor.seed=1e30", "sensor.seed=2.5"}) {
+    EXPECT_THAT(testing::MessageOf([&] { LoadScene(scenes / "default.yaml", {bad}); }),
+                ::testing::HasSubstr("give a whole number from 0 to 2^53"))
+        << bad;
+  }
+}
+
+}  // namespace
+}  // namespace curvecheck

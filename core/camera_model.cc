@@ -67,8 +67,41 @@ void CameraModel::Check(const std::string& where) const {
   }
 }
 
+namespace {
+
+// libmrcal 2.2's parser (re2c, sentinel 0) scans an unterminated '#' comment for its '\n' and an unterminated
+// quoted string for its closing quote past the end of the buffer, until it faults (found by
+// fuzz/fuzz_cameramodel: "{ 'a" and "# x" crash with SEGV inside mrcal_read_cameramodel_string). So mrcal only
+// gets text in which both scans end inside it: the text plus a '\n' (which ends a last comment, and which mrcal
+// accepts after the closing brace), after checking, with the same left-to-right reading as mrcal's (a comment runs
+// from '#' outside a string to the end of the line; a string from ' or " to the next ' or "), that every string
+// closes. Returns the problem, or "" if the text is safe to hand to mrcal.
+std::string UnsafeForMrcal(const std::string& text) {
+  constexpr size_t kMaxBytes = 64 << 20;  // a splined model with thousands of parameters is ~100 kB
+  if (text.size() > kMaxBytes) return fmt::format("is {} bytes, too large for a camera model", text.size());
+  if (text.find('\0') != std::string::npos) return "contains a NUL byte, so it is not a text file";
+  for (size_t i = 0; i < text.size(); ++i) {
+    if (text[i] == '#') {
+      i = text.find('\n', i);
+      if (i == std::string::npos) break;  // ended by the '\n' we append
+    } else if (text[i] == '\'' || text[i] == '"') {
+      const size_t close = text.find_first_of("'\"", i + 1);
+      if (close == std::string::npos) return fmt::format("has a quoted string at byte {} that never closes", i);
+      i = close;
+    }
+  }
+  return "";
+}
+
+}  // namespace
+
 CameraModel ParseCameraModel(const std::string& text, const std::string& source) {
-  ModelPtr m(mrcal_read_cameramodel_string(text.c_str(), static_cast<int>(text.size())));
+  if (const std::string problem = UnsafeForMrcal(text); !problem.empty()) {
+    throw Error(source, problem + " (truncated or not a mrcal .cameramodel)",
+                "check it with mrcal-show-projection-diff or regenerate it with `curvecheck calibrate`");
+  }
+  const std::string terminated = text + "\n";
+  ModelPtr m(mrcal_read_cameramodel_string(terminated.c_str(), static_cast<int>(terminated.size())));
   if (!m) {
     throw Error(source, "is not a readable mrcal .cameramodel (mrcal's parser rejected it)",
                 "check it with mrcal-show-projection-diff or regenerate it with `curvecheck calibrate`");

@@ -73,5 +73,28 @@ TEST(CameraModel, WriteReadRoundTripAndBadFiles) {
   std::filesystem::remove_all(dir);
 }
 
+// Inputs that crashed libmrcal 2.2's parser (SEGV reading past the buffer; found by fuzz/fuzz_cameramodel, kept in
+// fuzz/corpus/fuzz_cameramodel/) are refused with an Error before they reach it; without the guard in
+// ParseCameraModel these cases crash the test.
+TEST(CameraModel, UnterminatedStringsAndCommentsDoNotCrashMrcal) {
+  for (const std::string text : {"{ 'a", "{ 'lensmodel': 'LENSMODEL_PINHOLE', 'i ", "{ \"lensmodel", "'"}) {
+    EXPECT_THAT(testing::MessageOf([&] { ParseCameraModel(text, "t.cameramodel"); }),
+                ::testing::HasSubstr("t.cameramodel: has a quoted string at byte"))
+        << text;
+  }
+  EXPECT_THAT(testing::MessageOf([&] { ParseCameraModel(std::string("{ 'a\0'", 6), "t.cameramodel"); }),
+              ::testing::HasSubstr("contains a NUL byte"));
+  // A comment that runs to the end of the text is ended by the '\n' the parser appends: a last comment without a
+  // newline is fine, a text that is only a comment is simply not a model.
+  EXPECT_THAT(testing::MessageOf([&] { ParseCameraModel("# x", "t.cameramodel"); }),
+              ::testing::HasSubstr("t.cameramodel: is not a readable mrcal .cameramodel"));
+  const CameraModel m = ParseCameraModel(
+      "{ 'lensmodel': 'LENSMODEL_PINHOLE', 'intrinsics': [ 1000, 1000, 319.5, 239.5 ], # it's a pinhole\n"
+      "  'imagersize': [ 640, 480 ], 'extrinsics': [0,0,0,0,0,0] } # no newline after this comment",
+      "t.cameramodel");
+  EXPECT_EQ(m.lensmodel, "LENSMODEL_PINHOLE");
+  EXPECT_EQ(m.width, 640);
+}
+
 }  // namespace
 }  // namespace curvecheck

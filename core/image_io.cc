@@ -3,6 +3,8 @@
 #include <fmt/format.h>
 
 #include <cmath>
+#include <cstdlib>
+#include <limits>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
@@ -32,8 +34,98 @@ void WritePng16(const std::filesystem::path& path, int width, int height, const 
   WriteFileAtomic(path, std::string_view(reinterpret_cast<const char*>(bytes.data()), bytes.size()));
 }
 
-Image8 ReadImage8(const std::filesystem::path& path) {
-  const std::string bytes = ReadFileToString(path);
+namespace {
+
+// Big-endian / little-endian unsigned reads at `at`; the caller has checked the length.
+uint64_t Be(std::string_view b, size_t at, int n) {
+  uint64_t v = 0;
+  for (int i = 0; i < n; ++i) v = (v << 8) | static_cast<uint8_t>(b[at + static_cast<size_t>(i)]);
+  return v;
+}
+uint64_t Le(std::string_view b, size_t at, int n) {
+  uint64_t v = 0;
+  for (int i = n - 1; i >= 0; --i) v = (v << 8) | static_cast<uint8_t>(b[at + static_cast<size_t>(i)]);
+  return v;
+}
+
+struct DeclaredSize {
+  const char* format = nullptr;  // nullptr: not a format we read
+  uint64_t width = 0, height = 0;
+  bool found = false;  // false: the header is too damaged to say
+};
+
+// The format and the image size its header declares, read before decoding: OpenCV allocates the whole image from
+// the header before it reads any pixel data, so a 69-byte PNG declaring 30000 x 30000 px made it allocate 2.7 GB
+// (found by fuzz/fuzz_image). Formats: those `capture import` takes (PNG, JPEG, TIFF, BMP).
+DeclaredSize SizeFromHeader(std::string_view b) {
+  DeclaredSize d;
+  if (b.size() >= 8 && b.substr(0, 8) == std::string_view("\x89PNG\r\n\x1a\n", 8)) {
+    d.format = "PNG";
+    if (b.size() >= 24 && b.substr(12, 4) == "IHDR") d = {d.format, Be(b, 16, 4), Be(b, 20, 4), true};
+  } else if (b.size() >= 3 && Be(b, 0, 3) == 0xFFD8FF) {
+    d.format = "JPEG";
+    // Marker segments up to the first SOFn (C0..CF except C4 DHT, C8 JPG, CC DAC), which precedes the scan (DA).
+    size_t i = 2;
+    while (i + 4 <= b.size()) {
+      if (static_cast<uint8_t>(b[i]) != 0xFF) break;
+      const uint8_t m = static_cast<uint8_t>(b[i + 1]);
+      if (m == 0xFF) { ++i; continue; }  // fill byte
+      if (m == 0x01 || (m >= 0xD0 && m <= 0xD8)) { i += 2; continue; }  // markers without a length
+      if (m == 0xDA || m == 0xD9) break;
+      if (m >= 0xC0 && m <= 0xCF && m != 0xC4 && m != 0xC8 && m != 0xCC) {
+        if (i + 9 <= b.size()) d = {d.format, Be(b, i + 7, 2), Be(b, i + 5, 2), true};
+        break;
+      }
+      i += 2 + Be(b, i + 2, 2);
+    }
+  } else if (b.size() >= 2 && b.substr(0, 2) == "BM") {
+    d.format = "BMP";
+    if (b.size() >= 26) {
+      const auto w = static_cast<int32_t>(Le(b, 18, 4)), h = static_cast<int32_t>(Le(b, 22, 4));  // h < 0: top-down
+      d = {d.format, static_cast<uint64_t>(std::abs(static_cast<int64_t>(w))),
+           static_cast<uint64_t>(std::abs(static_cast<int64_t>(h))), true};
+    }
+  } else if (b.size() >= 8 && (b.substr(0, 4) == std::string_view("II*\0", 4) || b.substr(0, 4) == "MM\0*")) {
+    d.format = "TIFF";
+    const bool le = b[0] == 'I';
+    const auto u = [&](size_t at, int n) { return le ? Le(b, at, n) : Be(b, at, n); };
+    const uint64_t ifd = u(4, 4);  // the first image (OpenCV reads that one)
+    if (ifd + 2 <= b.size()) {
+      const uint64_t n = u(ifd, 2);
+      for (uint64_t k = 0; k < n && ifd + 2 + 12 * (k + 1) <= b.size(); ++k) {
+        const size_t e = ifd + 2 + 12 * k;
+        const uint64_t tag = u(e, 2), type = u(e + 2, 2);
+        const uint64_t v = type == 3 ? u(e + 8, 2) : u(e + 8, 4);  // SHORT or LONG
+        if (tag == 256) d.width = v;
+        if (tag == 257) d.height = v;
+      }
+      d.found = d.width > 0 && d.height > 0;
+    }
+  }
+  return d;
+}
+
+}  // namespace
+
+Image8 ReadImage8(const std::filesystem::path& path) { return DecodeImage8(ReadFileToString(path), path.string()); }
+
+Image8 DecodeImage8(std::string_view bytes, const std::string& source) {
+  const std::filesystem::path path(source);
+  const DeclaredSize declared = SizeFromHeader(bytes);
+  if (!declared.format) {
+    throw Error(path.string(), "is not a PNG, JPEG, TIFF or BMP image (unknown header)", "give a PNG or JPEG file");
+  }
+  if (!declared.found) {
+    throw Error(path.string(), fmt::format("is not a readable {} image (damaged or truncated header)", declared.format),
+                "give a complete PNG or JPEG file");
+  }
+  if (declared.width == 0 || declared.height == 0 || declared.width * declared.height > kMaxImagePixels ||
+      bytes.size() > static_cast<size_t>(std::numeric_limits<int>::max())) {
+    throw Error(path.string(),
+                fmt::format("declares {} x {} px, outside 1 px .. {} Mpx (or is over 2 GB)", declared.width,
+                            declared.height, kMaxImagePixels / 1000000),
+                "give a camera photo or a rendered pattern; the file may be damaged");
+  }
   const cv::Mat raw(1, static_cast<int>(bytes.size()), CV_8U, const_cast<char*>(bytes.data()));
   cv::Mat img;
   try {

@@ -4,6 +4,8 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <string>
+#include <string_view>
 #include <vector>
 
 namespace curvecheck {
@@ -14,13 +16,20 @@ void WritePng8(const std::filesystem::path& path, int width, int height, int cha
 // Writes a 16-bit gray image, rows top to bottom.
 void WritePng16(const std::filesystem::path& path, int width, int height, const uint16_t* data);
 
+// 200 Mpx: above the largest camera sensors (~150 Mpx) and any display; 600 MB as 8-bit colour.
+constexpr uint64_t kMaxImagePixels = 200'000'000;
+
 struct Image8 {
   int width = 0, height = 0, channels = 0;
   std::vector<uint8_t> pixels;  // rows top to bottom, tightly packed; BGR(A) order for colour
 };
-// Reads an image as 8-bit (16-bit files are scaled down). Throws Error naming the file if it is missing,
-// truncated or not an image.
+// Reads an image as 8-bit (16-bit files are scaled down). PNG, JPEG, TIFF or BMP, at most kMaxImagePixels as its
+// header declares (checked before decoding, so that a small damaged or hostile file cannot make OpenCV allocate
+// gigabytes). Throws Error naming the file if it is missing, truncated, not such an image or too large.
 Image8 ReadImage8(const std::filesystem::path& path);
+// The same from the bytes of an image file; `source` names it in errors. The entry point for the fuzzer
+// (fuzz/fuzz_image.cc) and for images already in memory.
+Image8 DecodeImage8(std::string_view bytes, const std::string& source);
 
 // Colour-maps a float map (NaN = no data, drawn dark grey; infinity = failure, drawn magenta) on [0, max_value]
 // with a perceptual colour scale (OpenCV's viridis) and writes it as PNG; values above max_value saturate.

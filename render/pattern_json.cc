@@ -116,13 +116,17 @@ class Reader {
   }
 
   // Every number anywhere in the document is finite (the parser already refuses NaN and overflow; this
-  // keeps the promise independent of the parser).
-  void CheckFinite(const json& v, const std::string& at) const {
+  // keeps the promise independent of the parser), and nothing is nested deeper than kMaxDepth: a pattern.json
+  // nests 4 levels; without the limit a 20 kB file of nested lists overflowed the stack here (recursion, and
+  // a path string per level).
+  static constexpr int kMaxDepth = 32;
+  void CheckFinite(const json& v, const std::string& at, int depth = 0) const {
+    if (depth > kMaxDepth) Fail(at, fmt::format("is nested more than {} levels deep", kMaxDepth));
     if (v.is_number_float() && !std::isfinite(v.get<double>())) Fail(at, "is not a finite number");
     if (v.is_object()) {
-      for (const auto& [key, value] : v.items()) CheckFinite(value, at.empty() ? key : at + "." + key);
+      for (const auto& [key, value] : v.items()) CheckFinite(value, at.empty() ? key : at + "." + key, depth + 1);
     } else if (v.is_array()) {
-      for (size_t i = 0; i < v.size(); ++i) CheckFinite(v[i], fmt::format("{}[{}]", at, i));
+      for (size_t i = 0; i < v.size(); ++i) CheckFinite(v[i], fmt::format("{}[{}]", at, i), depth + 1);
     }
   }
 
@@ -237,7 +241,11 @@ nlohmann::json PatternToJson(const Pattern& p, const Monitor& m, const Eigen::Ve
 }
 
 PatternFile ReadPatternJson(const std::filesystem::path& path) {
-  const std::string text = ReadFileToString(path);
+  return ParsePatternJson(ReadFileToString(path), path.string());
+}
+
+PatternFile ParsePatternJson(const std::string& text, const std::string& source) {
+  const std::filesystem::path path(source);
   const Reader r(path);
   PatternFile out;
   try {

@@ -44,5 +44,8 @@ struct PatternFile {
 // features with well-formed, unique ids ("c<k>" of kind "corner", "t<id>.<0..3>" of kind "tag_corner" with
 // id < 587). Throws Error naming the file, the offending entry and what to do.
 PatternFile ReadPatternJson(const std::filesystem::path& path);
+// The same from the text of a pattern.json; `source` names it in errors (the file path, as ReadPatternJson
+// does). The entry point for the fuzzer (fuzz/fuzz_pattern_json.cc) and for text already in memory.
+PatternFile ParsePatternJson(const std::string& text, const std::string& source);
 
 }  // namespace curvecheck

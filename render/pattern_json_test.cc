@@ -139,6 +139,32 @@ TEST_F(PatternJson, RoundTripThroughAFileKeepsEveryFeature) {
   EXPECT_EQ(f2.features.size(), 60u);
 }
 
+// ParsePatternJson (the text entry point, used by the fuzzer) reads what ReadPatternJson reads, with `source` in
+// its errors.
+TEST_F(PatternJson, ParseFromTextNamesTheSource) {
+  const PatternFile p = ParsePatternJson(Document().dump(), "mem.json");
+  EXPECT_EQ(p.features.size(), pattern_.features.size());
+  EXPECT_THAT(testing::MessageOf([] { ParsePatternJson("{}", "mem.json"); }),
+              StartsWith("mem.json: 'format' is missing"));
+}
+
+// Deep nesting: a 20 kB file of nested lists overflowed the stack in the finiteness check (recursion with a
+// path string per level); any nesting beyond 32 levels is refused (the document nests 4).
+TEST_F(PatternJson, DeeplyNestedDocumentsAreRefused) {
+  const int n = 100000;
+  const std::string deep = "{\"pattern\": " + std::string(n, '[') + std::string(n, ']') + "}";
+  EXPECT_THAT(ReadError("deep.json", deep), HasSubstr("is nested more than 32 levels deep"));
+  // Depth counts from the top-level object (0): pattern 1, extra 2, k lists around a number put it at 2 + k.
+  const auto nested = [&](int k) {
+    json j = Document();
+    j["pattern"]["extra"] = json::parse(std::string(k, '[') + "1" + std::string(k, ']'));
+    return j.dump();
+  };
+  EXPECT_EQ(ReadError("deep30.json", nested(30)), "(no error)");
+  EXPECT_THAT(ReadError("deep31.json", nested(31)), HasSubstr("'pattern.extra[0][0]"));
+  EXPECT_THAT(ReadError("deep31.json", nested(31)), HasSubstr("is nested more than 32 levels deep"));
+}
+
 TEST_F(PatternJson, DamagedFilesAreRejectedNamingTheFileAndTheEntry) {
   const std::string good = Document().dump(1);
   EXPECT_EQ(ReadError("good.json", good), "(no error)");

@@ -1,0 +1,79 @@
+#include "core/image_io.h"
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <cstring>
+#include <opencv2/imgcodecs.hpp>
+#include <string>
+#include <vector>
+
+#include "core/error.h"
+#include "core/test_util.h"
+
+namespace curvecheck {
+namespace {
+
+using ::testing::HasSubstr;
+
+std::string Encode(const cv::Mat& m, const char* ext) {
+  std::vector<uint8_t> buf;
+  EXPECT_TRUE(cv::imencode(ext, m, buf)) << ext;
+  return std::string(buf.begin(), buf.end());
+}
+
+cv::Mat Board(int type) {
+  cv::Mat m(6, 8, type);
+  for (int r = 0; r < m.rows; ++r) {
+    for (int c = 0; c < m.cols; ++c) {
+      const int v = ((r / 2 + c / 2) % 2) * 255;
+      if (m.depth() == CV_16U) {
+        m.at<uint16_t>(r, c) = static_cast<uint16_t>(v * 257);
+      } else if (m.channels() == 3) {
+        m.at<cv::Vec3b>(r, c) = cv::Vec3b(static_cast<uint8_t>(v), 0, static_cast<uint8_t>(255 - v));
+      } else {
+        m.at<uint8_t>(r, c) = static_cast<uint8_t>(v);
+      }
+    }
+  }
+  return m;
+}
+
+// The header check in front of OpenCV must let every real file of the four formats through, with its size.
+TEST(ImageIo, DecodesPngJpegTiffBmp) {
+  for (const char* ext : {".png", ".jpg", ".tiff", ".bmp"}) {
+    for (int type : {CV_8UC1, CV_8UC3}) {
+      const Image8 img = DecodeImage8(Encode(Board(type), ext), std::string("x") + ext);
+      EXPECT_EQ(img.width, 8) << ext;
+      EXPECT_EQ(img.height, 6) << ext;
+      EXPECT_EQ(img.channels, CV_MAT_CN(type)) << ext;
+      ASSERT_EQ(img.pixels.size(), size_t{8 * 6} * img.channels) << ext;
+    }
+  }
+  // 16-bit PNG is scaled to 8 bits.
+  const Image8 g16 = DecodeImage8(Encode(Board(CV_16UC1), ".png"), "g16.png");
+  EXPECT_EQ(g16.pixels[0], 0);
+  EXPECT_EQ(g16.pixels[2], 255);
+}
+
+// A 69-byte PNG whose header declares 30000 x 30000 px made OpenCV allocate 2.7 GB before failing on the missing
+// pixel data (found by fuzz/fuzz_image; the input is fuzz/corpus/fuzz_image/huge-header.png). It is refused from the
+// header now; so is anything that is not one of the four formats, or whose header is cut short.
+TEST(ImageIo, RefusesHugeDeclaredSizesAndDamagedHeaders) {
+  std::string png = Encode(Board(CV_8UC1), ".png");
+  std::string huge = png;
+  const unsigned char size[8] = {0, 0, 0x75, 0x30, 0, 0, 0x75, 0x30};  // 30000, 30000 big-endian in IHDR
+  std::memcpy(huge.data() + 16, size, 8);
+  EXPECT_THAT(testing::MessageOf([&] { DecodeImage8(huge, "huge.png"); }),
+              HasSubstr("huge.png: declares 30000 x 30000 px, outside 1 px .. 200 Mpx"));
+  EXPECT_THAT(testing::MessageOf([&] { DecodeImage8(png.substr(0, 20), "cut.png"); }),
+              HasSubstr("cut.png: is not a readable PNG image (damaged or truncated header)"));
+  EXPECT_THAT(testing::MessageOf([&] { DecodeImage8(png.substr(0, png.size() / 2), "half.png"); }),
+              HasSubstr("half.png: is not a readable image"));
+  EXPECT_THAT(testing::MessageOf([&] { DecodeImage8("P5 30000 30000 255\n", "x.pgm"); }),
+              HasSubstr("x.pgm: is not a PNG, JPEG, TIFF or BMP image"));
+  EXPECT_THAT(testing::MessageOf([&] { DecodeImage8("", "empty.png"); }), HasSubstr("empty.png: is not a PNG"));
+}
+
+}  // namespace
+}  // namespace curvecheck

@@ -374,7 +374,10 @@ void FitFinal(const Setup& setup, ModelWork& w, const std::vector<bool>& inlier,
   fit->parameters = static_cast<int>(w.state.core.size() + w.state.dev.size()) + 6 * setup.photos;
   fit->rms_px = std::sqrt(rss / std::max(1, n_in));
   fit->noise_px = std::sqrt(rss / std::max(1, n - fit->parameters));
-  fit->bic = n * std::log(std::max(rss, 1e-300) / n) + fit->parameters * std::log(static_cast<double>(n));
+  // BIC with the residual sum floored at the detections' systematic error (FitOptions::noise_floor_px).
+  const double floor_rss = n * setup.options->noise_floor_px * setup.options->noise_floor_px;
+  fit->bic = n * std::log(std::max({rss, floor_rss, 1e-300}) / n) +
+             fit->parameters * std::log(static_cast<double>(n));
   fit->shape = w.state.core;
   fit->shape.insert(fit->shape.end(), w.state.dev.begin(), w.state.dev.end());
   Covariances(setup, w, b, fit);
@@ -419,12 +422,15 @@ double HeldOut(const Setup& setup, const ModelWork& w, const std::vector<bool>& 
 // heldout_tolerance of the lowest.
 void Choose(const FitOptions& options, ScreenFitResult* result) {
   const auto& c = result->candidates;
+  // Held-out RMS (of the 2D residual's length) floored at the detections' systematic error.
+  const double held_floor = std::sqrt(2.0) * options.noise_floor_px;
+  const auto held = [&](size_t i) { return std::max(c[i].heldout_rms_px, held_floor); };
   double best_bic = kInf, best_held = kInf;
   int best_bic_i = -1, best_held_i = -1;
   for (size_t i = 0; i < c.size(); ++i) {
     if (!c[i].converged) continue;
     if (c[i].bic < best_bic) best_bic = c[i].bic, best_bic_i = static_cast<int>(i);
-    if (c[i].heldout_rms_px < best_held) best_held = c[i].heldout_rms_px, best_held_i = static_cast<int>(i);
+    if (held(i) < best_held) best_held = held(i), best_held_i = static_cast<int>(i);
   }
   if (best_bic_i < 0) {
     // Nothing converged: take the lowest BIC anyway and say so.
@@ -439,7 +445,7 @@ void Choose(const FitOptions& options, ScreenFitResult* result) {
   for (size_t i = 0; i < c.size(); ++i) {
     if (!c[i].converged) continue;
     const bool bic_ok = c[i].bic <= best_bic + options.bic_margin;
-    const bool held_ok = !use_held || c[i].heldout_rms_px <= best_held * (1 + options.heldout_tolerance);
+    const bool held_ok = !use_held || held(i) <= best_held * (1 + options.heldout_tolerance);
     if (bic_ok && held_ok) {
       result->chosen = static_cast<int>(i);
       const std::string name = c[i].model;
@@ -568,6 +574,9 @@ void FitOptions::Check(const std::string& where) const {
     }
   };
   positive(expected_noise_px, "expected_noise_px");
+  if (!(noise_floor_px >= 0) || !std::isfinite(noise_floor_px)) {
+    throw Error(where, fmt::format("noise_floor_px is {}, but must be 0 or a positive number", noise_floor_px), "");
+  }
   positive(huber_sigmas, "huber_sigmas");
   positive(outlier_sigmas, "outlier_sigmas");
   positive(deviation_prior_mm, "deviation_prior_mm");

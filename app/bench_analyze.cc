@@ -21,6 +21,7 @@
 #include <opencv2/core.hpp>
 
 #include "analysis/pipeline.h"
+#include "app/bench_util.h"
 #include "app/machine_info.h"
 #include "app/output_paths.h"
 #include "capture/synthetic_camera.h"
@@ -45,13 +46,6 @@ struct BenchAnalyzeArgs {
 
 double MsSince(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-}
-
-double Median(std::vector<double> v) {
-  if (v.empty()) return std::nan("");
-  std::sort(v.begin(), v.end());
-  const size_t n = v.size();
-  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
 }
 
 struct Trial {

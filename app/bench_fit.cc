@@ -21,6 +21,7 @@
 #include "analysis/screen_fit.h"
 #include "analysis/screen_fit_test_util.h"
 #include "analysis/screen_model.h"
+#include "app/bench_util.h"
 #include "app/machine_info.h"
 #include "capture/synthetic_camera.h"
 
@@ -33,11 +34,6 @@ struct BenchFitArgs {
   int seeds = 1000;
   double noise_px = 0.1;
 };
-
-double Median(std::vector<double> v) {
-  std::sort(v.begin(), v.end());
-  return v.empty() ? 0 : v[v.size() / 2];
-}
 
 double TimeMs(const std::function<void()>& f) {
   const auto t0 = std::chrono::steady_clock::now();

@@ -3,6 +3,8 @@
 // sit beside the display image).
 #include "app/capture_synth_command.h"
 
+#include "app/output_paths.h"
+
 #include <fmt/format.h>
 
 #include <filesystem>
@@ -32,12 +34,8 @@ int RunSynth(const SynthArgs& a) {
   const fs::path out = a.output;
   if (out.extension() != ".png") throw Error("-o", fmt::format("'{}' does not end in .png", a.output), "write e.g. -o photo.png");
   const fs::path truth_path = fs::path(out).replace_extension(".truth.json");
-  std::error_code ec;
-  for (const std::string& in : {a.scene, a.display}) {
-    if (fs::exists(in, ec) && (fs::equivalent(in, out, ec) || fs::equivalent(in, truth_path, ec))) {
-      throw Error(out.string(), "is an input of this command", "choose another output path");
-    }
-  }
+  CheckNotAnInput(out, {a.scene, a.display});
+  CheckNotAnInput(truth_path, {a.scene, a.display});
   SyntheticScene scene = LoadScene(a.scene, a.overrides);
   if (a.scale) scene.camera = ScaledCamera(scene.camera, *a.scale);
   const fs::path pattern_json = fs::path(a.display).replace_extension(".json");

@@ -7,6 +7,7 @@
 #include <iostream>
 
 #include "app/present_command.h"
+#include "app/output_paths.h"
 #include "app/render_options.h"
 #include "core/error.h"
 #include "core/file_io.h"
@@ -31,21 +32,18 @@ struct RenderArgs {
 };
 
 // Refuses to write over a file the command reads.
-void CheckNotAnInput(const fs::path& out, const RenderArgs& a) {
-  std::error_code ec;
-  for (const std::optional<std::string>& in : {std::optional<std::string>(a.scene.monitor), a.scene.pattern_file}) {
-    if (in && fs::exists(*in, ec) && fs::equivalent(*in, out, ec)) {
-      throw Error(out.string(), "is an input of this command", "choose another output path");
-    }
-  }
+std::vector<fs::path> Inputs(const RenderArgs& a) {
+  std::vector<fs::path> inputs = {a.scene.monitor};
+  if (a.scene.pattern_file) inputs.push_back(*a.scene.pattern_file);
+  return inputs;
 }
 
 int RunRender(const RenderArgs& a) {
   const fs::path png = a.output;
   if (png.extension() != ".png") throw Error("-o", fmt::format("'{}' does not end in .png", a.output), "write e.g. -o out.png");
   const fs::path json = fs::path(png).replace_extension(".json");
-  CheckNotAnInput(png, a);
-  CheckNotAnInput(json, a);
+  CheckNotAnInput(png, Inputs(a));
+  CheckNotAnInput(json, Inputs(a));
   const Scene scene = ResolveScene(a.scene, Eigen::Vector3d(0, 0, 1500));
   const RenderOptions options = ResolveMethod(a.method);
   const Pattern pattern = BuildPattern(scene.spec, scene.monitor, scene.viewpoint_in_screen,

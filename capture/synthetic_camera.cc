@@ -515,6 +515,9 @@ struct Tracer {
   bool stripes;
   std::array<std::array<float, 256>, 3> stripe_light;  // luma-weighted linear light of stripe R, G, B per code
   std::array<float, 256> gray_light;                   // linear light per code (no stripes)
+  // Mean light of each display pixel over its whole area (emitters at their light, black between them):
+  // what ShadeArea uses where the optics blur the pixel structure away. Row-major, display size.
+  std::vector<float> pixel_mean_light;
   int channels;
   struct Box {
     double u0, u1, v0, v1;
@@ -548,6 +551,21 @@ struct Tracer {
       const double light = s.display.black + (1 - s.display.black) * std::pow(c / 255.0, s.display.gamma);
       for (int st = 0; st < 3; ++st) stripe_light[st][c] = static_cast<float>(3 * kLuma[st] * light);
       gray_light[c] = static_cast<float>(light);
+    }
+    const double fill_area = s.display.fill_factor * s.display.fill_factor;
+    pixel_mean_light.resize(static_cast<size_t>(display.width) * display.height);
+    for (size_t p = 0; p < pixel_mean_light.size(); ++p) {
+      const size_t at = p * channels;
+      double emitted = 0;
+      if (!stripes) {
+        emitted = GrayLight(at);
+      } else {
+        for (int stripe = 0; stripe < 3; ++stripe) {
+          const int channel = channels >= 3 ? 2 - stripe : 0;
+          emitted += stripe_light[stripe][display.pixels[at + static_cast<size_t>(channel)]] / 3.0;
+        }
+      }
+      pixel_mean_light[p] = static_cast<float>(fill_area * emitted + (1 - fill_area) * s.display.black);
     }
     for (const TrueMonitor::Bump& b : s.truth.bumps) {
       // A ray meets the deviated surface at most |h| tan(incidence) from where it meets the base surface; 4 |h|
@@ -692,25 +710,11 @@ struct Tracer {
     const int j0 = static_cast<int>(y0), j1 = static_cast<int>(y1);
     double light = 0, lit_area = 0;
     if (psf_x > kStructureBlurredPx && psf_y > kStructureBlurredPx) {
-      // Each pixel's mean light: its emitters' share of its area at their light, black elsewhere.
-      const double fill = 2 * half_fill;
+      // Each pixel's mean light (pixel_mean_light), weighted by its share of the box.
       for (int j = j0; j <= j1; ++j) {
         const double oy = overlap(y0, y1, j, j + 1);
-        const size_t row = static_cast<size_t>(j) * display.width;
-        for (int i = i0; i <= i1; ++i) {
-          const double area_ij = overlap(x0, x1, i, i + 1) * oy;
-          const size_t at = (row + static_cast<size_t>(i)) * channels;
-          double emitted = 0;
-          if (!stripes) {
-            emitted = GrayLight(at);
-          } else {
-            for (int stripe = 0; stripe < 3; ++stripe) {
-              const int channel = channels >= 3 ? 2 - stripe : 0;
-              emitted += stripe_light[stripe][display.pixels[at + static_cast<size_t>(channel)]] / 3.0;
-            }
-          }
-          light += area_ij * (fill * fill * emitted + (1 - fill * fill) * black);
-        }
+        const float* row = pixel_mean_light.data() + static_cast<size_t>(j) * display.width;
+        for (int i = i0; i <= i1; ++i) light += overlap(x0, x1, i, i + 1) * oy * row[i];
       }
       return static_cast<float>(light / ((x1 - x0) * (y1 - y0)));
     }

@@ -90,14 +90,7 @@ Shot Photograph(const SyntheticScene& scene, const PatternSpec& spec, Method met
   const GrayImage shown = SharedRenderer().Render(scene.monitor, viewpoint, p, options);
   const SyntheticPhoto photo =
       RenderSyntheticPhoto(scene, Image8{shown.width, shown.height, 1, shown.pixels});
-  shot.photo = cv::Mat(photo.height, photo.width, photo.bits == 16 ? CV_16U : CV_8U);
-  for (size_t i = 0; i < photo.pixels.size(); ++i) {
-    if (photo.bits == 16) {
-      reinterpret_cast<uint16_t*>(shot.photo.data)[i] = photo.pixels[i];
-    } else {
-      shot.photo.data[i] = static_cast<uint8_t>(photo.pixels[i]);
-    }
-  }
+  shot.photo = PhotoToMat(photo);
   shot.pattern = ToPatternFile(p, scene.monitor, viewpoint, MethodName(method));
   const nlohmann::json truth = TruthJson(scene, p.features);
   for (size_t i = 0; i < p.features.size(); ++i) {

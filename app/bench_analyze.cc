@@ -111,17 +111,7 @@ int RunBenchAnalyze(const BenchAnalyzeArgs& a) {
     auto t0 = std::chrono::steady_clock::now();
     const SyntheticPhoto photo = RenderSyntheticPhoto(scene, display);
     t.photo_ms = MsSince(t0);
-    cv::Mat image(photo.height, photo.width, photo.bits == 8 ? CV_8U : CV_16U);
-    for (int y = 0; y < photo.height; ++y) {
-      for (int x = 0; x < photo.width; ++x) {
-        const uint16_t v = photo.pixels[static_cast<size_t>(y) * photo.width + x];
-        if (photo.bits == 8) {
-          image.at<uint8_t>(y, x) = static_cast<uint8_t>(v);
-        } else {
-          image.at<uint16_t>(y, x) = v;
-        }
-      }
-    }
+    const cv::Mat image = PhotoToMat(photo);
     const AnalysisResult r = AnalyzeImages(scene.camera, scene_path, {{fmt::format("seed-{}", t.seed), pattern_json}},
                                            {image}, AnalyzeOptions{});
     const PhotoAnalysis& p = r.photos.front();

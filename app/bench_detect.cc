@@ -105,14 +105,7 @@ int RunBenchDetect(const BenchDetectArgs& a) {
     const Pattern pattern = BuildPattern(spec, scene.monitor, viewpoint, TangentPlaneAtCentre(scene.monitor));
     const GrayImage shown = renderer.Render(scene.monitor, viewpoint, pattern, RenderOptions());
     const SyntheticPhoto photo = RenderSyntheticPhoto(scene, Image8{shown.width, shown.height, 1, shown.pixels});
-    cv::Mat image(photo.height, photo.width, photo.bits == 16 ? CV_16U : CV_8U);
-    for (size_t i = 0; i < photo.pixels.size(); ++i) {
-      if (photo.bits == 16) {
-        image.ptr<uint16_t>(0)[i] = photo.pixels[i];
-      } else {
-        image.data[i] = static_cast<uint8_t>(photo.pixels[i]);
-      }
-    }
+    const cv::Mat image = PhotoToMat(photo);
     const nlohmann::json truth_json = TruthJson(scene, pattern.features);
     std::map<std::string, Eigen::Vector2d> truth;
     for (size_t i = 0; i < pattern.features.size(); ++i) {

@@ -997,6 +997,18 @@ nlohmann::json TruthJson(const SyntheticScene& s, const std::vector<Feature>& fe
   return j;
 }
 
+cv::Mat PhotoToMat(const SyntheticPhoto& photo) {
+  cv::Mat image(photo.height, photo.width, photo.bits == 8 ? CV_8U : CV_16U);
+  for (size_t i = 0; i < photo.pixels.size(); ++i) {
+    if (photo.bits == 8) {
+      image.data[i] = static_cast<uint8_t>(photo.pixels[i]);
+    } else {
+      image.ptr<uint16_t>(0)[i] = photo.pixels[i];
+    }
+  }
+  return image;
+}
+
 void WriteSyntheticPhoto(const std::filesystem::path& path, const SyntheticPhoto& photo) {
   if (photo.bits == 8) {
     std::vector<uint8_t> bytes(photo.pixels.begin(), photo.pixels.end());

@@ -20,6 +20,7 @@
 #include <filesystem>
 #include <memory>
 #include <nlohmann/json.hpp>
+#include <opencv2/core.hpp>
 #include <string>
 #include <vector>
 
@@ -195,5 +196,8 @@ nlohmann::json TruthJson(const SyntheticScene& scene, const std::vector<Feature>
 
 // Writes the photo as PNG (8 or 16 bit gray), atomically.
 void WriteSyntheticPhoto(const std::filesystem::path& path, const SyntheticPhoto& photo);
+
+// The photo as an OpenCV image, CV_8U or CV_16U by its bit depth (what the detectors take).
+cv::Mat PhotoToMat(const SyntheticPhoto& photo);
 
 }  // namespace curvecheck

@@ -200,8 +200,7 @@ TEST(SyntheticCamera, TruthMatchesCornersInTheRenderedPhoto) {
   s.display.gamma = 1.0;
   const SyntheticPhoto photo = RenderSyntheticPhoto(s, display);
   const nlohmann::json truth = TruthJson(s, p.features);
-  cv::Mat img(photo.height, photo.width, CV_8U);
-  for (size_t i = 0; i < photo.pixels.size(); ++i) img.data[i] = static_cast<uint8_t>(photo.pixels[i]);
+  const cv::Mat img = PhotoToMat(photo);
   std::vector<cv::Point2f> corners, expected;
   for (const auto& f : truth["features"]) {
     const cv::Point2f t(f["image_px"][0].get<float>(), f["image_px"][1].get<float>());
@@ -307,8 +306,7 @@ TEST(SyntheticCamera, LeanedAndBumpedSurfaceInThePhotoMatchesTheTruth) {
   flat_panel.truth.lean_deg = 0;
   flat_panel.truth.bumps.clear();
   const nlohmann::json ideal = TruthJson(flat_panel, p.features);
-  cv::Mat img(photo.height, photo.width, CV_8U);
-  for (size_t i = 0; i < photo.pixels.size(); ++i) img.data[i] = static_cast<uint8_t>(photo.pixels[i]);
+  const cv::Mat img = PhotoToMat(photo);
   std::vector<cv::Point2f> corners;
   std::vector<cv::Point2d> expected;
   double moved_max = 0;

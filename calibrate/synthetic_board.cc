@@ -230,11 +230,15 @@ TruthComparison CompareWithTruth(const CameraModel& truth, const SyntheticBoardS
                                      : Eigen::Vector3d(rotation * ray));
   }
   const std::vector<Eigen::Vector2d> q = ProjectPoints(recovered, points);
-  double sum = 0, sum_sigma = 0, sum_confident = 0;
+  double sum = 0, sum_sigma = 0, sum_confident = 0, sum_observed = 0;
   for (size_t i = 0; i < q.size(); ++i) {
     const double d = (q[i] - grid[i]).norm();
     const double s = candidate.uncertainty.sigma_px[i];
     sum += d * d;
+    if (candidate.uncertainty.observed[i]) {
+      sum_observed += d * d;
+      ++out.observed_points;
+    }
     if (!std::isfinite(s)) {
       ++out.no_sigma;
       continue;
@@ -251,6 +255,7 @@ TruthComparison CompareWithTruth(const CameraModel& truth, const SyntheticBoardS
   out.rms_px = std::sqrt(sum / static_cast<double>(std::max<size_t>(1, q.size())));
   out.rms_sigma_px = std::sqrt(sum_sigma / std::max(1, out.points));
   out.confident_rms_px = std::sqrt(sum_confident / std::max(1, out.confident_points));
+  out.observed_rms_px = std::sqrt(sum_observed / std::max(1, out.observed_points));
   return out;
 }
 

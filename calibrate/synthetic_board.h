@@ -86,6 +86,10 @@ struct TruthComparison {
   double confident_sigma_px = 0.1;
   double confident_rms_px = 0;
   int confident_points = 0;
+  // The same over the grid points near observed corners (UncertaintyGrid::observed: where the data is; a
+  // property of the photos, the same for every lens model).
+  double observed_rms_px = 0;
+  int observed_points = 0;
   double rotation_deg = 0;  // recovered_from_true
   Eigen::Vector3d translation_mm = Eigen::Vector3d::Zero();
 };

@@ -11,6 +11,7 @@
 #include <iostream>
 
 #include "app/bench_analyze.h"
+#include "app/bench_calibrate.h"
 #include "app/bench_detect.h"
 #include "app/bench_fit.h"
 #include "app/bench_models.h"
@@ -221,6 +222,7 @@ void AddBenchCommand(CLI::App& app, std::function<int()>& run) {
   AddBenchFitCommand(*bench, run);
   AddBenchModelsCommand(*bench, run);
   AddBenchAnalyzeCommand(*bench, run);
+  AddBenchCalibrateCommand(*bench, run);
 }
 
 }  // namespace curvecheck::app

@@ -6,10 +6,12 @@
 #include <fmt/format.h>
 
 #include <Eigen/LU>
+#include <algorithm>
 #include <Eigen/SVD>
 #include <cmath>
 #include <filesystem>
 #include <iostream>
+#include <sstream>
 #include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
@@ -192,6 +194,57 @@ TEST_F(CalibrateCli, RealOpencvSamplePhotosAgreeWithTheirPublishedIntrinsics) {
                            direct, rotated);
   EXPECT_NEAR(ours.intrinsics[0], ref.intrinsics[0], 0.02 * ref.intrinsics[0]);
   EXPECT_LT(rotated, 1.5);
+}
+
+// `curvecheck bench calibrate --quick`: 12 views of the StrongOpencv8Lens truth, OPENCV4, OPENCV8 and one splined
+// density, one run each. The CSV has one row per model with finite figures, and the true model family (OPENCV8)
+// is closer to the truth than OPENCV4, which cannot represent its rational terms (over the observed region, and
+// over the imager).
+TEST_F(CalibrateCli, BenchCalibrateQuickWritesOneRowPerModelAndTheTrueModelWins) {
+  const fs::path out = dir_ / "bench";
+  const CliRun r = Curvecheck({"bench", "calibrate", "--quick", "--runs", "1", "-o", out.string()});
+  ASSERT_EQ(r.code, 0) << r.err << r.out;
+  std::cout << r.out;
+  EXPECT_THAT(r.out, HasSubstr("Pareto front"));
+  std::vector<std::vector<std::string>> rows;
+  std::istringstream csv(Slurp(out / "calibrate_bench.csv"));
+  std::string line;
+  std::vector<std::string> header;
+  while (std::getline(csv, line)) {
+    if (line.empty() || line[0] == '#') continue;
+    std::vector<std::string> cells;
+    std::istringstream cellstream(line);
+    std::string cell;
+    while (std::getline(cellstream, cell, ',')) cells.push_back(cell);
+    if (header.empty()) {
+      header = cells;
+    } else {
+      ASSERT_EQ(cells.size(), header.size()) << line;
+      rows.push_back(cells);
+    }
+  }
+  const auto column = [&](const std::string& name) {
+    const auto it = std::find(header.begin(), header.end(), name);
+    EXPECT_NE(it, header.end()) << name;
+    return static_cast<size_t>(it - header.begin());
+  };
+  ASSERT_EQ(rows.size(), 3u);
+  EXPECT_EQ(rows[0][column("label")], "OPENCV4");
+  EXPECT_EQ(rows[1][column("label")], "OPENCV8");
+  EXPECT_THAT(rows[2][column("lensmodel")], HasSubstr("SPLINED_STEREOGRAPHIC_order=3_Nx=8_"));
+  for (const auto& row : rows) {
+    for (const char* c : {"median_s", "rms_px", "observed_rms_px", "sigma_rms_px"}) {
+      const double v = std::stod(row[column(c)]);
+      EXPECT_TRUE(std::isfinite(v) && v > 0) << row[0] << " " << c << " = " << v;
+    }
+  }
+  const double opencv4 = std::stod(rows[0][column("rms_px")]), opencv8 = std::stod(rows[1][column("rms_px")]);
+  const double opencv4_obs = std::stod(rows[0][column("observed_rms_px")]);
+  const double opencv8_obs = std::stod(rows[1][column("observed_rms_px")]);
+  EXPECT_LT(opencv8, opencv4);
+  EXPECT_LT(opencv8_obs, opencv4_obs);
+  EXPECT_GT(fs::file_size(out / "calibrate_bench.png"), 1000u);
+  EXPECT_TRUE(fs::exists(out / "calibrate_bench.gp"));
 }
 
 }  // namespace

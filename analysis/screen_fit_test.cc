@@ -340,9 +340,9 @@ TEST(ScreenFitTest, RadiusUnobservableFromANarrowStripIsReported) {
 }
 
 TEST(ScreenFitTest, NearFlatViewOfAn1800RScreenIsIllConditionedNotANumber) {
-  // The 49" 1800R monitor seen head-on from 4 m, features over the central 20% of the width (the rest of the
-  // board off screen, as with a small pattern): the sagitta over those 240 mm is 4 mm, seen along the line of
-  // sight from 4 m. The curvature is then either inside an interval that holds flat and 1800R, or too uncertain
+  // The 49" 1800R monitor seen head-on from 4 m, features over the central 14% of the width (a small pattern):
+  // the sagitta over those 170 mm is 2 mm, seen along the line of sight from 4 m. (Over 20% of the width the
+  // radius is still measured: sigma_k 14% of k.) The curvature is then either inside an interval that holds flat and 1800R, or too uncertain
   // for a number; either way the fit must say "unobservable" and give no radius.
   SyntheticScene scene = LoadScene(Scene("default"));
   scene.monitor = LoadMonitor("49in-5120x1440-1800r");
@@ -351,7 +351,7 @@ TEST(ScreenFitTest, NearFlatViewOfAn1800RScreenIsIllConditionedNotANumber) {
   std::vector<Eigen::Vector2d> patch;
   for (int j = 0; j < 9; ++j) {
     for (int i = 0; i < 9; ++i) {
-      patch.emplace_back(scene.monitor.width_px * (0.4 + 0.025 * i), scene.monitor.height_px * (0.1 + 0.1 * j));
+      patch.emplace_back(scene.monitor.width_px * (0.43 + 0.0175 * i), scene.monitor.height_px * (0.1 + 0.1 * j));
     }
   }
   std::mt19937_64 rng(31);

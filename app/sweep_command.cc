@@ -396,7 +396,7 @@ std::vector<std::string> RunPoint(Sweep& sw, int index) {
        {std::to_string(sw.args.seed + index), std::string(reason.empty() ? "1" : "0"), reason,
         std::string(verification_pass ? "1" : "0"), Cell(p95), Cell(rms), std::to_string(features), chosen, fit_status,
         Cell(radius), Cell(sigma), Cell(lo), Cell(hi), Cell(true_radius), Cell(err), Cell(err / sigma), truth_in,
-        std::string(cached ? "1" : "0"), Cell(render_ms), Cell(photo_ms), Cell(detect_ms), Cell(verify_ms),
+        Cell(cached ? 0.0 : render_ms), Cell(photo_ms), Cell(detect_ms), Cell(verify_ms),
         Cell(fit_ms), Cell(MsSince(t_point)), CellText(detail)}) {
     row.push_back(c);
   }

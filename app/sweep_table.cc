@@ -173,7 +173,7 @@ std::vector<std::string> SweepColumns(const std::vector<std::string>& factor_nam
        {"seed", "success", "reason", "verification_pass", "verification_p95_display_px",
         "verification_rms_display_px", "features", "chosen_model", "fit_status", "radius_mm", "radius_sigma_mm",
         "radius_ci95_lo_mm", "radius_ci95_hi_mm", "true_radius_mm", "radius_error_mm", "radius_error_sigmas",
-        "truth_in_ci95", "render_cached", "render_ms", "photo_ms", "detect_ms", "verify_ms", "fit_ms", "point_ms",
+        "truth_in_ci95", "render_ms", "photo_ms", "detect_ms", "verify_ms", "fit_ms", "point_ms",
         "detail"}) {
     c.emplace_back(name);
   }

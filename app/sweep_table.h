@@ -4,8 +4,9 @@
 //
 // sweep.csv: one row per grid point, columns `index, method, <factor 1>[, <factor 2>], seed, success, reason,
 // ...` (SweepColumns()). Cells hold no commas or quotes (free text has them replaced), so the file is plain
-// comma-separated. Columns ending in `_ms` are wall times: they differ from run to run; everything else is
-// deterministic for a given grid point.
+// comma-separated. Columns ending in `_ms` are wall times: they differ from run to run (render_ms is 0 where the
+// display image came from the render cache, which depends on the order the workers took the points); everything
+// else is deterministic for a given grid point.
 #pragma once
 
 #include <filesystem>

@@ -142,7 +142,7 @@ struct SweepArgs {
   std::string method = "exact";
   std::string scene = "default";
   double scale = 0.25;
-  int jobs = 2;
+  int jobs = 1;
   std::string shard = "1/1";
   std::string output = "sweep";
   int64_t seed = 1;

@@ -273,7 +273,8 @@ std::vector<std::filesystem::path> WriteSweepCharts(const SweepTable& t, const s
     if (factors.size() == 1) {
       const std::string& x = factors[0].name;
       script += "set multiplot layout 2,1 title " + GnuplotString(title) + "\n";
-      script += "set grid\nset key outside right\nset logscale y\n";
+      script += "set grid\nset key outside right\nset logscale y\nset lmargin 12\nset rmargin 24\n"
+                "set offsets graph 0.03, graph 0.03, 0, 0\n";
       script += fmt::format("set xlabel {}\nset ylabel 'verification p95, display px'\n", GnuplotString(x));
       script += fmt::format("set yrange [{}:*]\n", floor_y * 0.5);
       script += fmt::format("set arrow from graph 0, first {0} to graph 1, first {0} nohead dt 2 lc rgb 'gray40'\n",
@@ -320,7 +321,7 @@ std::vector<std::filesystem::path> WriteSweepCharts(const SweepTable& t, const s
         }
       }
       WriteFileAtomic(dir / (base + "-boundary.dat"), segs);
-      script += "set title " + GnuplotString(title + "\\ncolour: verification p95 (display px, log); letters: failure "
+      script += "set title " + GnuplotString(title + "\ncolour: verification p95 (display px, log); letters: failure "
                                              "reason; black line: success boundary") + "\n";
       script += fmt::format("set xlabel {}\nset ylabel {}\n", GnuplotString(f1.name), GnuplotString(f2.name));
       script += "set logscale cb\nset cblabel 'verification p95, display px'\nset palette defined (0 '#1a9850', 1 "
@@ -330,6 +331,8 @@ std::vector<std::filesystem::path> WriteSweepCharts(const SweepTable& t, const s
                             std::max(f1.start, f1.stop) + 0.5 * dx, std::min(f2.start, f2.stop) - 0.5 * dy,
                             std::max(f2.start, f2.stop) + 0.5 * dy);
       script += "set style fill solid 1.0 noborder\nunset key\n";
+      if (f1.count > 1) script += fmt::format("set xtics {}, {}\n", Cell(std::min(f1.start, f1.stop)), Cell(dx));
+      if (f2.count > 1) script += fmt::format("set ytics {}, {}\n", Cell(std::min(f2.start, f2.stop)), Cell(dy));
       script += fmt::format(
           "plot '{0}.dat' using 1:2:({1}):({2}):3 with boxxyerror fc palette, "
           "'' using 1:2:($6!=0?stringcolumn(7):'') with labels font ',16' tc rgb 'black', "

@@ -63,6 +63,12 @@ nlohmann::json ModelFitJson(const ModelFit& f) {
                       {"ill_conditioned", f.ill_conditioned},
                       {"time_ms", f.time_ms}};
   if (!f.radius_mm) j["radius_lower_bound_mm"] = f.radius_lower_bound_mm;
+  // measured: a number; unobservable: ill-conditioned, no number; lower_bound: flat is consistent, the nominal
+  // is not; flat_model: the model has no radius.
+  j["radius_status"] = f.model == "flat"  ? "flat_model"
+                       : f.radius_mm      ? "measured"
+                       : f.ill_conditioned ? "unobservable"
+                                           : "lower_bound";
   if (!f.condition_note.empty()) j["condition_note"] = f.condition_note;
   nlohmann::json extra = nlohmann::json::object();
   for (const auto& [name, value] : f.extra) extra[name] = {{"value", value.first}, {"sigma", value.second}};
@@ -291,6 +297,8 @@ nlohmann::json ResultJson(const AnalysisResult& r, const std::string& command_li
     f["camera_position_mm"] = cameras.empty() ? nlohmann::json(nullptr) : cameras[0]["position_mm"];
     f["camera_position_sigma_mm"] = cameras.empty() ? nlohmann::json(nullptr) : cameras[0]["position_sigma_mm"];
     f["cameras"] = cameras;
+    f["status"] = fit.status;
+    f["warnings"] = fit.warnings;
     f["choice_reason"] = fit.choice_reason;
     f["assumptions"] = fit.assumptions;
     nlohmann::json candidates = nlohmann::json::array();
@@ -462,10 +470,15 @@ std::string SummaryText(const AnalysisResult& r) {
       s << fmt::format("radius: {:.1f} +- {:.1f} mm (1 sigma; 95% interval {:.1f} .. {:.1f} mm), model {}\n",
                        *f.radius_mm, f.radius_sigma_mm.value_or(0), f.radius_ci95_mm[0], f.radius_ci95_mm[1], f.model);
     } else {
-      s << fmt::format("radius: not measurable as a number; flat is consistent (95% lower bound {:.0f} mm), model {}\n",
-                       f.radius_lower_bound_mm, f.model);
+      s << (f.ill_conditioned
+                ? fmt::format("radius: unobservable from these photos (ill-conditioned fit; 95% lower bound {:.0f} mm), "
+                              "model {}\n",
+                              f.radius_lower_bound_mm, f.model)
+                : fmt::format("radius: not measurable as a number; flat is consistent (95% lower bound {:.0f} mm), "
+                              "model {}\n",
+                              f.radius_lower_bound_mm, f.model));
     }
-    if (f.ill_conditioned) s << "warning: ill-conditioned fit: " << f.condition_note << "\n";
+    for (const std::string& w : r.fit->warnings) s << "warning: " << w << "\n";
     s << "model choice: " << r.fit->choice_reason << "\n";
     for (const auto& [name, value] : f.extra) {
       s << fmt::format("  {} = {:.4g} +- {:.2g}\n", name, value.first, value.second);

@@ -318,7 +318,18 @@ void RadiusFromCurvature(const Setup& setup, ModelFit* fit) {
   const double k = fit->curvature_per_mm, sk = fit->curvature_sigma_per_mm;
   const bool curved_model = fit->model != "flat";
   const double lo = k - kZ95 * sk, hi = k + kZ95 * sk;
-  if (curved_model && (lo > 0 || hi < 0)) {
+  const double max_relative = setup.options->max_relative_curvature_sigma;
+  if (curved_model && (lo > 0 || hi < 0) && sk > max_relative * std::abs(k)) {
+    // Significantly curved, but too poorly determined for a number.
+    fit->radius_ci95_mm = {std::min(1 / lo, 1 / hi), std::max(1 / lo, 1 / hi)};
+    fit->radius_lower_bound_mm = fit->radius_ci95_mm[0];
+    fit->ill_conditioned = true;
+    fit->condition_note += fmt::format(
+        "radius unobservable from these photos: the curvature {:.3g} +- {:.3g} /m has a relative sigma of {:.0f}% "
+        "(limit {:.0f}%), a 95% interval of R from {:.0f} to {:.0f} mm; photograph from closer or more obliquely. ",
+        k * 1000, sk * 1000, 100 * sk / std::abs(k), 100 * max_relative, fit->radius_ci95_mm[0],
+        fit->radius_ci95_mm[1]);
+  } else if (curved_model && (lo > 0 || hi < 0)) {
     fit->radius_mm = 1 / k;
     fit->radius_sigma_mm = sk / (k * k);
     fit->radius_ci95_mm = {std::min(1 / lo, 1 / hi), std::max(1 / lo, 1 / hi)};
@@ -595,6 +606,7 @@ void FitOptions::Check(const std::string& where) const {
   if (map_nu < 1 || map_nv < 1) throw Error(where, "the deviation map needs at least 1 x 1 cells", "");
   if (max_iterations < 1) throw Error(where, "max_iterations must be at least 1", "");
   if (min_features_per_photo < 6) throw Error(where, "min_features_per_photo below 6 leaves the pose free", "");
+  positive(max_relative_curvature_sigma, "max_relative_curvature_sigma");
 }
 
 ScreenFitResult FitScreen(const Monitor& nominal, const CameraModel& camera,
@@ -701,6 +713,14 @@ ScreenFitResult FitScreen(const Monitor& nominal, const CameraModel& camera,
   }
   Choose(options, &result);
   result.noise_px = result.Chosen().noise_px;
+  for (size_t i = 0; i < result.candidates.size(); ++i) {
+    const ModelFit& c = result.candidates[i];
+    if (!c.ill_conditioned) continue;
+    std::string note = c.condition_note;
+    while (!note.empty() && note.back() == ' ') note.pop_back();
+    result.warnings.push_back(c.model + ": ill-conditioned: " + note);
+    if (static_cast<int>(i) == result.chosen || c.model == "cylinder") result.status = "ill_conditioned";
+  }
   Deviations(setup, work[static_cast<size_t>(result.chosen)], &result);
 
   result.assumptions.push_back(fmt::format(

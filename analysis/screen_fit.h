@@ -78,6 +78,9 @@ struct FitOptions {
   double map_max_sigma_mm = 1.0;
   // Solver: iterations per fit.
   int max_iterations = 100;
+  // A radius whose curvature sigma exceeds this fraction of |k| is not reported as a number (the fit is
+  // ill-conditioned): at 0.25 the 95% interval of R spans more than a factor 3. Nearly flat views reach it.
+  double max_relative_curvature_sigma = 0.25;
   // Fewer features per photo than this is an error (6 for the pose, plus margin for the shape).
   int min_features_per_photo = 8;
 
@@ -112,6 +115,9 @@ struct ModelFit {
   // Per photo, per observation (detected - predicted); NaN where the fitted point falls behind the camera.
   std::vector<std::vector<Eigen::Vector2d>> residual_px;
   std::vector<std::vector<bool>> outlier;                  // left out of the final fit
+  // Ill-conditioning: the covariance is rank-deficient, or the radius is not observable from these photos (the
+  // curvature's 95% interval holds both flat and the nominal, or its sigma exceeds
+  // FitOptions::max_relative_curvature_sigma of |k|). Then radius_mm is empty: no number is reported.
   bool ill_conditioned = false;
   std::string condition_note;  // e.g. "radius unobservable: ..."
   double time_ms = 0;          // this model's fits (robust, final, covariance, held-out folds)
@@ -145,6 +151,10 @@ struct ScreenFitResult {
   // Models of options.models that were not tried, each with the reason (too few residuals for its parameters:
   // fewer than 3 per parameter, e.g. the deviation field on a 15 x 4 board).
   std::vector<std::string> skipped;
+  // "ok", or "ill_conditioned" when the chosen model or the cylinder candidate is ill-conditioned (the radius
+  // cannot be measured from these photos); warnings holds one line per ill-conditioned candidate with its reason.
+  std::string status = "ok";
+  std::vector<std::string> warnings;
 
   const ModelFit& Chosen() const { return candidates.at(static_cast<size_t>(chosen)); }
 };

@@ -299,6 +299,9 @@ TEST(ScreenFitTest, SparseBoardSkipsTheDeviationFieldAndSaysWhy) {
   EXPECT_EQ(r.Chosen().model, "cylinder") << Table(r);
   ASSERT_TRUE(r.Chosen().radius_mm.has_value());
   EXPECT_LT(std::abs(*r.Chosen().radius_mm - 1000), 3 * *r.Chosen().radius_sigma_mm);
+  // The default view is well conditioned: no warning, status ok.
+  EXPECT_EQ(r.status, "ok");
+  EXPECT_TRUE(r.warnings.empty()) << r.warnings.front();
   // Without a field the map is the smoothed per-feature deviations: supported cells near zero.
   int finite = 0;
   for (size_t i = 0; i < r.map_mm.size(); ++i) {
@@ -330,6 +333,41 @@ TEST(ScreenFitTest, RadiusUnobservableFromANarrowStripIsReported) {
   EXPECT_FALSE(cyl.radius_mm.has_value());
   EXPECT_GT(cyl.curvature_sigma_per_mm, 1e-3 / 1.96);
   EXPECT_EQ(r.Chosen().model, "flat") << Table(r);  // the simplest model the data support
+  // The whole fit says so, although the chosen (flat) model is not itself ill-conditioned.
+  EXPECT_EQ(r.status, "ill_conditioned");
+  ASSERT_EQ(r.warnings.size(), 1u);
+  EXPECT_THAT(r.warnings[0], ::testing::StartsWith("cylinder: ill-conditioned: radius unobservable"));
+}
+
+TEST(ScreenFitTest, NearFlatViewOfAn1800RScreenIsIllConditionedNotANumber) {
+  // The 49" 1800R monitor seen head-on from 4 m, features over the central 14% of the width (a small pattern):
+  // the sagitta over those 170 mm is 2 mm, seen along the line of sight from 4 m. (Over 20% of the width the
+  // radius is still measured: sigma_k 14% of k.) The curvature is then either inside an interval that holds flat and 1800R, or too uncertain
+  // for a number; either way the fit must say "unobservable" and give no radius.
+  SyntheticScene scene = LoadScene(Scene("default"));
+  scene.monitor = LoadMonitor("49in-5120x1440-1800r");
+  scene.truth.curvature_per_mm = scene.monitor.curvature_per_mm;
+  scene.camera_position_in_screen = Eigen::Vector3d(0, 0, 4000 - 1800);  // 4 m in front of the centre
+  std::vector<Eigen::Vector2d> patch;
+  for (int j = 0; j < 9; ++j) {
+    for (int i = 0; i < 9; ++i) {
+      patch.emplace_back(scene.monitor.width_px * (0.43 + 0.0175 * i), scene.monitor.height_px * (0.1 + 0.1 * j));
+    }
+  }
+  std::mt19937_64 rng(31);
+  const auto photo = Observe(scene, patch, kNoisePx, rng, SceneSurface(scene));
+  ASSERT_EQ(photo.ids.size(), 81u);
+  FitOptions options;
+  options.models = {"flat", "cylinder"};
+  const ScreenFitResult r = FitScreen(scene.monitor, scene.camera, {photo}, options);
+  const ModelFit& cyl = r.candidates[static_cast<size_t>(IndexOf(r, "cylinder"))];
+  EXPECT_TRUE(cyl.ill_conditioned) << Table(r);
+  EXPECT_FALSE(cyl.radius_mm.has_value()) << *cyl.radius_mm;
+  EXPECT_THAT(cyl.condition_note, ::testing::HasSubstr("radius unobservable from these photos"));
+  // Truly unobservable: the curvature's 1-sigma exceeds a quarter of the nominal's.
+  EXPECT_GT(cyl.curvature_sigma_per_mm, 0.25 / 1800) << Table(r);
+  EXPECT_EQ(r.status, "ill_conditioned");
+  EXPECT_FALSE(r.warnings.empty());
 }
 
 TEST(ScreenFitTest, RejectsInvalidInputNamingIt) {

@@ -14,6 +14,7 @@
 #include "app/commands.h"
 #include "app/present_command.h"
 #include "app/render_command.h"
+#include "app/sweep_command.h"
 #include "core/error.h"
 
 namespace curvecheck::app {
@@ -21,16 +22,6 @@ namespace {
 
 constexpr int kExitFailure = 1;
 constexpr int kExitUsage = 2;
-
-// Subcommands whose work is tracked by an open issue: they parse, explain, and fail honestly.
-struct Planned {
-  const char* name;
-  const char* summary;
-  const char* issue;
-};
-constexpr Planned kPlanned[] = {
-    {"sweep", "stability sweeps over scene factors", "issue 7"},
-};
 
 }  // namespace
 
@@ -80,16 +71,8 @@ int Main(int argc, char** argv) {
   // `calibrate` (issue 5): app/calibrate_command.cc.
   AddCalibrateCommand(app, run);
 
-  for (const Planned& p : kPlanned) {
-    CLI::App* cmd = app.add_subcommand(p.name, std::string(p.summary) + " [not implemented yet: " + p.issue + "]");
-    cmd->allow_extras();
-    cmd->callback([&, p] {
-      run = [p] {
-        std::cerr << "curvecheck " << p.name << ": not implemented yet (" << p.issue << "); nothing was done\n";
-        return kExitFailure;
-      };
-    });
-  }
+  // `sweep` (issue 7 items 3-4): app/sweep_command.cc.
+  AddSweepCommand(app, run);
 
   try {
     app.parse(argc, argv);

@@ -1,0 +1,77 @@
+// The table of a stability sweep (`curvecheck sweep`, issue 7 items 3-4) and what is derived from it: sweep.csv
+// reading and writing, the failure boundaries as text, and the per-method failure-map charts. Shared by a sweep
+// run and `sweep merge`, so that a merged sweep reports exactly what an unsharded run would.
+//
+// sweep.csv: one row per grid point, columns `index, method, <factor 1>[, <factor 2>], seed, success, reason,
+// ...` (SweepColumns()). Cells hold no commas or quotes (free text has them replaced), so the file is plain
+// comma-separated. Columns ending in `_ms` are wall times: they differ from run to run (render_ms is 0 where the
+// display image came from the render cache, which depends on the order the workers took the points); everything
+// else is deterministic for a given grid point.
+#pragma once
+
+#include <filesystem>
+#include <string>
+#include <vector>
+
+namespace curvecheck::app {
+
+// A sweep factor on its grid: count values from start to stop, evenly spaced (count 1: start only).
+struct SweepFactor {
+  std::string name;  // canonical, with its unit: "yaw_deg", "noise_x", ...
+  double start = 0, stop = 0;
+  int count = 1;
+  double Value(int i) const { return count == 1 ? start : start + (stop - start) * i / (count - 1); }
+};
+
+// Failure reasons, in pipeline order; a point gets the first that applies.
+//   render_refused        the correction method refused this view, or the pattern does not fit the display
+//   not_found             the detector found no pattern in the photo
+//   ambiguous_orientation the board was found but its orientation or ids are ambiguous
+//   ambiguous_ids         tags/ids that are not in pattern.json
+//   too_few_features      too few features for a verdict or a fit
+//   rejected              the photo was rejected for another reason (detail column)
+//   verification_failed   verification ran: fewer than 95% of features within the tolerance (display px)
+//   fit_failed            the screen fit threw or did not converge
+//   fit_ill_conditioned   the cylinder fit ran but the radius is not observable (FitResult warnings)
+//   error                 anything else (detail column)
+// "" on success.
+std::vector<std::string> SweepReasons();
+// One letter per reason for maps: render_refused R, not_found N, ambiguous_* A, too_few_features T, rejected X,
+// verification_failed V, fit_failed F, fit_ill_conditioned I, error E; success '.'.
+char ReasonLetter(const std::string& reason);
+
+struct SweepTable {
+  std::vector<std::string> header;
+  std::vector<std::vector<std::string>> rows;
+
+  int Col(const std::string& name) const;  // -1 when absent
+  std::string Str(size_t row, const std::string& name) const;
+  double Num(size_t row, const std::string& name) const;  // NaN when absent or not a number
+
+  std::string ToCsv() const;
+  // Throws Error naming `path` for a malformed file.
+  static SweepTable FromCsv(const std::string& text, const std::string& path);
+};
+
+// The columns of sweep.csv for these factor names.
+std::vector<std::string> SweepColumns(const std::vector<std::string>& factor_names);
+
+// A number for a cell: "%.6g", "nan" for NaN, "inf"/"-inf".
+std::string Cell(double v);
+// Free text for a cell: commas become ';', quotes and line breaks become spaces.
+std::string CellText(const std::string& text);
+
+// The failure boundaries per method as text: for one factor, the runs of successful values and the failures
+// beyond them with their reasons; for two, a letter map (rows: factor 1, columns: factor 2) and the successful
+// range of factor 2 for each value of factor 1. `factors` in grid order; rows in any order.
+std::string SweepSummary(const SweepTable& table, const std::vector<SweepFactor>& factors,
+                         const std::vector<std::string>& methods, double tolerance_display_px);
+
+// Writes `dir`/sweep-<method>.png (+ .gp and .dat) for every method: 1 factor: verification p95 (display px,
+// log) and the radius error with its 1-sigma bar against the factor, failures marked by reason; 2 factors: a
+// heatmap of the p95 with failed cells lettered by reason and the success boundary drawn. Returns the PNGs.
+std::vector<std::filesystem::path> WriteSweepCharts(const SweepTable& table, const std::vector<SweepFactor>& factors,
+                                                    const std::vector<std::string>& methods,
+                                                    double tolerance_display_px, const std::filesystem::path& dir);
+
+}  // namespace curvecheck::app

@@ -52,6 +52,8 @@ TEST(ResultReader, ReadsRealDocuments) {
   EXPECT_EQ(j["fit"]["model"], "cylinder");
   EXPECT_NEAR(j["fit"]["radius_mm"].get<double>(), 1071.6, 0.1);
   EXPECT_TRUE(ReadResultJson(Corpus("uncorrected-nofit.json"))["fit"]["model"].is_null());
+  // A real document edited into the shape of an ill-conditioned fit.
+  EXPECT_TRUE(ReadResultJson(Corpus("edited-ill-conditioned.json"))["fit"]["radius_mm"].is_null());
 }
 
 TEST(ResultReader, AcceptsNullsWhereTheFitMayHaveNoNumberAndFitWarnings) {

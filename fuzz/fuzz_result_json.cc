@@ -2,8 +2,9 @@
 // uses), then the report page built from what it accepted (analysis/report.h ReportHtml, charts off: no gnuplot
 // processes). The second half checks the reader's promise to the page: a document it accepts never makes the page
 // builder fail with anything but Error (a json type_error there means the reader let through a key of the wrong
-// type). Seeds: fuzz/corpus/fuzz_result_json (result.json files written by `curvecheck analyze`, every 12th feature
-// kept to stay small).
+// type). Seeds: fuzz/corpus/fuzz_result_json: result.json files written by `curvecheck analyze` (every 12th feature
+// kept to stay small), and edited-ill-conditioned.json, one of them edited into the shape of an ill-conditioned fit
+// (null radius, condition notes, fit.warnings, a small deviation map).
 #include <cstddef>
 #include <cstdint>
 

@@ -45,9 +45,14 @@ class ReportBrowser : public ::testing::Test {
   static CliRun Curvecheck(const std::vector<std::string>& args) {
     return curvecheck::testing::RunBinary(CURVECHECK_BINARY, args, Dir());
   }
-  static fs::path Out() { return Dir() / "out"; }
+  static fs::path Out() { return Dir() / "analysis"; }
 
-  static void SetUpTestSuite() {
+  // The analysis every test reads. A failure here is kept and fails each test in SetUp (a failed
+  // SetUpTestSuite would only mark the tests skipped, and ctest counts skipped tests as passed).
+  static void SetUpTestSuite() { setup_failure_ = MakeAnalysis(); }
+  void SetUp() override { ASSERT_EQ(setup_failure_, "") << "setting up the analysis failed"; }
+
+  static std::string MakeAnalysis() {
     fs::remove_all(Dir());
     fs::create_directories(Dir());
     // The default scene's 24 MP OPENCV8 lens at a quarter of the resolution (as in analyze_cli_test.cc).
@@ -63,7 +68,7 @@ class ReportBrowser : public ::testing::Test {
     WriteCameraModel(Dir() / "small.cameramodel", cam);
     CliRun r = Curvecheck({"render", "--monitor", "default", "--viewpoint", "0,0,500", "--squares", "24x7",
                            "--method", "exact", "-o", (Dir() / "pattern.png").string()});
-    ASSERT_EQ(r.code, 0) << r.err;
+    if (r.code != 0) return "render: " + r.err;
     std::ofstream(Dir() / "scene.yaml")
         << "format: curvecheck.scene/1\nmonitor: default\n"
         << "camera: {model: small.cameramodel, position_mm: [0, 0, 500], look_at_mm: [0, 0, -1000]}\n"
@@ -72,12 +77,14 @@ class ReportBrowser : public ::testing::Test {
         << "sensor: {gamma: 1, full_well_e: 20000, read_noise_e: 3, seed: 3, bits: 8}\n";
     r = Curvecheck({"capture", "synth", "--scene", (Dir() / "scene.yaml").string(), "--display",
                     (Dir() / "pattern.png").string(), "-o", (Dir() / "photo.png").string()});
-    ASSERT_EQ(r.code, 0) << r.err;
+    if (r.code != 0) return "capture synth: " + r.err;
     r = Curvecheck({"analyze", "--camera", (Dir() / "small.cameramodel").string(), "--pattern",
                     (Dir() / "pattern.json").string(), (Dir() / "photo.png").string(), "-o", Out().string()});
-    ASSERT_EQ(r.code, 0) << r.err << r.out;
+    if (r.code != 0) return "analyze: " + r.err + r.out;
     std::cout << r.out;
+    return "";
   }
+  static inline std::string setup_failure_;
 
   // Chromium, headless, on `page`; extra: --dump-dom or --screenshot=...; returns its run (stdout = the DOM).
   static CliRun Chromium(const fs::path& page, const std::vector<std::string>& extra) {
@@ -209,7 +216,7 @@ TEST_F(ReportBrowser, TheScreenshotIsNotBlank) {
   cv::cvtColor(img, gray, cv::COLOR_BGR2GRAY);
   const double inked = static_cast<double>(cv::countNonZero(gray < 200)) / static_cast<double>(gray.total());
   std::cout << "screenshot " << img.cols << " x " << img.rows << ", " << 100 * inked << "% inked\n";
-  EXPECT_GT(inked, 0.05);
+  EXPECT_GT(inked, 0.02);  // measured 7% on this page; a blank page is 0
   cv::Scalar mean, stddev;
   cv::meanStdDev(img, mean, stddev);
   EXPECT_GT(stddev[0] + stddev[1] + stddev[2], 60);

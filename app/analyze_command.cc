@@ -1,15 +1,19 @@
 // `curvecheck analyze --camera cam.cameramodel --pattern pattern.json photo.png [photo2.png ...] -o OUTDIR`:
 // detection, verification of the correction, the screen fit with model selection, deviations; writes
-// OUTDIR/result.json (architecture.md, "File contracts") and one overlay image per photo.
+// OUTDIR/result.json (architecture.md, "File contracts"), one overlay image per photo and OUTDIR/report.html (the
+// self-contained page, analysis/report.h; --no-report skips it).
 #include "app/analyze_command.h"
 
 #include <fmt/format.h>
 
+#include <chrono>
 #include <filesystem>
 #include <iostream>
 #include <memory>
 
 #include "analysis/pipeline.h"
+#include "analysis/report.h"
+#include "analysis/result_reader.h"
 #include "app/cli.h"
 #include "app/output_paths.h"
 #include "core/error.h"
@@ -28,6 +32,7 @@ struct AnalyzeArgs {
   std::vector<std::string> models;
   bool no_fit = false;
   bool no_overlays = false;
+  bool no_report = false;
   double magnification = 50;
   std::string command_line;
 };
@@ -53,7 +58,9 @@ int RunAnalyze(AnalyzeArgs a) {
   const fs::path dir = a.output;
   const fs::path result_path = dir / "result.json";
   PrepareOutputDir(dir, "-o");
+  const fs::path report_path = dir / "report.html";
   CheckNotAnInput(result_path, input_paths);
+  if (!a.no_report) CheckNotAnInput(report_path, input_paths);
 
   const AnalysisResult r = Analyze(a.camera, inputs, a.options);
   std::cout << SummaryText(r);
@@ -70,10 +77,31 @@ int RunAnalyze(AnalyzeArgs a) {
     }
     overlays = WriteOverlays(r, dir, a.magnification);
   }
-  WriteFileAtomic(result_path, ResultJson(r, a.command_line).dump(1) + "\n");
+  const std::string result_text = ResultJson(r, a.command_line).dump(1) + "\n";
+  WriteFileAtomic(result_path, result_text);
   std::cout << "wrote " << result_path.string();
   for (const fs::path& p : overlays) std::cout << ", " << p.filename().string();
   std::cout << "\n";
+  if (!a.no_report) {
+    // The page from the document just written, read back as `curvecheck report` reads it (so it shows what the file
+    // says: a non-finite number in memory is null there), and the overlays beside it.
+    const auto t0 = std::chrono::steady_clock::now();
+    std::string html;
+    try {
+      const nlohmann::json result = ParseResultJson(result_text, result_path.string());
+      ReportAssets assets = LoadReportAssets(result, dir, result_path.string());
+      if (a.no_overlays) {
+        for (auto& [name, why] : assets.overlay_missing) why = "analyze ran with --no-overlays";
+      }
+      html = ReportHtml(result, assets);
+    } catch (const Error& e) {
+      throw Error(report_path.string(), fmt::format("not written ({}); {} was written", e.what(), result_path.string()),
+                  "fix that and run `curvecheck report " + result_path.string() + "`, or pass --no-report");
+    }
+    WriteFileAtomic(report_path, html);
+    std::cout << fmt::format("wrote {} ({:.2f} MB) in {:.0f} ms\n", report_path.string(), html.size() / 1e6,
+                             std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
+  }
   return 0;
 }
 
@@ -84,7 +112,7 @@ void AddAnalyzeCommand(CLI::App& app, std::function<int()>& run) {
   CLI::App* cmd = app.add_subcommand(
       "analyze",
       "Detect the pattern in photos, verify the correction (planar perspective check), fit the screen (radius with "
-      "uncertainty, model selection, deviations); writes OUTDIR/result.json and overlay images");
+      "uncertainty, model selection, deviations); writes OUTDIR/result.json, overlay images and report.html");
   cmd->add_option("--camera,-c", args->camera, "The camera's mrcal .cameramodel (calibrated at the photos' size)")
       ->required();
   cmd->add_option("--pattern,-p", args->patterns,
@@ -115,6 +143,7 @@ void AddAnalyzeCommand(CLI::App& app, std::function<int()>& run) {
       ->capture_default_str();
   cmd->add_flag("--no-fit", args->no_fit, "Detection and verification only");
   cmd->add_flag("--no-overlays", args->no_overlays, "Do not write overlay images");
+  cmd->add_flag("--no-report", args->no_report, "Do not write report.html (the HTML page; see `curvecheck report`)");
   cmd->add_option("--magnify", args->magnification, "Magnification of the residual vectors in the overlays")
       ->capture_default_str();
   cmd->callback([&run, args] {

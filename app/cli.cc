@@ -14,6 +14,7 @@
 #include "app/commands.h"
 #include "app/present_command.h"
 #include "app/render_command.h"
+#include "app/report_command.h"
 #include "app/sweep_command.h"
 #include "core/error.h"
 
@@ -62,6 +63,8 @@ int Main(int argc, char** argv) {
   AddRenderCommand(app, run);
   // `analyze` (issue 6): app/analyze_command.cc.
   AddAnalyzeCommand(app, run);
+  // `report` (issue 7 item 1): the HTML page of a result.json; app/report_command.cc.
+  AddReportCommand(app, run);
   AddBenchCommand(app, run);
   // `present` (issue 3 item 8): the fullscreen presenter; app/present_command.cc.
   AddPresentCommand(app, run);

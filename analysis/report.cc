@@ -92,10 +92,10 @@ std::string Vec3(const json& v, int decimals) {
 // A number for a gnuplot data file ("NaN" for none, which gnuplot leaves out or draws transparent).
 std::string Dat(std::optional<double> x) { return x && std::isfinite(*x) ? fmt::format("{}", *x) : "NaN"; }
 
-// A label inside a gnuplot data file: double-quoted, without quotes or line breaks of its own.
+// A label inside a gnuplot data file: double-quoted, without quotes, comment characters or line breaks of its own.
 std::string DatLabel(std::string_view s) {
   std::string out = "\"";
-  for (char c : s) out += (c == '"' || c == '\\') ? '\'' : (c == '\n' || c == '\r' ? ' ' : c);
+  for (char c : s) out += (c == '"' || c == '\\') ? '\'' : (c == '\n' || c == '\r' || c == '#' ? ' ' : c);
   return out + "\"";
 }
 

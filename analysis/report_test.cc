@@ -158,6 +158,16 @@ TEST(Report, WithoutAFitThePageSaysWhyAndKeepsTheVerification) {
   EXPECT_EQ(DataValue(html, "p95-display-px"), fmt::format("{}", r["verification"]["p95_display_px"].get<double>()));
 }
 
+TEST(Report, OddNamesDoNotBreakTheCharts) {
+  // Names reach gnuplot as tick labels (radius chart) and titles (residual map): quotes, backslashes, comment
+  // characters and line breaks must not break the scripts.
+  json r = Corpus("cylinder-1080r.json");
+  r["fit"]["candidates"][3]["model"] = "odd \"model\" #1 \\ \n'x'";
+  const std::string html = ReportHtml(r, {});
+  EXPECT_THAT(html, Not(HasSubstr("No chart")));
+  EXPECT_EQ(Count(html, "src=\"data:image/png;base64,iVBORw0KGgo"), 4);
+}
+
 TEST(Report, RefusesABrokenDocumentNamingItsSource) {
   json r = Corpus("cylinder-1080r.json");
   r["fit"]["candidates"][2]["radius_mm"] = "1000";

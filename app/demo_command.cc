@@ -10,6 +10,7 @@
 #include <iostream>
 
 #include "analysis/pipeline.h"
+#include "analysis/report.h"
 #include "app/commands.h"
 #include "app/output_paths.h"
 #include "capture/synthetic_camera.h"
@@ -93,7 +94,10 @@ int RunDemo(const DemoOptions& o) {
   }
   const std::vector<fs::path> overlays = WriteOverlays(r, analysis_dir);
   const fs::path result_json = analysis_dir / "result.json";
-  WriteFileAtomic(result_json, ResultJson(r, "curvecheck demo").dump(1) + "\n");
+  const nlohmann::json result = ResultJson(r, "curvecheck demo");
+  WriteFileAtomic(result_json, result.dump(1) + "\n");
+  const fs::path report_html = analysis_dir / "report.html";
+  WriteFileAtomic(report_html, ReportHtml(result, LoadReportAssets(result, analysis_dir, result_json.string())));
   std::cout << fmt::format("3. analyze  {} features detected ({}), verification, fit of {} screen models: {:.0f} ms -> {}\n\n",
                            r.photos.front().detection.features.size(), r.photos.front().detection.detector,
                            r.fit ? r.fit->candidates.size() : 0, MsSince(t0), result_json.string());
@@ -117,7 +121,7 @@ int RunDemo(const DemoOptions& o) {
     ok = false;
   }
   std::cout << fmt::format("\noutputs: {}/ (pattern.png + .json, photo.png + .truth.json, analysis/result.json, "
-                           "analysis/{})\n",
+                           "analysis/report.html, analysis/{})\n",
                            out.string(), overlays.empty() ? std::string("") : overlays.front().filename().string());
   return ok ? 0 : 1;
 }

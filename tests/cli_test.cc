@@ -168,6 +168,9 @@ TEST_F(Cli, DemoRunsEndToEndAndFindsTheTrueRadius) {
   EXPECT_LE(fit["radius_ci95_mm"][0].get<double>(), 1000.0);
   EXPECT_GE(fit["radius_ci95_mm"][1].get<double>(), 1000.0);
   EXPECT_LT(fit["radius_sigma_mm"].get<double>(), 5.0);
+  // The demo writes the report too (its content is checked in a browser by tests/report_browser_test.cc).
+  const std::string html = Slurp(dir_ / "demo" / "analysis" / "report.html");
+  EXPECT_THAT(html, AllOf(HasSubstr("id=\"radius-mm\""), HasSubstr("id=\"verdict\""), Not(HasSubstr("https://"))));
 }
 
 }  // namespace

@@ -388,6 +388,12 @@ std::vector<std::string> RunPoint(Sweep& sw, int index) {
   }
   std::error_code ec;
   fs::remove(pattern_json, ec);
+  // The scratch path depends on the output folder: keep it out of the row, so that shards written to other
+  // folders give the same rows.
+  for (size_t at = detail.find(pattern_json.string()); at != std::string::npos;
+       at = detail.find(pattern_json.string(), at)) {
+    detail.replace(at, pattern_json.string().size(), "pattern.json");
+  }
 
   std::vector<std::string> row = {std::to_string(index), method};
   for (double v : values) row.push_back(Cell(v));

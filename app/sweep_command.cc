@@ -74,7 +74,7 @@ constexpr FactorInfo kFactors[] = {
     {"fill_factor", "fill", 0.05, 1, "emitting fraction of a display pixel along each axis (moire)"},
     {"square_px", "square", 8, 2000,
      "checkerboard square edge, display px at the screen centre; the board spans about 90% of the display"},
-    {"coverage", "coverage", 0.1, 1, "fraction of the display's width and height the fitted board may span"},
+    {"coverage", "coverage", 0.15, 1, "fraction of the display's width and height the fitted board may span"},
     {"radius_ratio", "radius", 0.2, 5, "true radius / nominal: rendered for the nominal, photographed with the true"},
     {"viewpoint_offset_mm", "viewpoint_offset", -3000, 3000,
      "camera moved sideways (x) from the viewpoint the pattern was rendered for, still looking at the centre"},

@@ -370,6 +370,42 @@ TEST(ScreenFitTest, NearFlatViewOfAn1800RScreenIsIllConditionedNotANumber) {
   EXPECT_FALSE(r.warnings.empty());
 }
 
+TEST(ScreenFitTest, RelativeCurvatureSigmaLimitDropsTheRadiusNumber) {
+  // The central 20% of a 49" 1800R seen from 4 m: the curvature is significant (its interval excludes flat) but
+  // its sigma is ~14% of k. Under the default limit (25%) the radius is a number; with the limit at 10% the same
+  // fit is reported ill-conditioned with the relative sigma, and no number.
+  SyntheticScene scene = LoadScene(Scene("default"));
+  scene.monitor = LoadMonitor("49in-5120x1440-1800r");
+  scene.truth.curvature_per_mm = scene.monitor.curvature_per_mm;
+  scene.camera_position_in_screen = Eigen::Vector3d(0, 0, 4000 - 1800);
+  std::vector<Eigen::Vector2d> patch;
+  for (int j = 0; j < 9; ++j) {
+    for (int i = 0; i < 9; ++i) {
+      patch.emplace_back(scene.monitor.width_px * (0.4 + 0.025 * i), scene.monitor.height_px * (0.1 + 0.1 * j));
+    }
+  }
+  std::mt19937_64 rng(31);
+  const auto photo = Observe(scene, patch, kNoisePx, rng, SceneSurface(scene));
+  FitOptions options;
+  options.models = {"flat", "cylinder"};
+  const ScreenFitResult loose = FitScreen(scene.monitor, scene.camera, {photo}, options);
+  const ModelFit& a = loose.candidates[static_cast<size_t>(IndexOf(loose, "cylinder"))];
+  ASSERT_TRUE(a.radius_mm.has_value()) << Table(loose);
+  const double relative = a.curvature_sigma_per_mm / std::abs(a.curvature_per_mm);
+  EXPECT_GT(relative, 0.10) << Table(loose);
+  EXPECT_LT(relative, 0.25) << Table(loose);
+  EXPECT_EQ(loose.status, "ok");
+  options.max_relative_curvature_sigma = 0.10;
+  const ScreenFitResult strict = FitScreen(scene.monitor, scene.camera, {photo}, options);
+  const ModelFit& b = strict.candidates[static_cast<size_t>(IndexOf(strict, "cylinder"))];
+  EXPECT_TRUE(b.ill_conditioned);
+  EXPECT_FALSE(b.radius_mm.has_value());
+  EXPECT_THAT(b.condition_note, ::testing::HasSubstr("relative sigma"));
+  EXPECT_GT(b.radius_ci95_mm[0], 0);
+  EXPECT_TRUE(std::isfinite(b.radius_ci95_mm[1]));  // curved for sure, just not measurable to a useful precision
+  EXPECT_EQ(strict.status, "ill_conditioned");
+}
+
 TEST(ScreenFitTest, RejectsInvalidInputNamingIt) {
   const SyntheticScene scene = LoadScene(Scene("default"));
   std::mt19937_64 rng(19);

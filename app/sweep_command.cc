@@ -74,7 +74,7 @@ constexpr FactorInfo kFactors[] = {
     {"fill_factor", "fill", 0.05, 1, "emitting fraction of a display pixel along each axis (moire)"},
     {"square_px", "square", 8, 2000,
      "checkerboard square edge, display px at the screen centre; the board spans about 90% of the display"},
-    {"coverage", "coverage", 0.1, 1, "fraction of the display's width and height the fitted board may span"},
+    {"coverage", "coverage", 0.15, 1, "fraction of the display's width and height the fitted board may span"},
     {"radius_ratio", "radius", 0.2, 5, "true radius / nominal: rendered for the nominal, photographed with the true"},
     {"viewpoint_offset_mm", "viewpoint_offset", -3000, 3000,
      "camera moved sideways (x) from the viewpoint the pattern was rendered for, still looking at the centre"},
@@ -388,6 +388,12 @@ std::vector<std::string> RunPoint(Sweep& sw, int index) {
   }
   std::error_code ec;
   fs::remove(pattern_json, ec);
+  // The scratch path depends on the output folder: keep it out of the row, so that shards written to other
+  // folders give the same rows.
+  for (size_t at = detail.find(pattern_json.string()); at != std::string::npos;
+       at = detail.find(pattern_json.string(), at)) {
+    detail.replace(at, pattern_json.string().size(), "pattern.json");
+  }
 
   std::vector<std::string> row = {std::to_string(index), method};
   for (double v : values) row.push_back(Cell(v));

@@ -17,6 +17,7 @@
 #include "analysis/detect_tags.h"
 #include "core/error.h"
 #include "core/file_io.h"
+#include "core/image_io.h"
 
 namespace curvecheck {
 namespace {
@@ -501,6 +502,7 @@ cv::Mat ReadPhotoGray(const std::filesystem::path& path) {
   if (starts("\xFF\xD8") && tail.find("\xFF\xD9") == std::string_view::npos) {
     throw Error(path.string(), "is a truncated JPEG (no end-of-image marker)", "copy the photo again");
   }
+  CheckImageHeader(bytes, path.string());  // format and size cap (200 Mpx) before OpenCV allocates anything
   const cv::Mat raw(1, static_cast<int>(bytes.size()), CV_8U, const_cast<char*>(bytes.data()));
   cv::Mat img;
   try {

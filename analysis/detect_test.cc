@@ -434,7 +434,12 @@ TEST(Detect, ReadPhotoGrayKeepsDepthAndRefusesBadFiles) {
               ::testing::HasSubstr("truncated PNG"));
   EXPECT_THAT(MessageOf([&] { ReadPhotoGray(write("empty.png", "")); }), ::testing::HasSubstr("is empty"));
   EXPECT_THAT(MessageOf([&] { ReadPhotoGray(write("text.png", "hello, not an image")); }),
-              ::testing::HasSubstr("not a readable image"));
+              ::testing::HasSubstr("text.png: is not a PNG, JPEG, TIFF or BMP image"));
+  // The size cap of core's image reader applies (OpenCV would allocate 30000 x 30000 px from the header).
+  std::string huge = bytes;
+  for (size_t at : {16u, 20u}) huge.replace(at, 4, std::string("\x00\x00\x75\x30", 4));
+  EXPECT_THAT(MessageOf([&] { ReadPhotoGray(write("huge.png", huge)); }),
+              ::testing::HasSubstr("huge.png: declares 30000 x 30000 px, outside 1 px .. 200 Mpx"));
   EXPECT_THAT(MessageOf([&] { ReadPhotoGray(dir / "missing.png"); }), ::testing::HasSubstr("missing.png"));
   fs::remove_all(dir);
 }

@@ -47,6 +47,12 @@ int RunSynth(const SynthArgs& a) {
                 "render the pattern for the scene's monitor");
   }
   const Image8 display = ReadImage8(a.display);
+  if (display.width != scene.monitor.width_px || display.height != scene.monitor.height_px) {
+    throw Error(a.display,
+                fmt::format("is {}x{} px but the scene's monitor is {}x{} px", display.width, display.height,
+                            scene.monitor.width_px, scene.monitor.height_px),
+                "show the PNG that render wrote for this monitor");
+  }
   const SyntheticPhoto photo = RenderSyntheticPhoto(scene, display, a.ray_grid_px);
   nlohmann::json truth = TruthJson(scene, pattern.features);
   truth["scene"] = a.scene;

@@ -14,6 +14,8 @@
 #include <thread>
 
 #include "core/error.h"
+#include "core/file_io.h"
+#include "core/image_io.h"
 
 namespace curvecheck {
 namespace {
@@ -126,10 +128,19 @@ std::vector<Detection> DetectChessboards(const std::vector<std::filesystem::path
     for (size_t i = next++; i < photos.size(); i = next++) {
       const auto t0 = std::chrono::steady_clock::now();
       try {
-        const cv::Mat gray = cv::imread(photos[i].string(), cv::IMREAD_GRAYSCALE);
-        if (gray.empty()) {
-          out[i].problem = "cannot be read as an image";
-        } else {
+        // Through core's header check (format, size cap, cut-off files, which libpng/libjpeg would decode
+        // with a warning on stderr).
+        cv::Mat gray;
+        std::string bytes;
+        try {
+          bytes = ReadFileToString(photos[i]);
+          CheckImageHeader(bytes, photos[i].string());
+          gray = cv::imdecode(cv::Mat(1, static_cast<int>(bytes.size()), CV_8U, bytes.data()), cv::IMREAD_GRAYSCALE);
+        } catch (const Error& e) {
+          out[i].problem = e.problem();
+        }
+        if (out[i].problem.empty() && gray.empty()) out[i].problem = "cannot be read as an image";
+        if (out[i].problem.empty()) {
           out[i] = DetectChessboard(gray, board, options);
         }
       } catch (const std::exception& e) {  // no exception may leave a worker thread

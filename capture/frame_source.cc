@@ -11,6 +11,7 @@
 
 #include "core/error.h"
 #include "core/file_io.h"
+#include "core/image_io.h"
 
 namespace curvecheck {
 namespace fs = std::filesystem;
@@ -156,6 +157,22 @@ std::string OpenCvCameraSource::Describe() const {
                      impl_->options.exposure ? fmt::format("{}", *impl_->options.exposure) : std::string("auto"));
 }
 
+cv::Mat DecodePhotoBgr(std::string_view bytes, const std::string& source) {
+  Image8 img = DecodeImage8(bytes, source);
+  const cv::Mat wrapped(img.height, img.width, CV_8UC(img.channels), img.pixels.data());
+  cv::Mat bgr;
+  if (img.channels == 1) {
+    cv::cvtColor(wrapped, bgr, cv::COLOR_GRAY2BGR);
+  } else if (img.channels == 4) {
+    cv::cvtColor(wrapped, bgr, cv::COLOR_BGRA2BGR);
+  } else if (img.channels == 3) {
+    bgr = wrapped.clone();  // `img` owns the pixels and dies here
+  } else {
+    throw Error(source, fmt::format("has {} channels", img.channels), "give a gray or colour photo");
+  }
+  return bgr;
+}
+
 // ---- Fake ----
 
 FakeSource::FakeSource(std::vector<fs::path> files) : files_(std::move(files)) {
@@ -172,10 +189,7 @@ Capture FakeSource::Grab() {
     c.image = generator_(grabs_);
   } else {
     const fs::path& f = files_[static_cast<size_t>(grabs_ - 1) % files_.size()];
-    const std::string bytes = ReadFileToString(f);
-    c.image = cv::imdecode(cv::Mat(1, static_cast<int>(bytes.size()), CV_8U, const_cast<char*>(bytes.data())),
-                           cv::IMREAD_COLOR);
-    if (c.image.empty()) throw Error(f.string(), "is not a readable image", "give PNG or JPEG files");
+    c.image = DecodePhotoBgr(ReadFileToString(f), f.string());
     c.metadata["file"] = f.string();
   }
   c.metadata["source"] = Describe();

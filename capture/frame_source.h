@@ -15,6 +15,7 @@
 #include <opencv2/core.hpp>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 namespace curvecheck {
@@ -46,6 +47,11 @@ cv::Mat AverageFrames(const std::vector<cv::Mat>& frames);
 // Grabs `frames` (>= 1) photos from `source` and averages them; the metadata is the first grab's with
 // "frames_averaged" set.
 Capture GrabAveraged(FrameSource& source, int frames);
+
+// Decodes an encoded photo (PNG, JPEG, TIFF or BMP) to 8-bit BGR through core's DecodeImage8, so that the
+// header check and its size cap (kMaxImagePixels) apply to every photo a camera or a folder delivers. Throws
+// Error naming `source` if the bytes are not such an image, are damaged or declare too many pixels.
+cv::Mat DecodePhotoBgr(std::string_view bytes, const std::string& source);
 
 // Current time as ISO-8601 UTC with milliseconds: "2024-05-01T12:34:56.789Z".
 std::string NowUtcIso8601();

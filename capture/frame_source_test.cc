@@ -6,6 +6,7 @@
 #include <cmath>
 #include <filesystem>
 #include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
 #include <random>
 
 #include "core/test_util.h"
@@ -75,6 +76,22 @@ TEST(FrameSource, NoV4l2CameraIsAClearError) {
 // No camera on USB: libgphoto2's autodetect finds none (this test assumes a machine without a camera).
 TEST(FrameSource, NoGphoto2CameraIsAClearError) {
   EXPECT_THAT(MessageOf([] { Gphoto2Source s; }), HasSubstr("no camera found: libgphoto2 "));
+}
+
+// Photos from files and cameras are decoded through core's DecodeImage8: gray and BGRA come out BGR, and a file
+// whose header declares more than kMaxImagePixels is refused before OpenCV allocates it.
+TEST(FrameSource, DecodePhotoBgrAppliesTheHeaderCheckAndSizeCap) {
+  std::vector<uint8_t> png;
+  ASSERT_TRUE(cv::imencode(".png", cv::Mat(5, 7, CV_8UC1, cv::Scalar(9)), png));
+  const cv::Mat bgr = DecodePhotoBgr(std::string(png.begin(), png.end()), "gray.png");
+  EXPECT_EQ(bgr.type(), CV_8UC3);
+  EXPECT_EQ(bgr.cols, 7);
+  EXPECT_EQ(bgr.at<cv::Vec3b>(4, 6), cv::Vec3b(9, 9, 9));
+  std::string huge(png.begin(), png.end());
+  for (int i : {16, 20}) huge.replace(static_cast<size_t>(i), 4, std::string("\x00\x00\x75\x30", 4));  // 30000 px
+  EXPECT_THAT(MessageOf([&] { DecodePhotoBgr(huge, "huge.png"); }),
+              HasSubstr("huge.png: declares 30000 x 30000 px, outside 1 px .. 200 Mpx"));
+  EXPECT_THAT(MessageOf([&] { DecodePhotoBgr("GIF89a", "x.gif"); }), HasSubstr("x.gif: is not a PNG, JPEG"));
 }
 
 TEST(FrameSource, UtcTimeIsIso8601) {

@@ -86,9 +86,10 @@ Capture Gphoto2Source::Grab() {
   gp_file_unref(file);
   Check(got, fmt::format("gp_camera_file_get {}/{}", path.folder, path.name));
   Capture c;
-  c.image = cv::imdecode(cv::Mat(1, static_cast<int>(bytes.size()), CV_8U, bytes.data()), cv::IMREAD_COLOR);
-  if (c.image.empty()) {
-    throw Error(fmt::format("camera file {}", path.name), "is not an image OpenCV can decode (a RAW file?)",
+  try {
+    c.image = DecodePhotoBgr(bytes, fmt::format("camera file {}", path.name));
+  } catch (const Error& e) {
+    throw Error(fmt::format("camera file {}", path.name), e.problem() + " (a RAW file?)",
                 "set the camera to JPEG (or RAW+JPEG with JPEG delivered)");
   }
   const std::string name = path.name;

@@ -243,7 +243,7 @@ ImportResult ImportFolder(const fs::path& photos_folder, const fs::path& pattern
   }
   // Decode every photo before writing anything.
   ImportResult result;
-  std::vector<std::pair<fs::path, cv::Mat>> readable;
+  std::vector<std::pair<fs::path, cv::Size>> readable;  // decoded size
   for (const fs::path& f : files) {
     std::string bytes;
     try {
@@ -252,17 +252,15 @@ ImportResult ImportFolder(const fs::path& photos_folder, const fs::path& pattern
       result.rejected.emplace_back(f.filename().string(), e.problem());
       continue;
     }
-    cv::Mat img;
+    cv::Size size;
     try {
-      img = cv::imdecode(cv::Mat(1, static_cast<int>(bytes.size()), CV_8U, bytes.data()), cv::IMREAD_UNCHANGED);
-    } catch (const cv::Exception&) {
-      img = cv::Mat();
-    }
-    if (img.empty()) {
-      result.rejected.emplace_back(f.filename().string(), "not a readable image (corrupt, truncated or unsupported)");
+      const Image8 img = DecodeImage8(bytes, f.string());  // the header check and size cap of every reader
+      size = cv::Size(img.width, img.height);
+    } catch (const Error& e) {
+      result.rejected.emplace_back(f.filename().string(), "not a readable image: " + e.problem());
       continue;
     }
-    readable.emplace_back(f, img);
+    readable.emplace_back(f, size);
   }
   if (readable.empty()) {
     throw Error(photos_folder.string(), fmt::format("none of its {} photos is readable", files.size()),
@@ -289,7 +287,7 @@ ImportResult ImportFolder(const fs::path& photos_folder, const fs::path& pattern
     const std::string photo = ShotName(k, ext);
     const std::string bytes = ReadFileToString(f);
     WriteFileAtomic(session_folder / photo, bytes);
-    json metadata = {{"width", img.cols}, {"height", img.rows}, {"exif", ReadExif(bytes)}};
+    json metadata = {{"width", img.width}, {"height", img.height}, {"exif", ReadExif(bytes)}};
     json entry = {{"index", k},
                   {"photo", photo},
                   {"original", fs::absolute(f).string()},

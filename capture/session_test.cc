@@ -194,5 +194,25 @@ TEST_F(Session, ImportCopiesReadablePhotosAndRejectsCorruptOnes) {
               HasSubstr("exists and is not empty"));
 }
 
+// The import decodes through DecodeImage8 too: a PNG whose header declares 30000 x 30000 px (OpenCV would
+// allocate 2.7 GB for it) is rejected with the reason, and the good photo is imported.
+TEST_F(Session, ImportRejectsAPhotoDeclaringTooManyPixels) {
+  const fs::path photos = dir_ / "photos";
+  fs::create_directories(photos);
+  std::vector<uint8_t> png;
+  ASSERT_TRUE(cv::imencode(".png", cv::Mat(5, 7, CV_8UC3, cv::Scalar(1, 2, 3)), png));
+  std::ofstream(photos / "IMG_0001.png", std::ios::binary).write(reinterpret_cast<const char*>(png.data()),
+                                                                  static_cast<std::streamsize>(png.size()));
+  std::string huge(png.begin(), png.end());
+  for (int i : {16, 20}) huge.replace(static_cast<size_t>(i), 4, std::string("\x00\x00\x75\x30", 4));
+  std::ofstream(photos / "IMG_0002.png", std::ios::binary) << huge;
+  const ImportResult r = ImportFolder(photos, dir_ / "patterns" / "a.json", dir_ / "s");
+  EXPECT_EQ(r.imported, 1);
+  ASSERT_EQ(r.rejected.size(), 1u);
+  EXPECT_EQ(r.rejected[0].first, "IMG_0002.png");
+  EXPECT_THAT(r.rejected[0].second, HasSubstr("not a readable image: declares 30000 x 30000 px"));
+  EXPECT_EQ(Manifest(dir_ / "s")["shots"][0]["metadata"]["width"], 7);
+}
+
 }  // namespace
 }  // namespace curvecheck

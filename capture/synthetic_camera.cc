@@ -277,6 +277,9 @@ SyntheticScene SceneFromConfig(const ConfigMap& c, const std::filesystem::path& 
     if (d.Has("bezel")) s.display.bezel = d.Number("bezel");
     if (d.Has("room")) s.display.room = d.Number("room");
     if (s.display.fill_factor > 1) d.Fail("fill_factor", "is above 1", "give the emitting fraction, 0..1");
+    if (s.display.bezel_mm < 0) {
+      d.Fail("bezel_mm", fmt::format("is {}, below zero", s.display.bezel_mm), "give 0 or more mm");
+    }
   }
   if (c.Has("optics")) {
     const ConfigMap o = c.Map("optics");
@@ -290,6 +293,10 @@ SyntheticScene SceneFromConfig(const ConfigMap& c, const std::filesystem::path& 
       o.Fail("blur", "is not none, gaussian or disc", "choose one");
     }
     if (s.optics.supersample > 8) o.Fail("supersample", "is above 8", "use 1..8 rays per pixel per axis");
+    if (s.optics.blur_px < 0) o.Fail("blur_px", fmt::format("is {}, below zero", s.optics.blur_px), "give 0 or more px");
+    if (s.optics.vignetting < 0 || s.optics.vignetting > 1) {
+      o.Fail("vignetting", fmt::format("is {}, outside 0..1", s.optics.vignetting), "give the corner light loss, 0..1");
+    }
   }
   if (c.Has("sensor")) {
     const ConfigMap n = c.Map("sensor");
@@ -297,6 +304,9 @@ SyntheticScene SceneFromConfig(const ConfigMap& c, const std::filesystem::path& 
     if (n.Has("gamma")) s.sensor.gamma = n.PositiveNumber("gamma");
     if (n.Has("full_well_e")) s.sensor.full_well_e = n.PositiveNumber("full_well_e");
     if (n.Has("read_noise_e")) s.sensor.read_noise_e = n.Number("read_noise_e");
+    if (s.sensor.read_noise_e < 0) {
+      n.Fail("read_noise_e", fmt::format("is {}, below zero", s.sensor.read_noise_e), "give 0 or more electrons");
+    }
     if (n.Has("noise")) s.sensor.noise = n.IsWord("noise", "true");
     if (n.Has("seed")) {
       // A whole number that a double holds exactly; anything else (negative, fractional, 1e30) would be an

@@ -3,7 +3,9 @@
 #include <fmt/format.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <memory>
 
@@ -93,6 +95,34 @@ std::string UnsafeForMrcal(const std::string& text) {
   return "";
 }
 
+// Calls f() with file descriptor 2 sent to a temporary file and returns what was written there, on one line.
+// mrcal's parser prints its diagnostics on stderr; they go into the error message instead, so that a bad model
+// gives the one line every command promises. Not for use while other threads print.
+template <typename F>
+std::string CaptureStderr(F&& f) {
+  std::fflush(stderr);
+  std::FILE* tmp = std::tmpfile();
+  const int saved = tmp ? ::dup(2) : -1;
+  if (saved < 0 || ::dup2(::fileno(tmp), 2) < 0) {
+    if (saved >= 0) ::close(saved);
+    if (tmp) std::fclose(tmp);
+    f();
+    return "";
+  }
+  f();
+  std::fflush(stderr);
+  ::dup2(saved, 2);
+  ::close(saved);
+  std::string text;
+  std::rewind(tmp);
+  char buf[512];
+  for (size_t n; (n = std::fread(buf, 1, sizeof buf, tmp)) > 0 && text.size() < 4096;) text.append(buf, n);
+  std::fclose(tmp);
+  while (!text.empty() && (text.back() == '\n' || text.back() == ' ')) text.pop_back();
+  std::replace(text.begin(), text.end(), '\n', ' ');
+  return text;
+}
+
 }  // namespace
 
 CameraModel ParseCameraModel(const std::string& text, const std::string& source) {
@@ -101,9 +131,13 @@ CameraModel ParseCameraModel(const std::string& text, const std::string& source)
                 "check it with mrcal-show-projection-diff or regenerate it with `curvecheck calibrate`");
   }
   const std::string terminated = text + "\n";
-  ModelPtr m(mrcal_read_cameramodel_string(terminated.c_str(), static_cast<int>(terminated.size())));
+  ModelPtr m;
+  const std::string said = CaptureStderr(
+      [&] { m.reset(mrcal_read_cameramodel_string(terminated.c_str(), static_cast<int>(terminated.size()))); });
   if (!m) {
-    throw Error(source, "is not a readable mrcal .cameramodel (mrcal's parser rejected it)",
+    throw Error(source,
+                "is not a readable mrcal .cameramodel (mrcal's parser rejected it" +
+                    (said.empty() ? std::string(")") : ": " + said + ")"),
                 "check it with mrcal-show-projection-diff or regenerate it with `curvecheck calibrate`");
   }
   return FromMrcal(*m, source);

@@ -43,8 +43,9 @@ void WriteFileAtomic(const fs::path& path, std::string_view contents) {
     const int err = errno;
     ::close(fd);
     ::unlink(tmp.c_str());
+    const bool full = err == ENOSPC || err == EDQUOT || err == EFBIG;  // EFBIG: over the file size limit (ulimit -f)
     throw Error(path.string(), std::string(what) + ": " + std::strerror(err),
-                err == ENOSPC ? "free disk space and run again" : "check the output folder");
+                full ? "free disk space and run again" : "check the output folder");
   };
   const char* p = contents.data();
   size_t left = contents.size();

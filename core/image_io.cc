@@ -2,6 +2,7 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <limits>
@@ -52,6 +53,7 @@ struct DeclaredSize {
   const char* format = nullptr;  // nullptr: not a format we read
   uint64_t width = 0, height = 0;
   bool found = false;  // false: the header is too damaged to say
+  size_t jpeg_scan = 0;  // JPEG: offset of the first start-of-scan marker (0: not reached)
 };
 
 // The format and the image size its header declares, read before decoding: OpenCV allocates the whole image from
@@ -71,10 +73,13 @@ DeclaredSize SizeFromHeader(std::string_view b) {
       const uint8_t m = static_cast<uint8_t>(b[i + 1]);
       if (m == 0xFF) { ++i; continue; }  // fill byte
       if (m == 0x01 || (m >= 0xD0 && m <= 0xD8)) { i += 2; continue; }  // markers without a length
-      if (m == 0xDA || m == 0xD9) break;
-      if (m >= 0xC0 && m <= 0xCF && m != 0xC4 && m != 0xC8 && m != 0xCC) {
-        if (i + 9 <= b.size()) d = {d.format, Be(b, i + 7, 2), Be(b, i + 5, 2), true};
+      if (m == 0xDA) {
+        d.jpeg_scan = i;
         break;
+      }
+      if (m == 0xD9) break;
+      if (m >= 0xC0 && m <= 0xCF && m != 0xC4 && m != 0xC8 && m != 0xCC && !d.found && i + 9 <= b.size()) {
+        d = {d.format, Be(b, i + 7, 2), Be(b, i + 5, 2), true};  // go on to the scan (completeness check)
       }
       i += 2 + Be(b, i + 2, 2);
     }
@@ -109,7 +114,7 @@ DeclaredSize SizeFromHeader(std::string_view b) {
 
 Image8 ReadImage8(const std::filesystem::path& path) { return DecodeImage8(ReadFileToString(path), path.string()); }
 
-Image8 DecodeImage8(std::string_view bytes, const std::string& source) {
+void CheckImageHeader(std::string_view bytes, const std::string& source) {
   const std::filesystem::path path(source);
   const DeclaredSize declared = SizeFromHeader(bytes);
   if (!declared.format) {
@@ -126,6 +131,24 @@ Image8 DecodeImage8(std::string_view bytes, const std::string& source) {
                             declared.height, kMaxImagePixels / 1000000),
                 "give a camera photo or a rendered pattern; the file may be damaged");
   }
+  // A cut-off file: libpng and libjpeg decode what is there, fill the rest and print a warning on stderr, so the
+  // end is checked here. A PNG ends with its IEND chunk (trailing bytes tolerated within 1 kB); a JPEG has an
+  // end-of-image marker after its scan (FF D9 cannot occur inside entropy-coded data; an EXIF thumbnail's own
+  // marker lies before the scan; a trailer after it, such as a phone's video, is tolerated).
+  const std::string_view tail = bytes.substr(bytes.size() - std::min<size_t>(bytes.size(), 1024));
+  if (std::string_view(declared.format) == "PNG" && tail.find("IEND") == std::string_view::npos) {
+    throw Error(path.string(), "is a truncated PNG (no IEND chunk at its end)", "copy or export the file again");
+  }
+  if (std::string_view(declared.format) == "JPEG" &&
+      (declared.jpeg_scan == 0 || bytes.find("\xFF\xD9", declared.jpeg_scan) == std::string_view::npos)) {
+    throw Error(path.string(), "is a truncated JPEG (no end-of-image marker after its image data)",
+                "copy or export the file again");
+  }
+}
+
+Image8 DecodeImage8(std::string_view bytes, const std::string& source) {
+  const std::filesystem::path path(source);
+  CheckImageHeader(bytes, source);
   const cv::Mat raw(1, static_cast<int>(bytes.size()), CV_8U, const_cast<char*>(bytes.data()));
   cv::Mat img;
   try {

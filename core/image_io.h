@@ -30,6 +30,10 @@ Image8 ReadImage8(const std::filesystem::path& path);
 // The same from the bytes of an image file; `source` names it in errors. The entry point for the fuzzer
 // (fuzz/fuzz_image.cc) and for images already in memory.
 Image8 DecodeImage8(std::string_view bytes, const std::string& source);
+// The header check of DecodeImage8 alone, for readers that decode with OpenCV themselves (16-bit photos in
+// analysis/): throws the same Error if the bytes are not a PNG, JPEG, TIFF or BMP, the header is damaged, or it
+// declares 0 px or more than kMaxImagePixels. Decodes nothing.
+void CheckImageHeader(std::string_view bytes, const std::string& source);
 
 // Colour-maps a float map (NaN = no data, drawn dark grey; infinity = failure, drawn magenta) on [0, max_value]
 // with a perceptual colour scale (OpenCV's viridis) and writes it as PNG; values above max_value saturate.

@@ -68,8 +68,13 @@ TEST(ImageIo, RefusesHugeDeclaredSizesAndDamagedHeaders) {
               HasSubstr("huge.png: declares 30000 x 30000 px, outside 1 px .. 200 Mpx"));
   EXPECT_THAT(testing::MessageOf([&] { DecodeImage8(png.substr(0, 20), "cut.png"); }),
               HasSubstr("cut.png: is not a readable PNG image (damaged or truncated header)"));
+  // Cut-off files are refused before decoding (libpng and libjpeg would decode them partly, with a warning).
   EXPECT_THAT(testing::MessageOf([&] { DecodeImage8(png.substr(0, png.size() / 2), "half.png"); }),
-              HasSubstr("half.png: is not a readable image"));
+              HasSubstr("half.png: is a truncated PNG (no IEND chunk at its end)"));
+  const std::string jpeg = Encode(Board(CV_8UC1), ".jpg");
+  EXPECT_EQ(DecodeImage8(jpeg + "trailer", "trailer.jpg").width, Board(CV_8UC1).cols);
+  EXPECT_THAT(testing::MessageOf([&] { DecodeImage8(jpeg.substr(0, jpeg.size() - 2), "cut.jpg"); }),
+              HasSubstr("cut.jpg: is a truncated JPEG (no end-of-image marker after its image data)"));
   EXPECT_THAT(testing::MessageOf([&] { DecodeImage8("P5 30000 30000 255\n", "x.pgm"); }),
               HasSubstr("x.pgm: is not a PNG, JPEG, TIFF or BMP image"));
   EXPECT_THAT(testing::MessageOf([&] { DecodeImage8("", "empty.png"); }), HasSubstr("empty.png: is not a PNG"));

@@ -1,7 +1,6 @@
 #include "analysis/report.h"
 
 #include <fmt/format.h>
-#include <unistd.h>
 
 #include <algorithm>
 #include <cmath>
@@ -120,29 +119,6 @@ struct Chart {
   std::vector<std::pair<std::string, std::string>> files;
   std::string missing;
   double aspect = 0;  // height / width of the plotted area when it is drawn to scale (0: the default chart size)
-};
-
-// A private temporary folder for the charts' data, removed when the object goes.
-class ChartDir {
- public:
-  ChartDir() {
-    std::string pattern = (fs::temp_directory_path() / "curvecheck_report_XXXXXX").string();
-    if (::mkdtemp(pattern.data()) == nullptr) {
-      throw Error(fs::temp_directory_path().string(), "cannot create a temporary folder for the report's charts",
-                  "make the temporary folder writable (or set TMPDIR)");
-    }
-    path_ = pattern;
-  }
-  ~ChartDir() {
-    std::error_code ec;
-    fs::remove_all(path_, ec);
-  }
-  ChartDir(const ChartDir&) = delete;
-  ChartDir& operator=(const ChartDir&) = delete;
-  const fs::path& path() const { return path_; }
-
- private:
-  fs::path path_;
 };
 
 std::string Figure(const Chart& chart, const ReportOptions& options, const fs::path* dir) {
@@ -602,8 +578,8 @@ std::string ReportHtml(const json& r, const ReportAssets& assets, const ReportOp
       options.chart_height_px > 10000) {
     throw Error("report options", "chart sizes must be 100 .. 10000 px");
   }
-  std::optional<ChartDir> dir;
-  if (options.charts) dir.emplace();
+  std::optional<ChartDataFolder> dir;
+  if (options.charts) dir.emplace("the report's charts");
   const fs::path* chart_dir = dir ? &dir->path() : nullptr;
 
   const json& v = r["verification"];

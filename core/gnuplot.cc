@@ -23,29 +23,6 @@ std::string TerminalLine(ChartFormat format, ChartSize size) {
   return fmt::format("set terminal pngcairo size {},{} noenhanced font 'sans,10'\n", size.width, size.height);
 }
 
-// A private temporary folder, removed when the object goes.
-class TempDir {
- public:
-  TempDir() {
-    std::string pattern = (fs::temp_directory_path() / "curvecheck_gnuplot_XXXXXX").string();
-    if (::mkdtemp(pattern.data()) == nullptr) {
-      throw Error(fs::temp_directory_path().string(), "cannot create a temporary folder for gnuplot",
-                  "make the temporary folder writable (or set TMPDIR)");
-    }
-    path_ = pattern;
-  }
-  ~TempDir() {
-    std::error_code ec;
-    fs::remove_all(path_, ec);
-  }
-  TempDir(const TempDir&) = delete;
-  TempDir& operator=(const TempDir&) = delete;
-  const fs::path& path() const { return path_; }
-
- private:
-  fs::path path_;
-};
-
 // Runs `gnuplot script` in `cwd` with stdout and stderr sent to `log`; returns the exit status (127: not found).
 int RunGnuplotProcess(const fs::path& script, const fs::path& cwd, const fs::path& log) {
   const pid_t pid = ::fork();
@@ -83,6 +60,20 @@ std::string FirstLines(const std::string& text, int n) {
 
 }  // namespace
 
+ChartDataFolder::ChartDataFolder(const std::string& purpose) {
+  std::string pattern = (fs::temp_directory_path() / "curvecheck_chart_XXXXXX").string();
+  if (::mkdtemp(pattern.data()) == nullptr) {
+    throw Error(fs::temp_directory_path().string(), "cannot create a temporary folder for " + purpose,
+                "make the temporary folder writable (or set TMPDIR)");
+  }
+  path_ = pattern;
+}
+
+ChartDataFolder::~ChartDataFolder() {
+  std::error_code ec;
+  fs::remove_all(path_, ec);
+}
+
 std::string GnuplotString(std::string_view text) {
   std::string out = "\"";
   for (char c : text) {
@@ -93,7 +84,7 @@ std::string GnuplotString(std::string_view text) {
 }
 
 std::string RenderGnuplot(std::string_view script, ChartFormat format, ChartSize size, const fs::path& working_dir) {
-  TempDir tmp;
+  ChartDataFolder tmp;
   const fs::path image = tmp.path() / (format == ChartFormat::kSvg ? "chart.svg" : "chart.png");
   const fs::path gp = tmp.path() / "chart.gp", log = tmp.path() / "gnuplot.log";
   WriteFileAtomic(gp, TerminalLine(format, size) + fmt::format("set output {}\n", GnuplotString(image.string())) +

@@ -39,6 +39,20 @@ std::filesystem::path WriteGnuplotChart(const std::filesystem::path& image, std:
 // dominate.
 std::vector<bool> ParetoFront(const std::vector<double>& cost, const std::vector<double>& error);
 
+// A private temporary folder for a chart's script and data files, removed with everything in it when the object
+// goes. Throws Error if it cannot be created (the message names `purpose`, e.g. "gnuplot").
+class ChartDataFolder {
+ public:
+  explicit ChartDataFolder(const std::string& purpose = "gnuplot");
+  ~ChartDataFolder();
+  ChartDataFolder(const ChartDataFolder&) = delete;
+  ChartDataFolder& operator=(const ChartDataFolder&) = delete;
+  const std::filesystem::path& path() const { return path_; }
+
+ private:
+  std::filesystem::path path_;
+};
+
 // Base64 (RFC 4648, with padding) of `bytes`: for data: URIs in self-contained HTML.
 std::string Base64(std::string_view bytes);
 

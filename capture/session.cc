@@ -263,8 +263,14 @@ ImportResult ImportFolder(const fs::path& photos_folder, const fs::path& pattern
     readable.emplace_back(f, size);
   }
   if (readable.empty()) {
-    throw Error(photos_folder.string(), fmt::format("none of its {} photos is readable", files.size()),
-                "check the files (see the rejected list with a readable one)");
+    // Each photo's reason on the one line (the first three; the count of the rest), so that nothing is hidden.
+    std::string reasons;
+    for (size_t i = 0; i < result.rejected.size() && i < 3; ++i) {
+      reasons += fmt::format("{}{}: {}", i ? ", " : "", result.rejected[i].first, result.rejected[i].second);
+    }
+    if (result.rejected.size() > 3) reasons += fmt::format(", and {} more", result.rejected.size() - 3);
+    throw Error(photos_folder.string(), fmt::format("none of its {} photos is readable ({})", files.size(), reasons),
+                "replace or remove the damaged files and import again");
   }
   PrepareNewFolder(session_folder, false);
   const fs::path pattern_png = fs::path(pattern_json).replace_extension(".png");

@@ -21,6 +21,7 @@
 
 #include "core/error.h"
 #include "core/file_io.h"
+#include "render/vulkan_error.h"
 #define GLFW_INCLUDE_NONE
 #include <GLFW/glfw3.h>
 // Last: Xlib's macros (None, Success, Bool, ...) must not reach the headers above.
@@ -588,19 +589,6 @@ void SyncWindowSystem() {
   if (Display* display = glfwGetX11Display()) XSync(display, False);
 }
 
-template <typename F>
-auto WithVulkanErrors(F&& f) {
-  try {
-    return f();
-  } catch (const vk::SystemError& e) {
-    const bool lost = e.code() == vk::make_error_code(vk::Result::eErrorDeviceLost) ||
-                      e.code() == vk::make_error_code(vk::Result::eErrorSurfaceLostKHR);
-    throw Error("Vulkan",
-                std::string(lost ? "the device or the window was lost: " : "a Vulkan call failed: ") + e.what(),
-                lost ? "run again; if it repeats, update the driver or use lavapipe"
-                     : "check the Vulkan installation (vulkaninfo) and the display");
-  }
-}
 
 }  // namespace
 
@@ -767,7 +755,7 @@ int RunPresenter(const PresenterOptions& options, std::ostream& log) {
       }
     }
     return 0;
-  });
+  }, VulkanUse::kWindow);
 }
 
 }  // namespace curvecheck

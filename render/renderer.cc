@@ -17,6 +17,7 @@
 #include "core/error.h"
 #include "core/off_axis_projection.h"
 #include "core/screen_geometry.h"
+#include "render/vulkan_error.h"
 
 namespace curvecheck {
 namespace {
@@ -876,20 +877,6 @@ void RenderOptions::Check(const std::string& where) const {
   }
 }
 
-namespace {
-
-template <typename F>
-auto WithVulkanErrors(F&& f) {
-  try {
-    return f();
-  } catch (const vk::SystemError& e) {
-    const bool lost = e.code() == vk::make_error_code(vk::Result::eErrorDeviceLost);
-    throw Error("Vulkan", std::string(lost ? "the device was lost: " : "a Vulkan call failed: ") + e.what(),
-                lost ? "run again; if it repeats, update the driver or use lavapipe" : "check the Vulkan installation");
-  }
-}
-
-}  // namespace
 
 Renderer::Renderer() : impl_(WithVulkanErrors([] { return std::make_unique<Impl>(); })) {}
 Renderer::~Renderer() = default;

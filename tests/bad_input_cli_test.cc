@@ -11,7 +11,9 @@
 //   create files there);
 // - photos of a different pattern, a duplicated feature id, a camera model of another imager size: made from the
 //   rig's own render and synthetic camera (small: a 1200 x 800 camera before a 27" flat monitor).
-// What this does not reach: a Vulkan device lost in the middle of a render (no way to provoke it on lavapipe).
+// - a Vulkan device lost in the middle of a render, or out of device memory (lavapipe never is): the test-only
+//   layer VK_LAYER_CURVECHECK_fault (tests/vulkan_fault_layer.cc) between curvecheck and lavapipe returns
+//   VK_ERROR_DEVICE_LOST / VK_ERROR_OUT_OF_DEVICE_MEMORY where CURVECHECK_VULKAN_FAULT says.
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 #include <sys/stat.h>
@@ -230,6 +232,48 @@ TEST_F(BadInput, RenderWithoutAVulkanDevice) {
   EXPECT_FALSE(fs::exists(P("x.png")));
 }
 
+// The environment that puts VK_LAYER_CURVECHECK_fault between curvecheck and lavapipe, breaking what `fault` says
+// (tests/vulkan_fault_layer.cc); "" for the layer passing everything through.
+std::string FaultLayer(const std::string& fault) {
+  return std::string("VK_LAYER_PATH=") + CURVECHECK_FAULT_LAYER_DIR +
+         " VK_INSTANCE_LAYERS=VK_LAYER_CURVECHECK_fault CURVECHECK_VULKAN_FAULT=" + fault;
+}
+
+// The device lost at the first submit, or device memory exhausted: one line saying which, nothing written. The
+// control run (the same layer, no fault) renders, so the failures are the faults', not the layer's.
+TEST_F(BadInput, RenderWhenTheVulkanDeviceIsLostOrOutOfMemory) {
+  const std::vector<std::string> args = {"render", "--monitor", "27in-2560x1440-flat", "--viewpoint", "0,0,600", "-o",
+                                         S("lost.png")};
+  CliRun r = Run(args, FaultLayer("none"));
+  ASSERT_EQ(r.code, 0) << r.err;
+  ASSERT_TRUE(fs::exists(P("lost.png")));
+  fs::remove(P("lost.png"));
+  fs::remove(P("lost.json"));
+
+  r = Run(args, FaultLayer("device-lost"));
+  ExpectOneLineFailure(r, {"curvecheck: error: Vulkan: the device was lost: ", "ErrorDeviceLost",
+                           "run again; if it repeats, update the driver or use lavapipe"});
+  r = Run(args, FaultLayer("out-of-device-memory"));
+  ExpectOneLineFailure(r, {"curvecheck: error: Vulkan: out of memory: ", "ErrorOutOfDeviceMemory",
+                           "close other programs that use the GPU"});
+  EXPECT_FALSE(fs::exists(P("lost.png")));
+  EXPECT_FALSE(fs::exists(P("lost.json")));
+  EXPECT_THAT(TempFiles(Dir()), ::testing::IsEmpty());
+}
+
+// The device lost after the demo's first render went through: the demo stops with the same one line (not a crash
+// in the clean-up of a lost device), and leaves no temporary file.
+TEST_F(BadInput, DemoWhenTheVulkanDeviceIsLostMidway) {
+  const fs::path out = P("demo-lost");
+  const CliRun r = Run({"demo", "-o", out.string()}, FaultLayer("device-lost-after=1"));
+  ExpectOneLineFailure(r, {"Vulkan: the device was lost: ", "ErrorDeviceLost", "run again"});
+  if (fs::exists(out)) {
+    for (const auto& e : fs::recursive_directory_iterator(out)) {
+      EXPECT_EQ(e.path().filename().string().find(".tmp"), std::string::npos) << e.path();
+    }
+  }
+}
+
 TEST_F(BadInput, RenderIntoAFolderThatIsNotWritable) {
   const fs::path folder = UnwritableFolder();
   const CliRun r = Run({"render", "--monitor", "27in-2560x1440-flat", "--viewpoint", "0,0,600", "-o",
@@ -354,7 +398,9 @@ TEST_F(BadInput, CaptureImportAndSession) {
   RunCases({
       {"import: no readable photo",
        {"capture", "import", "--photos", S("bad-photos"), "--pattern", S("pattern.json"), "-o", S("s1")},
-       {S("bad-photos"), "none of its 2 photos is readable"}},
+       {S("bad-photos"), "none of its 2 photos is readable (IMG_1.png: not a readable image: is not a PNG",
+        "IMG_2.jpg: not a readable image: is not a readable JPEG image (damaged or truncated header)",
+        "replace or remove the damaged files"}},
       {"import: photo folder missing",
        {"capture", "import", "--photos", S("nowhere"), "--pattern", S("pattern.json"), "-o", S("s2")},
        {S("nowhere"), "is not a folder"}},

@@ -79,6 +79,16 @@ std::mutex mutex;
 std::unordered_map<void*, InstanceNext> instances;
 std::unordered_map<void*, DeviceNext> devices;
 
+// Removes `handle`'s entry from `table` and returns it (for its destroy call, made after the lock is released).
+template <typename Next>
+Next Forget(std::unordered_map<void*, Next>& table, const void* handle) {
+  std::lock_guard<std::mutex> lock(mutex);
+  auto it = table.find(Key(handle));
+  const Next next = it->second;
+  table.erase(it);
+  return next;
+}
+
 DeviceNext& Device(const void* handle) {
   std::lock_guard<std::mutex> lock(mutex);
   return devices.at(Key(handle));
@@ -87,12 +97,20 @@ DeviceNext& Device(const void* handle) {
 VKAPI_ATTR PFN_vkVoidFunction VKAPI_CALL GetInstanceProcAddr(VkInstance instance, const char* name);
 VKAPI_ATTR PFN_vkVoidFunction VKAPI_CALL GetDeviceProcAddr(VkDevice device, const char* name);
 
+// The loader's link info for this layer in a create-info chain (VkLayerInstanceCreateInfo or
+// VkLayerDeviceCreateInfo of `type` with function VK_LAYER_LINK_INFO); nullptr when absent.
+template <typename LinkInfo>
+LinkInfo* FindLink(const void* chain, VkStructureType type) {
+  auto* link = static_cast<LinkInfo*>(const_cast<void*>(chain));
+  while (link && !(link->sType == type && link->function == VK_LAYER_LINK_INFO)) {
+    link = static_cast<LinkInfo*>(const_cast<void*>(link->pNext));
+  }
+  return link;
+}
+
 VKAPI_ATTR VkResult VKAPI_CALL CreateInstance(const VkInstanceCreateInfo* info, const VkAllocationCallbacks* alloc,
                                               VkInstance* instance) {
-  auto* link = static_cast<VkLayerInstanceCreateInfo*>(const_cast<void*>(info->pNext));
-  while (link && !(link->sType == VK_STRUCTURE_TYPE_LOADER_INSTANCE_CREATE_INFO && link->function == VK_LAYER_LINK_INFO)) {
-    link = static_cast<VkLayerInstanceCreateInfo*>(const_cast<void*>(link->pNext));
-  }
+  auto* link = FindLink<VkLayerInstanceCreateInfo>(info->pNext, VK_STRUCTURE_TYPE_LOADER_INSTANCE_CREATE_INFO);
   if (!link) return VK_ERROR_INITIALIZATION_FAILED;
   const PFN_vkGetInstanceProcAddr next_gipa = link->u.pLayerInfo->pfnNextGetInstanceProcAddr;
   link->u.pLayerInfo = link->u.pLayerInfo->pNext;  // the next layer finds its own link
@@ -108,22 +126,12 @@ VKAPI_ATTR VkResult VKAPI_CALL CreateInstance(const VkInstanceCreateInfo* info, 
 }
 
 VKAPI_ATTR void VKAPI_CALL DestroyInstance(VkInstance instance, const VkAllocationCallbacks* alloc) {
-  PFN_vkDestroyInstance destroy;
-  {
-    std::lock_guard<std::mutex> lock(mutex);
-    auto it = instances.find(Key(instance));
-    destroy = it->second.destroy;
-    instances.erase(it);
-  }
-  destroy(instance, alloc);
+  Forget(instances, instance).destroy(instance, alloc);
 }
 
 VKAPI_ATTR VkResult VKAPI_CALL CreateDevice(VkPhysicalDevice physical, const VkDeviceCreateInfo* info,
                                             const VkAllocationCallbacks* alloc, VkDevice* device) {
-  auto* link = static_cast<VkLayerDeviceCreateInfo*>(const_cast<void*>(info->pNext));
-  while (link && !(link->sType == VK_STRUCTURE_TYPE_LOADER_DEVICE_CREATE_INFO && link->function == VK_LAYER_LINK_INFO)) {
-    link = static_cast<VkLayerDeviceCreateInfo*>(const_cast<void*>(link->pNext));
-  }
+  auto* link = FindLink<VkLayerDeviceCreateInfo>(info->pNext, VK_STRUCTURE_TYPE_LOADER_DEVICE_CREATE_INFO);
   if (!link) return VK_ERROR_INITIALIZATION_FAILED;
   const PFN_vkGetInstanceProcAddr next_gipa = link->u.pLayerInfo->pfnNextGetInstanceProcAddr;
   const PFN_vkGetDeviceProcAddr next_gdpa = link->u.pLayerInfo->pfnNextGetDeviceProcAddr;
@@ -148,14 +156,7 @@ VKAPI_ATTR VkResult VKAPI_CALL CreateDevice(VkPhysicalDevice physical, const VkD
 }
 
 VKAPI_ATTR void VKAPI_CALL DestroyDevice(VkDevice device, const VkAllocationCallbacks* alloc) {
-  PFN_vkDestroyDevice destroy;
-  {
-    std::lock_guard<std::mutex> lock(mutex);
-    auto it = devices.find(Key(device));
-    destroy = it->second.destroy;
-    devices.erase(it);
-  }
-  destroy(device, alloc);
+  Forget(devices, device).destroy(device, alloc);
 }
 
 // True when this submit is the one that loses the device, or it is lost already.

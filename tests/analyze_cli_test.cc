@@ -27,9 +27,7 @@ using ::testing::HasSubstr;
 class AnalyzeCli : public ::testing::Test {
  protected:
   // One folder per process: ctest runs each test in its own process, in parallel, and each sets up the suite.
-  static fs::path Dir() {
-    return fs::path(::testing::TempDir()) / ("analyze_cli_test-" + std::to_string(::getpid()));
-  }
+  static fs::path Dir() { return curvecheck::testing::ProcessDir("analyze_cli_test"); }
   static CliRun Curvecheck(const std::vector<std::string>& args) {
     return curvecheck::testing::RunBinary(CURVECHECK_BINARY, args, Dir());
   }
@@ -45,9 +43,9 @@ class AnalyzeCli : public ::testing::Test {
     return path;
   }
 
+  static void TearDownTestSuite() { fs::remove_all(Dir()); }
   static void SetUpTestSuite() {
-    fs::remove_all(Dir());
-    fs::create_directories(Dir());
+    curvecheck::testing::FreshDir("analyze_cli_test");
     CameraModel cam = ReadCameraModel(fs::path(std::getenv("CURVECHECK_SOURCE_DIR")) /
                                       "datasets/cameras/default-24mp-opencv8.cameramodel");
     const double s = 0.25;  // pixel centres at integers: x' = (x + 0.5) s - 0.5

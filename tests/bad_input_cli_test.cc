@@ -51,13 +51,12 @@ struct Case {
 class BadInput : public ::testing::Test {
  protected:
   // One folder per process (ctest runs every test in its own process, in parallel); inputs are made on first use.
-  static fs::path Dir() { return fs::path(::testing::TempDir()) / ("bad_input_cli_test-" + std::to_string(::getpid())); }
+  static fs::path Dir() { return curvecheck::testing::ProcessDir("bad_input_cli_test"); }
   static fs::path P(const std::string& name) { return Dir() / name; }
   static std::string S(const std::string& name) { return P(name).string(); }
 
   static void SetUpTestSuite() {
-    fs::remove_all(Dir());
-    fs::create_directories(Dir());
+    curvecheck::testing::FreshDir("bad_input_cli_test");
   }
   static void TearDownTestSuite() {
     ::chmod(Dir().c_str(), 0755);

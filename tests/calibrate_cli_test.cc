@@ -31,19 +31,11 @@ namespace fs = std::filesystem;
 using ::testing::HasSubstr;
 using testing::CliRun;
 using testing::ExpectOneLineFailure;
-using testing::RunBinary;
 using testing::Slurp;
 
-class CalibrateCli : public ::testing::Test {
+class CalibrateCli : public testing::CliTest {
  protected:
-  void SetUp() override {
-    dir_ = fs::temp_directory_path() /
-           ("curvecheck_calibrate_cli_" + std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()));
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
-  }
-  CliRun Curvecheck(const std::vector<std::string>& args) { return RunBinary(CURVECHECK_BINARY, args, dir_); }
-  fs::path dir_;
+  CalibrateCli() : CliTest("calibrate_cli_test") {}
 };
 
 // A small synthetic set (OPENCV4 truth, 640x480, 12 views) written as PNG files.

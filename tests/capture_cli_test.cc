@@ -35,24 +35,9 @@ using curvecheck::testing::CliRun;
 using curvecheck::testing::Quote;
 using curvecheck::testing::Slurp;
 
-class CaptureCli : public ::testing::Test {
+class CaptureCli : public curvecheck::testing::CliTest {
  protected:
-  void SetUp() override {
-    dir_ = fs::temp_directory_path() / ("curvecheck_capture_cli_" + std::to_string(::getpid()) + "_" +
-                                        ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
-  }
-  void TearDown() override { fs::remove_all(dir_); }
-
-  // env: "NAME=value" assignments put before the command ("-u NAME" unsets).
-  CliRun Curvecheck(const std::vector<std::string>& args, const std::string& env = "") {
-    return curvecheck::testing::RunBinary(CURVECHECK_BINARY, args, dir_, env);
-  }
-
-  void ExpectFailure(const CliRun& r, const std::vector<std::string>& pieces) {
-    curvecheck::testing::ExpectOneLineFailure(r, pieces);
-  }
+  CaptureCli() : CliTest("capture_cli_test") {}
 
   // A flat 1024x768 monitor's pattern (the Xvfb screen's size), rendered with lavapipe.
   fs::path RenderPattern() {
@@ -74,8 +59,6 @@ class CaptureCli : public ::testing::Test {
     }
     return photos;
   }
-
-  fs::path dir_;
 };
 
 TEST_F(CaptureCli, NoV4l2Camera) {

@@ -26,32 +26,15 @@ using curvecheck::testing::CliRun;
 using curvecheck::testing::Quote;
 using curvecheck::testing::Slurp;
 
-class Cli : public ::testing::Test {
+class Cli : public curvecheck::testing::CliTest {
  protected:
-  void SetUp() override {
-    dir_ = fs::temp_directory_path() / ("curvecheck_cli_" + std::to_string(::getpid()) + "_" +
-                                        ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
-  }
-  void TearDown() override { fs::remove_all(dir_); }
-
-  CliRun Curvecheck(const std::vector<std::string>& args) {
-    return curvecheck::testing::RunBinary(CURVECHECK_BINARY, args, dir_);
-  }
+  Cli() : CliTest("cli_test") {}
 
   std::string Write(const std::string& name, const std::string& text) {
     const fs::path p = dir_ / name;
     std::ofstream(p) << text;
     return p.string();
   }
-
-  // Exit 1 with exactly one line on stderr containing every expected piece.
-  void ExpectFailure(const CliRun& r, const std::vector<std::string>& pieces) {
-    curvecheck::testing::ExpectOneLineFailure(r, pieces);
-  }
-
-  fs::path dir_;
 };
 
 TEST_F(Cli, HelpEverywhere) {

@@ -4,6 +4,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 #include <sys/wait.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <cstdlib>
@@ -55,5 +56,45 @@ inline void ExpectOneLineFailure(const CliRun& r, const std::vector<std::string>
   EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
   for (const auto& p : pieces) EXPECT_THAT(r.err, ::testing::HasSubstr(p));
 }
+
+// This test process's folder: <gtest temp dir>/<name>-<pid>, plus "-<running test's name>" when per_test. ctest runs
+// each test in a process of its own, in parallel, so the pid keeps them apart. Only the path; see FreshDir.
+inline std::filesystem::path ProcessDir(const std::string& name, bool per_test = false) {
+  std::string leaf = name + "-" + std::to_string(::getpid());
+  if (per_test) leaf += std::string("-") + ::testing::UnitTest::GetInstance()->current_test_info()->name();
+  return std::filesystem::path(::testing::TempDir()) / leaf;
+}
+
+// ProcessDir(name, per_test), emptied (or created) first.
+inline std::filesystem::path FreshDir(const std::string& name, bool per_test = false) {
+  const std::filesystem::path d = ProcessDir(name, per_test);
+  std::filesystem::remove_all(d);
+  std::filesystem::create_directories(d);
+  return d;
+}
+
+#ifdef CURVECHECK_BINARY
+// Base of the fixtures whose every test has a fresh folder of its own (dir_, removed after the test) and runs the
+// built `curvecheck` there. Subclasses that override SetUp/TearDown call these first/last.
+class CliTest : public ::testing::Test {
+ protected:
+  explicit CliTest(std::string name) : name_(std::move(name)) {}
+  void SetUp() override { dir_ = FreshDir(name_, true); }
+  void TearDown() override {
+    std::error_code ec;
+    std::filesystem::remove_all(dir_, ec);
+  }
+  // `curvecheck args...`; env as for RunBinary.
+  CliRun Curvecheck(const std::vector<std::string>& args, const std::string& env = "") {
+    return RunBinary(CURVECHECK_BINARY, args, dir_, env);
+  }
+  void ExpectFailure(const CliRun& r, const std::vector<std::string>& pieces) { ExpectOneLineFailure(r, pieces); }
+
+  std::filesystem::path dir_;
+
+ private:
+  std::string name_;
+};
+#endif
 
 }  // namespace curvecheck::testing

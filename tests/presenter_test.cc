@@ -247,10 +247,7 @@ cv::Mat RgbaPattern(int width, int height) {
 class Presenter : public ::testing::Test {
  protected:
   void SetUp() override {
-    dir_ = fs::temp_directory_path() / ("curvecheck_presenter_" + std::to_string(::getpid()) + "_" +
-                                        ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
+    dir_ = curvecheck::testing::FreshDir("presenter_test", true);
     StartXvfb();
   }
 

@@ -39,9 +39,7 @@ using ::testing::Not;
 
 class ReportBrowser : public ::testing::Test {
  protected:
-  static fs::path Dir() {
-    return fs::path(::testing::TempDir()) / ("report_browser_test-" + std::to_string(::getpid()));
-  }
+  static fs::path Dir() { return curvecheck::testing::ProcessDir("report_browser_test"); }
   static CliRun Curvecheck(const std::vector<std::string>& args) {
     return curvecheck::testing::RunBinary(CURVECHECK_BINARY, args, Dir());
   }
@@ -50,11 +48,11 @@ class ReportBrowser : public ::testing::Test {
   // The analysis every test reads. A failure here is kept and fails each test in SetUp (a failed
   // SetUpTestSuite would only mark the tests skipped, and ctest counts skipped tests as passed).
   static void SetUpTestSuite() { setup_failure_ = MakeAnalysis(); }
+  static void TearDownTestSuite() { fs::remove_all(Dir()); }
   void SetUp() override { ASSERT_EQ(setup_failure_, "") << "setting up the analysis failed"; }
 
   static std::string MakeAnalysis() {
-    fs::remove_all(Dir());
-    fs::create_directories(Dir());
+    curvecheck::testing::FreshDir("report_browser_test");
     // The default scene's 24 MP OPENCV8 lens at a quarter of the resolution (as in analyze_cli_test.cc).
     CameraModel cam = ReadCameraModel(fs::path(std::getenv("CURVECHECK_SOURCE_DIR")) /
                                       "datasets/cameras/default-24mp-opencv8.cameramodel");

@@ -77,9 +77,7 @@ class SweepCli : public ::testing::Test {
   }
 
   static void SetUpTestSuite() {
-    dir_ = fs::temp_directory_path() / ("curvecheck_sweep_cli_" + std::to_string(::getpid()));
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
+    dir_ = curvecheck::testing::FreshDir("sweep_cli_test");
     full_ = Curvecheck(SweepArgs("full"));
     std::vector<std::string> a = SweepArgs("shards/s1");
     a.insert(a.end(), {"--shard", "1/2"});

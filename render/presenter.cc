@@ -589,7 +589,6 @@ void SyncWindowSystem() {
   if (Display* display = glfwGetX11Display()) XSync(display, False);
 }
 
-
 }  // namespace
 
 void PresenterOptions::Check(const std::string& where) const {

@@ -877,7 +877,6 @@ void RenderOptions::Check(const std::string& where) const {
   }
 }
 
-
 Renderer::Renderer() : impl_(WithVulkanErrors([] { return std::make_unique<Impl>(); })) {}
 Renderer::~Renderer() = default;
 

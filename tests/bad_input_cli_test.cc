@@ -232,7 +232,7 @@ TEST_F(BadInput, RenderWithoutAVulkanDevice) {
 }
 
 // The environment that puts VK_LAYER_CURVECHECK_fault between curvecheck and lavapipe, breaking what `fault` says
-// (tests/vulkan_fault_layer.cc); "" for the layer passing everything through.
+// (tests/vulkan_fault_layer.cc); any other value (the tests use "none") passes everything through.
 std::string FaultLayer(const std::string& fault) {
   return std::string("VK_LAYER_PATH=") + CURVECHECK_FAULT_LAYER_DIR +
          " VK_INSTANCE_LAYERS=VK_LAYER_CURVECHECK_fault CURVECHECK_VULKAN_FAULT=" + fault;

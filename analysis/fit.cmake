@@ -1,5 +1,4 @@
 # The Ceres screen fit, model selection and deviations (issue 6 items 3-5): analysis/screen_*.
-find_package(Ceres 2.1 REQUIRED)
 find_package(OpenCV 4.6 REQUIRED COMPONENTS core calib3d)
 add_library(curvecheck_analysis_fit STATIC
   ${CMAKE_CURRENT_SOURCE_DIR}/screen_model.cc
@@ -9,10 +8,10 @@ add_library(curvecheck_analysis_fit STATIC
 target_link_libraries(curvecheck_analysis_fit PUBLIC curvecheck_core Ceres::ceres PRIVATE opencv_core opencv_calib3d)
 target_link_libraries(curvecheck_analysis INTERFACE curvecheck_analysis_fit)
 
-# Tests draw their observations from the synthetic camera's truth (capture).
+# Tests draw their observations from the synthetic camera's truth (synth).
 curvecheck_add_test(screen_fit_test
   SOURCES
     ${CMAKE_CURRENT_SOURCE_DIR}/screen_model_test.cc
     ${CMAKE_CURRENT_SOURCE_DIR}/screen_fit_cost_test.cc
     ${CMAKE_CURRENT_SOURCE_DIR}/screen_fit_test.cc
-  LIBS curvecheck_analysis_fit curvecheck_capture curvecheck_datasets)
+  LIBS curvecheck_analysis_fit curvecheck_synth curvecheck_datasets)

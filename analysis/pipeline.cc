@@ -2,6 +2,7 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <map>
@@ -147,9 +148,11 @@ AnalysisResult AnalyzeWith(const CameraModel& camera, const std::filesystem::pat
       gray = load(i);
     } catch (const Error& e) {
       pa.rejected = e.what();
+      pa.rejection = PhotoRejection::kUnreadable;
     }
     pa.read_ms = MsSince(t0);
     if (pa.rejected.empty() && (gray.cols != r.camera.width || gray.rows != r.camera.height)) {
+      pa.rejection = PhotoRejection::kWrongSize;
       pa.rejected = fmt::format("{}: the photo is {} x {} px but the camera model {} is for {} x {} px; use the model "
                                 "calibrated for this camera at this resolution",
                                 inputs[i].photo.string(), gray.cols, gray.rows, camera_path.string(), r.camera.width,
@@ -157,7 +160,8 @@ AnalysisResult AnalyzeWith(const CameraModel& camera, const std::filesystem::pat
     }
     if (pa.rejected.empty()) {
       pa.detection = DetectFeatures(gray, pattern, options.detect);
-      if (!pa.detection.failure.empty()) {
+      if (pa.detection.failure_kind != DetectionFailure::kNone) {
+        pa.rejection = PhotoRejection::kDetection;
         pa.rejected = fmt::format("{}: {} ({} detector, pattern {})", inputs[i].photo.string(),
                                   pa.detection.failure, pa.detection.detector, inputs[i].pattern.string());
       }
@@ -173,7 +177,8 @@ AnalysisResult AnalyzeWith(const CameraModel& camera, const std::filesystem::pat
       t0 = std::chrono::steady_clock::now();
       pa.verification = VerifyCorrection(pattern, r.camera, ids, px, options.verify);
       pa.verify_ms = MsSince(t0);
-      if (!pa.verification.failure.empty()) {
+      if (pa.verification.failure_kind != VerificationFailure::kNone) {
+        pa.rejection = PhotoRejection::kVerification;
         pa.rejected = fmt::format("{}: {}", inputs[i].photo.string(), pa.verification.failure);
       } else {
         pa.used = true;
@@ -200,14 +205,20 @@ AnalysisResult AnalyzeWith(const CameraModel& camera, const std::filesystem::pat
 
   if (!options.fit_screen) {
     r.fit_failure = "the screen fit was not requested";
+    r.fit_failure_kind = FitFailure::kNotRequested;
   } else if (observations.empty()) {
     r.fit_failure = "no usable photo";
+    r.fit_failure_kind = FitFailure::kNoUsablePhoto;
   } else {
     const auto t0 = std::chrono::steady_clock::now();
     try {
       r.fit = FitScreen(r.monitor, r.camera, observations, options.fit);
     } catch (const Error& e) {
       r.fit_failure = e.what();
+      const bool too_few = std::any_of(observations.begin(), observations.end(), [&](const PhotoObservations& o) {
+        return static_cast<int>(o.ids.size()) < options.fit.min_features_per_photo;
+      });
+      r.fit_failure_kind = too_few ? FitFailure::kTooFewFeatures : FitFailure::kSolver;
       for (PhotoAnalysis& p : r.photos) p.fit_index = -1;
     }
     r.fit_ms = MsSince(t0);

@@ -16,11 +16,11 @@
 #include <string>
 #include <vector>
 
-#include "analysis/detect.h"
+#include "detect/detect.h"
 #include "analysis/screen_fit.h"
 #include "analysis/verify.h"
 #include "core/camera_model.h"
-#include "render/pattern_json.h"
+#include "pattern/pattern_json.h"
 
 namespace curvecheck {
 
@@ -39,11 +39,31 @@ struct PhotoInput {
   std::filesystem::path pattern;  // its pattern.json
 };
 
+// Why a photo was not used (typed; PhotoAnalysis::rejected says it for people). The detection's and the
+// verification's own kinds say more (PhotoAnalysis::detection.failure_kind, verification.failure_kind).
+enum class PhotoRejection {
+  kNone,
+  kUnreadable,    // the file cannot be read as a photo
+  kWrongSize,     // its size is not the camera model's
+  kDetection,     // the pattern was not detected (see detection.failure_kind)
+  kVerification,  // no verdict from its features (see verification.failure_kind)
+};
+
+// Why there is no screen fit (typed; AnalysisResult::fit_failure says it for people).
+enum class FitFailure {
+  kNone,
+  kNotRequested,    // AnalyzeOptions::fit_screen is false
+  kNoUsablePhoto,   // every photo was rejected
+  kTooFewFeatures,  // a used photo has fewer features than FitOptions::min_features_per_photo
+  kSolver,          // the fit itself failed (pose initialisation, an ill-posed problem); see fit_failure
+};
+
 struct PhotoAnalysis {
   PhotoInput input;
   std::string name;  // file name of the photo, unique within the analysis (for result.json and overlays)
   bool used = false;
   std::string rejected;  // why the photo was not used ("" when used)
+  PhotoRejection rejection = PhotoRejection::kNone;
   Detection detection;
   Verification verification;
   int fit_index = -1;  // index of this photo in the fit (ScreenFitResult cameras / residuals), -1 if not fitted
@@ -60,6 +80,7 @@ struct AnalysisResult {
   Verification verification;  // over all used photos
   std::optional<ScreenFitResult> fit;
   std::string fit_failure;  // why there is no fit (fit disabled, or an error) when `fit` is empty
+  FitFailure fit_failure_kind = FitFailure::kNone;
   double total_ms = 0, fit_ms = 0;
 
   int UsedPhotos() const;

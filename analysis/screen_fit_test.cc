@@ -1,4 +1,4 @@
-// FitScreen against synthetic truth: observations are the true surface points (capture/synthetic_camera.h
+// FitScreen against synthetic truth: observations are the true surface points (synth/synthetic_camera.h
 // scenes, or the fit's own axis-lean formula where the synthetic camera's lean differs, see below) projected
 // through the scene's mrcal lens, plus seeded Gaussian noise. Asserts recovered radius, sigmas against the
 // scatter over seeds and against the Cramer-Rao bound, interval coverage, model choice, lean, bump location.
@@ -14,7 +14,7 @@
 
 #include "analysis/screen_fit_test_util.h"
 #include "analysis/screen_model.h"
-#include "capture/synthetic_camera.h"
+#include "synth/synthetic_camera.h"
 #include "core/test_util.h"
 #include "datasets/monitor_presets.h"
 

@@ -1,5 +1,5 @@
 // Test and benchmark helpers for the screen fit: observations drawn from a synthetic scene's true geometry
-// (capture/synthetic_camera.h) with seeded Gaussian noise. Tests and benchmarks only.
+// (synth/synthetic_camera.h) with seeded Gaussian noise. Tests and benchmarks only.
 #pragma once
 
 #include <Eigen/Core>
@@ -10,7 +10,7 @@
 #include <vector>
 
 #include "analysis/screen_fit.h"
-#include "capture/synthetic_camera.h"
+#include "synth/synthetic_camera.h"
 #include "core/camera_model.h"
 #include "core/math_util.h"
 #include "core/screen_geometry.h"

@@ -165,6 +165,7 @@ Verification VerifyCorrection(const PatternFile& pattern, const CameraModel& cam
   }
   const int n = static_cast<int>(out.features.size());
   if (n < options.min_features) {
+    out.failure_kind = VerificationFailure::kTooFewFeatures;
     out.failure = fmt::format("only {} usable features; at least {} are needed for a verdict", n, options.min_features);
     return out;
   }
@@ -185,6 +186,7 @@ Verification VerifyCorrection(const PatternFile& pattern, const CameraModel& cam
   const std::vector<Eigen::Vector3d> rays = UnprojectPixels(camera, detected);
   for (int i = 0; i < n; ++i) {
     if (!(rays[i].z() > 0)) {
+      out.failure_kind = VerificationFailure::kLensMismatch;
       out.failure = fmt::format("feature {} unprojects behind the camera; the lens model does not fit this photo",
                                 out.features[i].id);
       return out;
@@ -194,6 +196,7 @@ Verification VerifyCorrection(const PatternFile& pattern, const CameraModel& cam
   Eigen::Matrix3d h = Dlt(m, normalized);
   if (h(2, 2) < 0) h = -h;
   if (!(std::abs(h(2, 2)) > 1e-12)) {
+    out.failure_kind = VerificationFailure::kDegenerate;
     out.failure = "the pattern's centre is not in front of the camera; no planar perspective image to fit";
     return out;
   }
@@ -215,6 +218,7 @@ Verification VerifyCorrection(const PatternFile& pattern, const CameraModel& cam
   ceres::Solver::Summary summary;
   ceres::Solve(solver, &problem, &summary);
   if (!summary.IsSolutionUsable()) {
+    out.failure_kind = VerificationFailure::kDegenerate;
     out.failure = "the homography fit did not converge: " + summary.message;
     return out;
   }
@@ -290,6 +294,7 @@ Verification CombineVerifications(const std::vector<Verification>& photos, const
     out.max_arcmin = std::max(out.max_arcmin, v.max_arcmin);
   }
   if (verdicts == 0) {
+    out.failure_kind = VerificationFailure::kNoVerdict;
     out.failure = "no photo gave a verdict";
     return out;
   }

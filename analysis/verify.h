@@ -28,7 +28,7 @@
 
 #include "core/camera_model.h"
 #include "core/correction.h"
-#include "render/pattern_json.h"
+#include "pattern/pattern_json.h"
 
 namespace curvecheck {
 
@@ -57,6 +57,15 @@ struct FeatureCheck {
   double residual_arcmin = 0;
 };
 
+// Why no verdict was reached (typed; `Verification::failure` says it for people).
+enum class VerificationFailure {
+  kNone,
+  kTooFewFeatures,  // fewer usable features than VerifyOptions::min_features
+  kLensMismatch,    // a feature unprojects behind the camera: the lens model does not fit the photo
+  kDegenerate,      // the pattern plane is not in front of the camera, or the homography fit did not converge
+  kNoVerdict,       // combined: no photo gave a verdict
+};
+
 struct Verification {
   std::vector<FeatureCheck> features;  // in the order given
   // Pattern mm -> normalized camera coordinates: (x/z, y/z, 1) ~ homography * (a, b, 1).
@@ -68,6 +77,7 @@ struct Verification {
   bool pass = false;
   // "" when a verdict was reached; otherwise why not ("only 5 usable features; at least 8 are needed").
   std::string failure;
+  VerificationFailure failure_kind = VerificationFailure::kNone;  // set together with `failure`
 };
 
 // The pattern plane of a pattern.json (its "pattern"."plane" object). Throws Error naming `where` if absent

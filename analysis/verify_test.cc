@@ -13,11 +13,11 @@
 #include <iostream>
 #include <random>
 
-#include "capture/synthetic_camera.h"
+#include "synth/synthetic_camera.h"
 #include "core/screen_geometry.h"
 #include "core/test_util.h"
 #include "datasets/monitor_presets.h"
-#include "render/pattern_json.h"
+#include "pattern/pattern_json.h"
 
 namespace curvecheck {
 namespace {

@@ -2,7 +2,7 @@
 //
 // The set: the synthetic camera photographs a flat monitor showing a checkerboard through a known lens
 // (StrongOpencv8Lens, 640x480: an OPENCV8 truth that OPENCV4 cannot absorb), from the choreography of
-// calibrate/synthetic_board.h; the corners are detected once. Each lens model is then calibrated alone (no model
+// calibrate/truth_comparison.h; the corners are detected once. Each lens model is then calibrated alone (no model
 // choice, no cross-validation) --runs times with the same detections. Per model: the median wall time of the
 // calibration (mrcal's seeding, solve and uncertainty, the Python start included) and of mrcal's solve alone; the
 // recovered model against the truth (CompareWithTruth: RMS px over the imager's 16x12 grid, over the observed
@@ -19,7 +19,7 @@
 #include "app/bench_util.h"
 #include "app/machine_info.h"
 #include "calibrate/calibrate.h"
-#include "calibrate/synthetic_board.h"
+#include "calibrate/truth_comparison.h"
 #include "core/error.h"
 #include "core/file_io.h"
 #include "core/gnuplot.h"
@@ -105,9 +105,9 @@ int RunBenchCalibrate(const BenchCalibrateArgs& a) {
       o.views, o.seed, o.camera.lensmodel, o.camera.width, o.camera.height, a.runs, machine);
   std::cout << title << "\n" << std::flush;
   const SyntheticBoardSet set = MakeSyntheticBoardSet(o);
-  std::vector<Detection> detections;
+  std::vector<ChessboardDetection> detections;
   for (size_t k = 0; k < set.views.size(); ++k) {
-    detections.push_back(DetectChessboard(set.views[k].photo, set.board, DetectOptions()));
+    detections.push_back(DetectChessboard(set.views[k].photo, set.board, ChessboardOptions()));
     detections.back().photo = fmt::format("view{}", k);
   }
 

@@ -11,11 +11,11 @@
 
 #include "app/bench_command.h"
 #include "app/machine_info.h"
-#include "capture/synthetic_camera.h"
+#include "synth/synthetic_camera.h"
 #include "core/error.h"
 #include "core/file_io.h"
 #include "core/image_io.h"
-#include "render/pattern.h"
+#include "pattern/pattern.h"
 #include "render/renderer.h"
 
 namespace curvecheck::app {

@@ -15,14 +15,14 @@
 #include <memory>
 #include <opencv2/core.hpp>
 
-#include "analysis/detect.h"
+#include "detect/detect.h"
 #include "app/machine_info.h"
-#include "capture/synthetic_camera.h"
+#include "synth/synthetic_camera.h"
 #include "core/correction.h"
 #include "core/error.h"
 #include "core/file_io.h"
 #include "core/gnuplot.h"
-#include "render/pattern.h"
+#include "pattern/pattern.h"
 #include "render/renderer.h"
 
 namespace curvecheck::app {

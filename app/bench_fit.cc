@@ -23,7 +23,7 @@
 #include "analysis/screen_model.h"
 #include "app/bench_util.h"
 #include "app/machine_info.h"
-#include "capture/synthetic_camera.h"
+#include "synth/synthetic_camera.h"
 
 namespace curvecheck::app {
 namespace {

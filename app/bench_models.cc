@@ -30,7 +30,7 @@
 #include "analysis/screen_model.h"
 #include "app/bench_util.h"
 #include "app/machine_info.h"
-#include "capture/synthetic_camera.h"
+#include "synth/synthetic_camera.h"
 #include "core/error.h"
 #include "core/file_io.h"
 #include "core/gnuplot.h"

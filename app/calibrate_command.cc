@@ -48,7 +48,7 @@ int RunCalibrate(const CalibrateArgs& a) {
     photos.emplace_back(p);
   }
   const BoardSpec board = a.board_from.empty() ? BoardFromText(a.board, a.square_mm) : BoardFromPatternJson(a.board_from);
-  DetectOptions d;
+  ChessboardOptions d;
   d.detector = a.detector;
   d.threads = a.threads;
   d.search_max_px = a.search_max_px;
@@ -61,10 +61,10 @@ int RunCalibrate(const CalibrateArgs& a) {
   c.Check();
 
   const auto t0 = std::chrono::steady_clock::now();
-  const std::vector<Detection> detections = DetectChessboards(photos, board, d);
+  const std::vector<ChessboardDetection> detections = DetectChessboards(photos, board, d);
   const double detect_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   int found = 0;
-  for (const Detection& det : detections) {
+  for (const ChessboardDetection& det : detections) {
     found += det.found ? 1 : 0;
     if (!det.found) std::cout << fmt::format("{}: {}; not used\n", det.photo.string(), det.problem);
   }

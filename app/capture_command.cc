@@ -19,7 +19,7 @@
 #include "core/file_io.h"
 #include "core/image_io.h"
 #include "core/progress.h"
-#include "render/pattern_json.h"
+#include "pattern/pattern_json.h"
 
 namespace curvecheck::app {
 namespace {

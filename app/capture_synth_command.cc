@@ -13,11 +13,11 @@
 #include <string>
 #include <vector>
 
-#include "capture/synthetic_camera.h"
+#include "synth/synthetic_camera.h"
 #include "core/error.h"
 #include "core/file_io.h"
 #include "core/image_io.h"
-#include "render/pattern_json.h"
+#include "pattern/pattern_json.h"
 
 namespace curvecheck::app {
 namespace {

@@ -13,7 +13,7 @@
 #include "analysis/report.h"
 #include "app/commands.h"
 #include "app/output_paths.h"
-#include "capture/synthetic_camera.h"
+#include "synth/synthetic_camera.h"
 #include "core/correction.h"
 #include "core/error.h"
 #include "core/file_io.h"
@@ -21,7 +21,7 @@
 #include "core/screen_geometry.h"
 #include "core/viewing.h"
 #include "datasets/dataset_files.h"
-#include "render/pattern_json.h"
+#include "pattern/pattern_json.h"
 #include "render/renderer.h"
 
 namespace curvecheck::app {

@@ -13,7 +13,7 @@
 #include "core/file_io.h"
 #include "core/image_io.h"
 #include "render/mapping_error.h"
-#include "render/pattern_json.h"
+#include "pattern/pattern_json.h"
 #include "render/renderer.h"
 
 namespace curvecheck::app {

@@ -17,7 +17,7 @@ void AddSceneOptions(CLI::App& cmd, SceneArgs& a, const std::string& default_vie
                  "screen is z = 0). Default: " + default_viewpoint_help);
   cmd.add_option("--pattern,-p", a.pattern, "checkerboard | apriltag | both (tags in the white squares)")
       ->capture_default_str();
-  cmd.add_option("--pattern-file", a.pattern_file, "Pattern spec YAML (keys as render/pattern.h PatternSpec)");
+  cmd.add_option("--pattern-file", a.pattern_file, "Pattern spec YAML (keys as pattern/pattern.h PatternSpec)");
   cmd.add_option("--squares", a.squares, "Checkerboard squares across x down, e.g. 16x5");
   cmd.add_option("--square-mm", a.square_mm, "Square size on the pattern plane, mm (default: fit the screen)");
   cmd.add_option("--tags", a.tags, "AprilTag grid across x down, e.g. 12x3");

@@ -8,7 +8,7 @@
 
 #include "core/monitor.h"
 #include "render/method.h"
-#include "render/pattern.h"
+#include "pattern/pattern.h"
 #include "render/renderer.h"
 
 namespace curvecheck::app {

@@ -35,14 +35,14 @@
 #include "app/machine_info.h"
 #include "app/output_paths.h"
 #include "app/sweep_table.h"
-#include "capture/synthetic_camera.h"
+#include "synth/synthetic_camera.h"
 #include "core/correction.h"
 #include "core/error.h"
 #include "core/file_io.h"
 #include "core/screen_geometry.h"
 #include "datasets/dataset_files.h"
 #include "render/method.h"
-#include "render/pattern_json.h"
+#include "pattern/pattern_json.h"
 #include "render/renderer.h"
 
 namespace curvecheck::app {

@@ -51,12 +51,12 @@ struct TempDir {
 };
 
 // Focal length seed (px) from OpenCV: the closed-form estimate from the boards' homographies.
-double FocalSeedPx(const std::vector<const Detection*>& used, const BoardSpec& board, int width, int height) {
+double FocalSeedPx(const std::vector<const ChessboardDetection*>& used, const BoardSpec& board, int width, int height) {
   std::vector<std::vector<cv::Point3f>> object;
   std::vector<std::vector<cv::Point2f>> image;
   std::vector<cv::Point3f> corners;
   for (const Eigen::Vector3d& p : board.CornersInBoard()) corners.emplace_back(float(p.x()), float(p.y()), 0.f);
-  for (const Detection* d : used) {
+  for (const ChessboardDetection* d : used) {
     object.push_back(corners);
     std::vector<cv::Point2f> q;
     for (const Eigen::Vector2d& c : d->corners_px) q.emplace_back(float(c.x()), float(c.y()));
@@ -178,16 +178,16 @@ double CandidateResult::SigmaObservedMax() const {
   return m;
 }
 
-CalibrationResult Calibrate(const std::vector<Detection>& detections, const BoardSpec& board,
+CalibrationResult Calibrate(const std::vector<ChessboardDetection>& detections, const BoardSpec& board,
                             const CalibrateOptions& options) {
   options.Check();
   board.Check(board.source);
   CalibrationResult r;
   r.board = board;
   r.detections = detections;
-  std::vector<const Detection*> used;
+  std::vector<const ChessboardDetection*> used;
   for (size_t i = 0; i < detections.size(); ++i) {
-    const Detection& d = detections[i];
+    const ChessboardDetection& d = detections[i];
     if (!d.found) continue;
     if (d.corners_px.size() != static_cast<size_t>(board.corner_count())) {
       throw Error(d.photo.string(), "detection does not match the board", "internal: detect with the same board");
@@ -227,7 +227,7 @@ CalibrationResult Calibrate(const std::vector<Detection>& detections, const Boar
   in["distance_mm"] = options.distance_mm > 0 ? nlohmann::json(options.distance_mm) : nlohmann::json(nullptr);
   in["seed"] = options.seed;
   nlohmann::json obs = nlohmann::json::array();
-  for (const Detection* d : used) {
+  for (const ChessboardDetection* d : used) {
     nlohmann::json photo = nlohmann::json::array();
     for (const Eigen::Vector2d& q : d->corners_px) photo.push_back({q.x(), q.y(), 1.0});
     obs.push_back(std::move(photo));
@@ -337,7 +337,7 @@ nlohmann::json CalibrationJson(const CalibrationResult& r) {
   j["focal_seed_px"] = r.focal_seed_px;
   j["optimize_s"] = r.optimize_s;
   json photos = json::array();
-  for (const Detection& d : r.detections) {
+  for (const ChessboardDetection& d : r.detections) {
     json p = {{"photo", d.photo.string()}, {"found", d.found}, {"detect_ms", d.ms}};
     if (d.found) p["detector"] = d.detector;
     if (!d.problem.empty()) p["problem"] = d.problem;

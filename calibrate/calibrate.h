@@ -1,6 +1,6 @@
 // Camera calibration from chessboard detections: mrcal solves, the rig chooses the lens model.
 //
-// How (argued): the detections come from calibrate/detect.h; the focal length is seeded by OpenCV
+// How (argued): the detections come from detect/chessboard.h; the focal length is seeded by OpenCV
 // (initCameraMatrix2D, from the boards' homographies); each candidate lens model is then seeded and solved by
 // mrcal's Python API (mrcal_solve.py, embedded, run with /usr/bin/python3), because in mrcal 2.2 the seeding and
 // the projection uncertainty exist only there: the same calls mrcal-calibrate-cameras makes, with mrcal's outlier
@@ -24,8 +24,8 @@
 #include <string>
 #include <vector>
 
-#include "calibrate/board.h"
-#include "calibrate/detect.h"
+#include "pattern/board.h"
+#include "detect/chessboard.h"
 #include "core/camera_model.h"
 
 namespace curvecheck {
@@ -91,7 +91,7 @@ struct CandidateResult {
 struct CalibrationResult {
   BoardSpec board;
   int width = 0, height = 0;
-  std::vector<Detection> detections;  // all photos, in input order
+  std::vector<ChessboardDetection> detections;  // all photos, in input order
   std::vector<int> used;              // indices into detections of the photos with a board
   double focal_seed_px = 0;
   std::vector<CandidateResult> candidates;
@@ -106,7 +106,7 @@ struct CalibrationResult {
 // Calibrates from detections (all of one camera, one imager size). Throws Error if too few photos hold a board
 // (fewer than 3), if the sizes differ, or if mrcal cannot be run; a candidate that fails to solve is reported in
 // its row, not thrown.
-CalibrationResult Calibrate(const std::vector<Detection>& detections, const BoardSpec& board,
+CalibrationResult Calibrate(const std::vector<ChessboardDetection>& detections, const BoardSpec& board,
                             const CalibrateOptions& options);
 
 // The candidate table (one row per model) and the choice, as printed by `curvecheck calibrate`.

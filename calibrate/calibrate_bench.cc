@@ -18,7 +18,7 @@
 #include <thread>
 
 #include "calibrate/calibrate.h"
-#include "calibrate/synthetic_board.h"
+#include "synth/synthetic_board.h"
 #include "core/error.h"
 
 namespace {
@@ -80,10 +80,10 @@ int Run(int argc, char** argv) {
   CalibrationResult last;
   for (int run = 0; run < runs; ++run) {
     const auto t0 = std::chrono::steady_clock::now();
-    const std::vector<Detection> d = DetectChessboards(photos, board, DetectOptions());
+    const std::vector<ChessboardDetection> d = DetectChessboards(photos, board, ChessboardOptions());
     detect_s.push_back(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
     int found = 0;
-    for (const Detection& x : d) found += x.found ? 1 : 0;
+    for (const ChessboardDetection& x : d) found += x.found ? 1 : 0;
     last = Calibrate(d, board, CalibrateOptions());
     optimize_s.push_back(last.optimize_s);
     std::cout << fmt::format("run {}: detection {:.2f} s ({} of {} found), optimization {:.2f} s\n", run + 1,

@@ -11,7 +11,7 @@
 #include <cmath>
 #include <iostream>
 
-#include "calibrate/synthetic_board.h"
+#include "calibrate/truth_comparison.h"
 #include "core/error.h"
 #include "core/test_util.h"
 
@@ -20,7 +20,7 @@ namespace {
 
 struct SetResult {
   SyntheticBoardSet set;
-  std::vector<Detection> detections;
+  std::vector<ChessboardDetection> detections;
   CalibrationResult calibration;
   double detection_rms_px = 0;
 };
@@ -35,7 +35,7 @@ SetResult RunSet(const CameraModel& truth, int views, uint64_t seed, const Calib
   double sum = 0;
   int n = 0;
   for (size_t k = 0; k < r.set.views.size(); ++k) {
-    Detection d = DetectChessboard(r.set.views[k].photo, r.set.board, DetectOptions());
+    ChessboardDetection d = DetectChessboard(r.set.views[k].photo, r.set.board, ChessboardOptions());
     d.photo = "view" + std::to_string(k);
     EXPECT_TRUE(d.found) << "view " << k << ": " << d.problem;
     if (d.found) {

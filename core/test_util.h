@@ -9,6 +9,7 @@
 #include <string>
 
 #include "core/error.h"
+#include "core/pose.h"
 
 namespace curvecheck::testing {
 
@@ -29,6 +30,22 @@ MATCHER_P2(EigenNear, expected, tol, "") {
   if (err > tol) {
     std::ostringstream s;
     s << "max abs difference " << err << " > " << tol << "; expected " << expected.transpose();
+    *result_listener << s.str();
+    return false;
+  }
+  return true;
+}
+
+// Matches a Pose whose rotation is within rot_tol_rad (angle of the relative rotation) and whose translation is
+// within trans_tol_mm (largest component) of `expected`.
+MATCHER_P3(PoseNear, expected, rot_tol_rad, trans_tol_mm, "") {
+  const double rot = RotationDistanceRad(arg, expected);
+  const double trans = (arg.translation - expected.translation).cwiseAbs().maxCoeff();
+  if (rot > rot_tol_rad || trans > trans_tol_mm) {
+    std::ostringstream s;
+    s << "rotation off by " << rot << " rad (tol " << rot_tol_rad << "), translation by " << trans << " mm (tol "
+      << trans_tol_mm << "); translation " << arg.translation.transpose() << " expected "
+      << expected.translation.transpose();
     *result_listener << s.str();
     return false;
   }

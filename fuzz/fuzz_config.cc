@@ -1,5 +1,5 @@
 // libFuzzer target: the strict YAML/JSON config reader (core/config.h ConfigMap::Parse) and the readers built
-// on it for monitor specs (core/monitor.h MonitorFromConfig) and pattern specs (render/pattern.h
+// on it for monitor specs (core/monitor.h MonitorFromConfig) and pattern specs (pattern/pattern.h
 // PatternSpecFromConfig). Seeds: fuzz/corpus/fuzz_config (datasets/monitors/*.yaml, pattern specs).
 #include <cstddef>
 #include <cstdint>
@@ -7,7 +7,7 @@
 #include "core/config.h"
 #include "core/monitor.h"
 #include "fuzz/fuzz_util.h"
-#include "render/pattern.h"
+#include "pattern/pattern.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   using namespace curvecheck;

@@ -1,10 +1,10 @@
-// libFuzzer target: the pattern.json reader (render/pattern_json.h ParsePatternJson, the text entry point of
+// libFuzzer target: the pattern.json reader (pattern/pattern_json.h ParsePatternJson, the text entry point of
 // ReadPatternJson). Seeds: fuzz/corpus/fuzz_pattern_json (small rendered pattern.json files).
 #include <cstddef>
 #include <cstdint>
 
 #include "fuzz/fuzz_util.h"
-#include "render/pattern_json.h"
+#include "pattern/pattern_json.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   using namespace curvecheck;

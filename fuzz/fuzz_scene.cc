@@ -1,11 +1,11 @@
-// libFuzzer target: the synthetic camera's scene reader (capture/synthetic_camera.h SceneFromConfig), on top of
+// libFuzzer target: the synthetic camera's scene reader (synth/synthetic_camera.h SceneFromConfig), on top of
 // ConfigMap, the monitor presets and the .cameramodel reader. Relative paths in the scene resolve against
 // datasets/scenes/ of the source tree (CURVECHECK_SCENE_DIR), as for the committed scenes.
 // Seeds: fuzz/corpus/fuzz_scene (datasets/scenes/*.yaml).
 #include <cstddef>
 #include <cstdint>
 
-#include "capture/synthetic_camera.h"
+#include "synth/synthetic_camera.h"
 #include "core/config.h"
 #include "fuzz/fuzz_util.h"
 

@@ -9,7 +9,7 @@
 #include <vector>
 
 #include "core/monitor.h"
-#include "render/pattern.h"
+#include "pattern/pattern.h"
 #include "render/renderer.h"
 
 namespace curvecheck {

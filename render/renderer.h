@@ -11,7 +11,7 @@
 
 #include "core/monitor.h"
 #include "render/method.h"
-#include "render/pattern.h"
+#include "pattern/pattern.h"
 
 namespace curvecheck {
 

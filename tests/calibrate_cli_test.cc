@@ -16,13 +16,13 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 
-#include "calibrate/synthetic_board.h"
+#include "synth/synthetic_board.h"
 #include "core/camera_model.h"
 #include "core/correction.h"
 #include "core/file_io.h"
 #include "core/screen_geometry.h"
-#include "render/pattern.h"
-#include "render/pattern_json.h"
+#include "pattern/pattern.h"
+#include "pattern/pattern_json.h"
 #include "tests/cli_test_util.h"
 
 namespace curvecheck {

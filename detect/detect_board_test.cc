@@ -7,7 +7,7 @@
 #include <numbers>
 #include <opencv2/imgproc.hpp>
 
-#include "analysis/detect_board.h"
+#include "detect/detect_board.h"
 
 namespace curvecheck::detect_internal {
 namespace {

@@ -1,8 +1,8 @@
 // Detection on synthetic photos with exact truth: patterns rendered by the Vulkan renderer (lavapipe), photographed
-// by the synthetic camera (capture/synthetic_camera.h) with a 1500 x 1000 crop of the default lens (the scenes'
+// by the synthetic camera (synth/synthetic_camera.h) with a 1500 x 1000 crop of the default lens (the scenes'
 // 24 MP camera scaled by 1/4, same field of view) so that each photo takes about a second. The truth is the
 // synthetic camera's forward projection of each feature (TruthJson), independent of any detector.
-#include "analysis/detect.h"
+#include "detect/detect.h"
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -20,11 +20,11 @@
 #include <opencv2/imgproc.hpp>
 #include <random>
 
-#include "capture/synthetic_camera.h"
+#include "synth/synthetic_camera.h"
 #include "core/correction.h"
 #include "core/error.h"
 #include "core/test_util.h"
-#include "render/pattern.h"
+#include "pattern/pattern.h"
 #include "render/renderer.h"
 
 namespace curvecheck {

@@ -1,4 +1,4 @@
-#include "analysis/detect_board.h"
+#include "detect/detect_board.h"
 
 #include <fmt/format.h>
 #include <mrgingham/mrgingham.hh>
@@ -11,7 +11,7 @@
 #include <opencv2/imgproc.hpp>
 #include <utility>
 
-#include "analysis/detect_tags.h"
+#include "detect/detect_tags.h"
 
 namespace curvecheck::detect_internal {
 namespace {

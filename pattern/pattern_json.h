@@ -20,7 +20,7 @@
 #include <vector>
 
 #include "core/monitor.h"
-#include "render/pattern.h"
+#include "pattern/pattern.h"
 
 namespace curvecheck {
 

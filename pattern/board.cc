@@ -1,4 +1,4 @@
-#include "calibrate/board.h"
+#include "pattern/board.h"
 
 #include <fmt/format.h>
 
@@ -6,7 +6,7 @@
 #include <regex>
 
 #include "core/error.h"
-#include "render/pattern_json.h"
+#include "pattern/pattern_json.h"
 
 namespace curvecheck {
 

@@ -1,5 +1,5 @@
 // Synthetic camera tests: the truth is what the photo shows, on exact geometry.
-#include "capture/synthetic_camera.h"
+#include "synth/synthetic_camera.h"
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -15,7 +15,7 @@
 #include "core/correction.h"
 #include "core/test_util.h"
 #include "core/screen_geometry.h"
-#include "render/pattern.h"
+#include "pattern/pattern.h"
 #include "render/renderer.h"
 
 namespace curvecheck {

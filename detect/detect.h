@@ -1,5 +1,5 @@
 // Detection (issue 6 item 1): finds the features of a pattern.json in a photo and names them with the
-// pattern's feature ids ("c<k>" checkerboard inner corners, "t<id>.<k>" tag corners; render/pattern.h).
+// pattern's feature ids ("c<k>" checkerboard inner corners, "t<id>.<k>" tag corners; pattern/pattern.h).
 //
 // Detectors:
 //   mrgingham       the mrgingham library (no CLAHE/blur preprocessing: the library as it is). Square boards of
@@ -46,7 +46,7 @@
 #include <string>
 #include <vector>
 
-#include "render/pattern_json.h"
+#include "pattern/pattern_json.h"
 
 namespace curvecheck {
 
@@ -98,6 +98,16 @@ struct DetectedFeature {
   std::string flag;
 };
 
+// Why a detection found nothing (a typed outcome: callers branch on this, `Detection::failure` is for people).
+enum class DetectionFailure {
+  kNone,
+  kPatternNotFound,       // no board or tags of the pattern (also a board that is not pattern.json's)
+  kAmbiguousOrientation,  // a board is seen, but which corner is which cannot be decided (or it is mirrored)
+  kDifferentPattern,      // tags whose ids are not in pattern.json, or tags where pattern.json has a plain board
+};
+// "pattern_not_found", "ambiguous_orientation", "different_pattern" ("" for kNone): for tables and JSON.
+const char* DetectionFailureName(DetectionFailure failure);
+
 struct Detection {
   std::string detector;                   // which detector produced the features
   std::vector<DetectedFeature> features;  // unique ids, all present in the pattern
@@ -106,6 +116,7 @@ struct Detection {
   // ids are not in pattern.json: "different pattern: ids not in pattern.json: ..."; tags where pattern.json has
   // a plain board). Features are empty on failure.
   std::string failure;
+  DetectionFailure failure_kind = DetectionFailure::kNone;  // set together with `failure`
   std::vector<std::string> notes;  // e.g. "orientation from the square colours", "12 of 144 corners not found"
   double time_ms = 0;              // wall time of DetectFeatures
 };

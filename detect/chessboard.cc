@@ -1,4 +1,4 @@
-#include "calibrate/detect.h"
+#include "detect/chessboard.h"
 
 #include <fmt/format.h>
 
@@ -32,7 +32,7 @@ double SmallestSpacingPx(const std::vector<cv::Point2f>& c, const BoardSpec& b) 
   return best;
 }
 
-bool DetectOpenCv(const cv::Mat& gray, const BoardSpec& b, const DetectOptions& o, Detection& d) {
+bool DetectOpenCv(const cv::Mat& gray, const BoardSpec& b, const ChessboardOptions& o, ChessboardDetection& d) {
   const int longest = std::max(gray.cols, gray.rows);
   const double scale = (o.search_max_px > 0 && longest > o.search_max_px) ? double(o.search_max_px) / longest : 1.0;
   cv::Mat small = gray;
@@ -61,7 +61,7 @@ bool DetectOpenCv(const cv::Mat& gray, const BoardSpec& b, const DetectOptions& 
   return true;
 }
 
-bool DetectMrgingham(const cv::Mat& gray, const BoardSpec& b, Detection& d) {
+bool DetectMrgingham(const cv::Mat& gray, const BoardSpec& b, ChessboardDetection& d) {
   d.detector = "mrgingham";
   std::vector<mrgingham::PointDouble> pts;
   // A non-null refinement buffer asks mrgingham to refine every corner (it reallocs it; we free it).
@@ -76,7 +76,7 @@ bool DetectMrgingham(const cv::Mat& gray, const BoardSpec& b, Detection& d) {
 
 }  // namespace
 
-void DetectOptions::Check() const {
+void ChessboardOptions::Check() const {
   if (detector != "auto" && detector != "opencv" && detector != "mrgingham") {
     throw Error("--detector", fmt::format("'{}' is not a detector", detector), "use auto, opencv or mrgingham");
   }
@@ -91,9 +91,9 @@ void DetectOptions::Check() const {
   if (threads < 0) throw Error("--threads", fmt::format("{} is negative", threads), "use 0 for all cores");
 }
 
-Detection DetectChessboard(const cv::Mat& gray8, const BoardSpec& board, const DetectOptions& options) {
+ChessboardDetection DetectChessboard(const cv::Mat& gray8, const BoardSpec& board, const ChessboardOptions& options) {
   options.Check();
-  Detection d;
+  ChessboardDetection d;
   d.width = gray8.cols;
   d.height = gray8.rows;
   if (gray8.type() != CV_8UC1) throw Error("DetectChessboard", "the image is not 8-bit gray", "convert it first");
@@ -114,15 +114,15 @@ Detection DetectChessboard(const cv::Mat& gray8, const BoardSpec& board, const D
   return d;
 }
 
-std::vector<Detection> DetectChessboards(const std::vector<std::filesystem::path>& photos, const BoardSpec& board,
-                                         const DetectOptions& options) {
+std::vector<ChessboardDetection> DetectChessboards(const std::vector<std::filesystem::path>& photos, const BoardSpec& board,
+                                         const ChessboardOptions& options) {
   options.Check();
   if (options.detector == "mrgingham" && board.corners_x != board.corners_y) {
     throw Error("--detector", fmt::format("mrgingham finds square NxN boards only, not {}x{}", board.corners_x,
                                           board.corners_y),
                 "use --detector opencv (or auto)");
   }
-  std::vector<Detection> out(photos.size());
+  std::vector<ChessboardDetection> out(photos.size());
   std::atomic<size_t> next{0};
   auto worker = [&] {
     for (size_t i = next++; i < photos.size(); i = next++) {
@@ -144,7 +144,7 @@ std::vector<Detection> DetectChessboards(const std::vector<std::filesystem::path
           out[i] = DetectChessboard(gray, board, options);
         }
       } catch (const std::exception& e) {  // no exception may leave a worker thread
-        out[i] = Detection();
+        out[i] = ChessboardDetection();
         out[i].problem = fmt::format("detection failed: {}", e.what());
       }
       out[i].photo = photos[i];

@@ -1,4 +1,4 @@
-#include "render/pattern_json.h"
+#include "pattern/pattern_json.h"
 
 #include <fmt/format.h>
 

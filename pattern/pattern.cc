@@ -1,4 +1,4 @@
-#include "render/pattern.h"
+#include "pattern/pattern.h"
 
 #include <apriltag/apriltag.h>
 #include <apriltag/tag36h11.h>

@@ -1,4 +1,4 @@
-#include "calibrate/board.h"
+#include "pattern/board.h"
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -10,8 +10,8 @@
 #include "core/monitor.h"
 #include "core/screen_geometry.h"
 #include "core/test_util.h"
-#include "render/pattern.h"
-#include "render/pattern_json.h"
+#include "pattern/pattern.h"
+#include "pattern/pattern_json.h"
 
 namespace curvecheck {
 namespace {
@@ -57,7 +57,7 @@ TEST(Board, FromPatternJsonOfAFlatMonitor) {
   const BoardSpec b = BoardFromPatternJson(path);
   EXPECT_EQ(b.corners_x, 9);
   EXPECT_EQ(b.corners_y, 6);
-  // The fitted square: min((1 - 2 margin) W / cols, (1 - 2 margin) H / rows) (render/pattern.h).
+  // The fitted square: min((1 - 2 margin) W / cols, (1 - 2 margin) H / rows) (pattern/pattern.h).
   EXPECT_NEAR(b.square_mm, std::min(0.9 * flat.width_mm / 10, 0.9 * flat.height_mm / 7), 1e-9);
   EXPECT_EQ(b.source, path.string());
 }

@@ -1,4 +1,4 @@
-#include "calibrate/detect.h"
+#include "detect/chessboard.h"
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -7,7 +7,7 @@
 #include <cmath>
 #include <iostream>
 
-#include "calibrate/synthetic_board.h"
+#include "synth/synthetic_board.h"
 #include "core/test_util.h"
 
 namespace curvecheck {
@@ -16,7 +16,7 @@ using ::testing::HasSubstr;
 using testing::MessageOf;
 
 TEST(Detect, MrgingghamRefusesNonSquareBoards) {
-  DetectOptions o;
+  ChessboardOptions o;
   o.detector = "mrgingham";
   EXPECT_THAT(MessageOf([&] { DetectChessboards({}, BoardFromText("9x6", 25), o); }), HasSubstr("square NxN"));
   o.detector = "sift";
@@ -38,11 +38,11 @@ TEST(Detect, CornersMatchTheTruthAndAutoIsTheMoreAccurate) {
   double rms[2] = {0, 0}, ms[2] = {0, 0};
   int found[2] = {0, 0}, n[2] = {0, 0};
   for (int det = 0; det < 2; ++det) {
-    DetectOptions d;
+    ChessboardOptions d;
     d.detector = det == 0 ? "auto" : "mrgingham";
     for (const SyntheticBoardView& v : set.views) {
       const auto t0 = std::chrono::steady_clock::now();
-      const Detection r = DetectChessboard(v.photo, set.board, d);
+      const ChessboardDetection r = DetectChessboard(v.photo, set.board, d);
       ms[det] += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
       if (!r.found) continue;
       ++found[det];

@@ -1,4 +1,4 @@
-#include "analysis/detect_tags.h"
+#include "detect/detect_tags.h"
 
 #include <apriltag/apriltag.h>
 #include <apriltag/tag36h11.h>

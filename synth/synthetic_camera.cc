@@ -1,4 +1,4 @@
-#include "capture/synthetic_camera.h"
+#include "synth/synthetic_camera.h"
 
 #include <fmt/format.h>
 
@@ -24,7 +24,7 @@
 #include "core/math_util.h"
 #include "core/screen_geometry.h"
 #include "datasets/monitor_presets.h"
-#include "render/pattern.h"
+#include "pattern/pattern.h"
 
 namespace curvecheck {
 namespace {

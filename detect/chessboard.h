@@ -1,6 +1,6 @@
 // Chessboard corner detection for calibration photos.
 //
-// Detectors (DetectOptions::detector):
+// Detectors (ChessboardOptions::detector):
 //   opencv     OpenCV's classic findChessboardCorners on a copy reduced to at most `search_max_px` (falling back
 //              to findChessboardCornersSB there), then cornerSubPix on the full-resolution image. Any NxM board.
 //              This is "auto": dependencies.md measured it at 0.038-0.046 px RMS against exact truth where the
@@ -19,11 +19,11 @@
 #include <string>
 #include <vector>
 
-#include "calibrate/board.h"
+#include "pattern/board.h"
 
 namespace curvecheck {
 
-struct DetectOptions {
+struct ChessboardOptions {
   std::string detector = "auto";  // auto | opencv | mrgingham (see above); auto = opencv
   // Longest side (px) of the reduced copy that the OpenCV search runs on; the refinement is at full resolution.
   // Smaller is faster; the board's squares must stay >= ~8 px at that scale. 0 = search at full resolution.
@@ -35,7 +35,7 @@ struct DetectOptions {
   void Check() const;
 };
 
-struct Detection {
+struct ChessboardDetection {
   std::filesystem::path photo;
   int width = 0, height = 0;  // px
   bool found = false;
@@ -46,11 +46,11 @@ struct Detection {
 };
 
 // Detects the board in one 8-bit gray image.
-Detection DetectChessboard(const cv::Mat& gray8, const BoardSpec& board, const DetectOptions& options);
+ChessboardDetection DetectChessboard(const cv::Mat& gray8, const BoardSpec& board, const ChessboardOptions& options);
 
 // Reads and detects every photo, options.threads at a time. Photos that cannot be read or hold no complete
 // board come back with found = false and the reason; only an unreadable photo list throws.
-std::vector<Detection> DetectChessboards(const std::vector<std::filesystem::path>& photos, const BoardSpec& board,
-                                         const DetectOptions& options);
+std::vector<ChessboardDetection> DetectChessboards(const std::vector<std::filesystem::path>& photos, const BoardSpec& board,
+                                         const ChessboardOptions& options);
 
 }  // namespace curvecheck

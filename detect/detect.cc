@@ -1,4 +1,4 @@
-#include "analysis/detect.h"
+#include "detect/detect.h"
 
 #include <fmt/format.h>
 
@@ -13,8 +13,8 @@
 #include <optional>
 #include <set>
 
-#include "analysis/detect_board.h"
-#include "analysis/detect_tags.h"
+#include "detect/detect_board.h"
+#include "detect/detect_tags.h"
 #include "core/error.h"
 #include "core/file_io.h"
 #include "core/image_io.h"
@@ -252,22 +252,28 @@ double RefineSigmaPx(const std::vector<std::pair<std::string, Eigen::Vector2d>>&
   return sigma;
 }
 
-// Why a board detector found nothing: tags instead, another board size, or nothing at all.
-std::string DiagnoseBoardFailure(const cv::Mat& gray8, const PatternInfo& info, const std::string& detector) {
+// Why a board detector found nothing: tags instead, another board size, or nothing at all. Sets the failure
+// and its kind.
+void DiagnoseBoardFailure(const cv::Mat& gray8, const PatternInfo& info, const std::string& detector,
+                          Detection& out) {
   const std::vector<DetectedTag> tags = detect_internal::RunAprilTag(gray8, 2, 0, 0);
+  out.failure_kind = DetectionFailure::kPatternNotFound;
   if (!tags.empty()) {
     std::set<int> ids;
     for (const DetectedTag& t : tags) ids.insert(t.id);
-    return fmt::format("different pattern: the photo shows tag36h11 tags ({}), not the {}x{} checkerboard of "
+    out.failure_kind = DetectionFailure::kDifferentPattern;
+    out.failure = fmt::format("different pattern: the photo shows tag36h11 tags ({}), not the {}x{} checkerboard of "
                        "pattern.json",
                        TagIdRanges(ids), info.cols, info.rows);
+    return;
   }
   if (detect_internal::FindAnyBoardSize(gray8)) {
-    return fmt::format("pattern not found: the photo shows a checkerboard, but no complete one of {}x{} inner "
+    out.failure = fmt::format("pattern not found: the photo shows a checkerboard, but no complete one of {}x{} inner "
                        "corners ({}): a different pattern, or part of it outside the photo?",
                        info.cols - 1, info.rows - 1, detector);
+    return;
   }
-  return fmt::format("pattern not found: no checkerboard of {}x{} inner corners ({})", info.cols - 1,
+  out.failure = fmt::format("pattern not found: no checkerboard of {}x{} inner corners ({})", info.cols - 1,
                      info.rows - 1, detector);
 }
 
@@ -288,6 +294,7 @@ bool DetectBoard(const std::string& detector, const cv::Mat& photo, const cv::Ma
     grid = detect_internal::RunOpenCvClassic(gray8, inner, o.classic_max_px);
   }
   if (!grid) {
+    out.failure_kind = DetectionFailure::kPatternNotFound;
     out.failure = fmt::format("pattern not found: no checkerboard of {}x{} inner corners ({})", inner.width,
                               inner.height, detector);
     return false;
@@ -296,6 +303,7 @@ bool DetectBoard(const std::string& detector, const cv::Mat& photo, const cv::Ma
       detect_internal::ResolveBoardOrientation(*grid, gray8, info.cols, info.rows, o.upright_max_deg);
   if (!orient.failure.empty()) {
     out.failure = orient.failure;
+    out.failure_kind = DetectionFailure::kAmbiguousOrientation;
     return false;
   }
   out.notes.push_back(orient.note);
@@ -389,6 +397,7 @@ void DetectTags(const cv::Mat& photo, const cv::Mat& gray8, const PatternFile& p
       detect_internal::RunAprilTag(gray8, o.apriltag_decimate, o.apriltag_max_hamming, o.apriltag_threads);
   if (found.empty()) {
     out.failure = "pattern not found: no tag36h11 tag in the photo";
+    out.failure_kind = DetectionFailure::kPatternNotFound;
     return;
   }
   std::map<int, DetectedTag> by_id;
@@ -405,6 +414,7 @@ void DetectTags(const cv::Mat& photo, const cv::Mat& gray8, const PatternFile& p
     }
   }
   if (by_id.empty()) {
+    out.failure_kind = DetectionFailure::kDifferentPattern;
     out.failure = fmt::format("different pattern: ids not in pattern.json: the photo shows tags {}, pattern.json "
                               "has tags {}",
                               TagIdRanges(foreign), TagIdRanges(info.tag_ids));
@@ -526,6 +536,16 @@ cv::Mat ReadPhotoGray(const std::filesystem::path& path) {
   return img;
 }
 
+const char* DetectionFailureName(DetectionFailure failure) {
+  switch (failure) {
+    case DetectionFailure::kNone: return "";
+    case DetectionFailure::kPatternNotFound: return "pattern_not_found";
+    case DetectionFailure::kAmbiguousOrientation: return "ambiguous_orientation";
+    case DetectionFailure::kDifferentPattern: return "different_pattern";
+  }
+  return "";
+}
+
 Detection DetectFeatures(const cv::Mat& photo_gray, const PatternFile& pattern, const DetectOptions& options) {
   const auto start = std::chrono::steady_clock::now();
   options.Check("detect options");
@@ -560,7 +580,7 @@ Detection DetectFeatures(const cv::Mat& photo_gray, const PatternFile& pattern, 
   if (detector == "apriltag") {
     DetectTags(photo_gray, gray8, pattern, info, options, out);
   } else if (!DetectBoard(detector, photo_gray, gray8, pattern, info, options, out)) {
-    if (options.detector == "auto" && out.failure.starts_with("pattern not found")) {
+    if (options.detector == "auto" && out.failure_kind == DetectionFailure::kPatternNotFound) {
       // auto: classic is fast but less robust to strong perspective and blur; try SB before giving up.
       const std::string first = out.failure;
       out = Detection();
@@ -568,7 +588,7 @@ Detection DetectFeatures(const cv::Mat& photo_gray, const PatternFile& pattern, 
       out.notes.push_back(fmt::format("opencv-classic failed ({}); used opencv-sb", first));
       DetectBoard("opencv-sb", photo_gray, gray8, pattern, info, options, out);
     }
-    if (out.failure.starts_with("pattern not found")) out.failure = DiagnoseBoardFailure(gray8, info, out.detector);
+    if (out.failure_kind == DetectionFailure::kPatternNotFound) DiagnoseBoardFailure(gray8, info, out.detector, out);
   }
   if (out.failure.empty()) {
     ScreenOutliers(out.features, info, options, out.notes);

@@ -31,6 +31,17 @@ Eigen::Matrix4d FlipY() {
   return f;
 }
 
+// The perspective frustum of thesis Eq 4.6 (OpenGL's glFrustum with depth 0..1): near-plane extents l, r, b, t
+// (mm at the near distance n, y up), far distance f; eye space to clip space.
+Eigen::Matrix4d Frustum(double l, double r, double b, double t, double n, double f) {
+  Eigen::Matrix4d proj;
+  proj << 2 * n / (r - l), 0, (r + l) / (r - l), 0,  //
+      0, 2 * n / (t - b), (t + b) / (t - b), 0,       //
+      0, 0, -f / (f - n), -(f * n) / (f - n),         //
+      0, 0, -1, 0;
+  return proj;
+}
+
 // Generalized perspective projection (Kooima, as used by thesis Eq 4.6) onto the planar rectangle with
 // lower-left pa, lower-right pb and upper-left pc, from eye pe (all in the centre frame), to Vulkan clip space
 // (y down, depth 0..1). Throws if the eye is not in front of the rectangle's plane.
@@ -45,18 +56,13 @@ Eigen::Matrix4d RectangleProjection(const Eigen::Vector3d& pa, const Eigen::Vect
   }
   const double n = 1.0, f = 1e7;
   const double l = vr.dot(va) * n / d, r = vr.dot(vb) * n / d, b = vu.dot(va) * n / d, t = vu.dot(vc) * n / d;
-  Eigen::Matrix4d proj;
-  proj << 2 * n / (r - l), 0, (r + l) / (r - l), 0,  //
-      0, 2 * n / (t - b), (t + b) / (t - b), 0,       //
-      0, 0, -f / (f - n), -f * n / (f - n),           //
-      0, 0, -1, 0;
   Eigen::Matrix4d rot = Eigen::Matrix4d::Identity();
   rot.block<1, 3>(0, 0) = vr.transpose();
   rot.block<1, 3>(1, 0) = vu.transpose();
   rot.block<1, 3>(2, 0) = vn.transpose();
   Eigen::Matrix4d trans = Eigen::Matrix4d::Identity();
   trans.block<3, 1>(0, 3) = -pe;
-  return FlipY() * proj * rot * trans;
+  return FlipY() * Frustum(l, r, b, t, n, f) * rot * trans;
 }
 
 // Affine map from plane coordinates (a, b, 0, 1) to centre-frame points.
@@ -160,12 +166,7 @@ WarpFirstPass MakeWarpFirstPass(const Monitor& m, const Eigen::Vector3d& viewpoi
   const double gx = kWarpGuardTexels * (fr.right_mm - fr.left_mm) / core_w;
   const double gy = kWarpGuardTexels * (fr.top_mm - fr.bottom_mm) / core_h;
   const double l = fr.left_mm - gx, r = fr.right_mm + gx, b = fr.bottom_mm - gy, t = fr.top_mm + gy;
-  const double n = fr.near_mm, f = fr.far_mm;
-  Eigen::Matrix4d proj;  // thesis Eq 4.6 with the widened extents
-  proj << 2 * n / (r - l), 0, (r + l) / (r - l), 0,  //
-      0, 2 * n / (t - b), (t + b) / (t - b), 0,       //
-      0, 0, -f / (f - n), -(f * n) / (f - n),         //
-      0, 0, -1, 0;
+  const double n = fr.near_mm;
   // The first pass clips at the near plane (the plane of the screen's corners): a pattern plane that comes nearer
   // than that somewhere in the drawn rectangle would be cut silently, so refuse.
   const auto [a0, a1, b0, b1] = GrownCellRect(pattern.cells);
@@ -180,7 +181,7 @@ WarpFirstPass MakeWarpFirstPass(const Monitor& m, const Eigen::Vector3d& viewpoi
   }
   Eigen::Matrix4d view = Eigen::Matrix4d::Identity();  // translation by -O, in the centre frame
   view.block<3, 1>(0, 3) = -eye;
-  w.clip_from_centre = FlipY() * proj * view;
+  w.clip_from_centre = FlipY() * Frustum(l, r, b, t, n, fr.far_mm) * view;  // Eq 4.6 with the widened extents
   return w;
 }
 

@@ -74,7 +74,8 @@ ChosenDevice ChooseDevice(const vk::raii::Instance& instance, const DeviceNeeds&
     if (score > best_score) best = static_cast<int>(i), best_score = score, best_family = family;
   }
   if (best < 0) {
-    throw Error("Vulkan", fmt::format("no Vulkan device can {} ({})", needs.purpose, rejected), needs.fix);
+    throw Error("Vulkan", fmt::format("no Vulkan device can {} ({})", needs.purpose, rejected),
+                wanted ? needs.fix + ", or set CURVECHECK_VULKAN_DEVICE to part of a name listed" : needs.fix);
   }
   ChosenDevice chosen;
   chosen.physical = std::move(devices[static_cast<size_t>(best)]);

@@ -7,11 +7,9 @@
 #include <cmath>
 
 #include "core/error.h"
+#include "core/math_util.h"
 
 namespace curvecheck {
-namespace {
-constexpr double kDeg = M_PI / 180;
-}  // namespace
 
 TruthComparison CompareWithTruth(const CameraModel& truth, const SyntheticBoardSet& set,
                                  const std::vector<ChessboardDetection>& detections, const CalibrationResult& r,
@@ -57,7 +55,7 @@ TruthComparison CompareWithTruth(const CameraModel& truth, const SyntheticBoardS
   const Eigen::Matrix3d rotation = svd.matrixV() * fix * svd.matrixU().transpose();
   TruthComparison out;
   out.translation_mm = mb - rotation * ma;
-  out.rotation_deg = Eigen::AngleAxisd(rotation).angle() / kDeg;
+  out.rotation_deg = Eigen::AngleAxisd(rotation).angle() / kRadPerDeg;
 
   const CameraModel recovered = ParseCameraModel(candidate.model_text, candidate.lensmodel);
   const std::vector<Eigen::Vector2d>& grid = candidate.uncertainty.pixel_px;

@@ -16,5 +16,6 @@ inline double Sinc(double x) {
 }
 
 constexpr double kDegPerRad = 57.29577951308232;
+constexpr double kRadPerDeg = 1 / kDegPerRad;
 
 }  // namespace curvecheck

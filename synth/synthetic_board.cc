@@ -9,13 +9,13 @@
 
 #include "synth/synthetic_camera.h"
 #include "core/error.h"
+#include "core/math_util.h"
 #include "core/screen_geometry.h"
 #include "pattern/pattern.h"
 
 namespace curvecheck {
 namespace {
 
-constexpr double kDeg = M_PI / 180;
 
 // Display image: one white square of margin around a (corners_x + 1) x (corners_y + 1) checkerboard whose top
 // left square is black.
@@ -109,13 +109,13 @@ SyntheticBoardSet MakeSyntheticBoardSet(const SyntheticBoardOptions& o) {
       const double shrink = 1.0 - attempt / 400.0;  // pull the target toward the centre if it will not fit
       const double fill = o.fill_far + (o.fill_near - o.fill_far) * (k % 2 == 0 ? 0.6 + 0.4 * unit(rng) : 0.4 * unit(rng));
       const double distance = std::max(fx * board_mm / (fill * w), fx * board_h_mm / (fill * h));
-      const double tilt = o.max_tilt_deg * kDeg * std::sqrt(unit(rng));
+      const double tilt = o.max_tilt_deg * kRadPerDeg * std::sqrt(unit(rng));
       const double azimuth = 2 * M_PI * unit(rng);
       const Eigen::Vector3d dir(std::sin(tilt) * std::cos(azimuth), std::sin(tilt) * std::sin(azimuth), std::cos(tilt));
       scene.camera_position_in_screen = distance * dir;
       Eigen::Matrix3d r = ScreenFromCamLookAt(scene.camera_position_in_screen, Eigen::Vector3d::Zero(),
                                               Eigen::Vector3d::UnitY());
-      r = r * Eigen::AngleAxisd(o.max_roll_deg * kDeg * uni(rng), Eigen::Vector3d::UnitZ()).toRotationMatrix();
+      r = r * Eigen::AngleAxisd(o.max_roll_deg * kRadPerDeg * uni(rng), Eigen::Vector3d::UnitZ()).toRotationMatrix();
       // Turn the camera so that the board centre lands on the target pixel: the ray through the target, v_t,
       // must point at the board, so screen_from_cam' = screen_from_cam * Q with Q v_t = z.
       const Eigen::Vector2d target(0.5 * (w - 1) + shrink * tx + 0.05 * w * uni(rng),
@@ -137,7 +137,7 @@ SyntheticBoardSet MakeSyntheticBoardSet(const SyntheticBoardOptions& o) {
         SyntheticBoardView v;
         v.camera_position_in_screen = scene.camera_position_in_screen;
         v.screen_from_cam = scene.screen_from_cam;
-        v.tilt_deg = tilt / kDeg;
+        v.tilt_deg = tilt / kRadPerDeg;
         const nlohmann::json tc = TruthJson(scene, corners);
         for (const auto& f : tc["features"]) v.corners_px.emplace_back(f["image_px"][0].get<double>(), f["image_px"][1].get<double>());
         scene.sensor.seed = o.seed * 1000 + static_cast<uint64_t>(k);

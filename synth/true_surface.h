@@ -19,7 +19,7 @@ struct SyntheticScene;
 
 namespace synth_internal {
 
-inline constexpr double kRadPerDeg = std::numbers::pi / 180;
+using curvecheck::kRadPerDeg;  // core/math_util.h
 
 // The true surface of TrueMonitor's header comment, in the true centre frame, with the maps between it, its
 // upright (unleaned) cylinder and the nominal screen frame. Holds a pointer to `truth` (for its bumps).

@@ -231,6 +231,7 @@ struct ModelWork {
   ScreenModelKind kind;
   State state;
   std::unique_ptr<DeviationBasis> basis;
+  double basis_curvature_per_mm = 0;  // what `basis` was built around
   std::vector<Eigen::Vector2d> robust_residuals;
   Eigen::MatrixXd dev_covariance;  // of the deviation coefficients, scaled by the noise
   bool robust_ok = false;
@@ -391,6 +392,7 @@ void FitFinal(const Setup& setup, ModelWork& w, const std::vector<bool>& inlier,
              fit->parameters * std::log(static_cast<double>(n));
   fit->shape = w.state.core;
   fit->shape.insert(fit->shape.end(), w.state.dev.begin(), w.state.dev.end());
+  fit->deviation_basis_curvature_per_mm = w.basis ? w.basis_curvature_per_mm : 0;
   Covariances(setup, w, b, fit);
   RadiusFromCurvature(setup, fit);
 }
@@ -680,6 +682,7 @@ ScreenFitResult FitScreen(const Monitor& nominal, const CameraModel& camera,
     if (!w.state.core.empty()) w.state.core[0] = k0;
     if (kind == ScreenModelKind::kCylinderDeviation) {
       w.basis = std::make_unique<DeviationBasis>(nominal, k0, options.deviation_nu, options.deviation_nv);
+      w.basis_curvature_per_mm = k0;
       w.state.dev.assign(static_cast<size_t>(w.basis->size()), 0.0);
     }
     FitRobust(setup, w, all);
@@ -740,6 +743,34 @@ ScreenFitResult FitScreen(const Monitor& nominal, const CameraModel& camera,
         options.deviation_nu, options.deviation_nv, options.deviation_prior_mm));
   }
   return result;
+}
+
+std::vector<Eigen::Vector3d> FittedSurfacePointsInCamera(const Monitor& nominal, const ModelFit& fit, int photo,
+                                                         const std::vector<Eigen::Vector2d>& uv,
+                                                         const FitOptions& options) {
+  if (photo < 0 || photo >= static_cast<int>(fit.cameras.size())) {
+    throw Error("fit", fmt::format("photo {} of a fit of {} photos", photo, fit.cameras.size()), "");
+  }
+  const ScreenModelKind kind = ParseScreenModel(fit.model, "fit");
+  std::unique_ptr<DeviationBasis> basis;
+  if (kind == ScreenModelKind::kCylinderDeviation) {
+    basis = std::make_unique<DeviationBasis>(nominal, fit.deviation_basis_curvature_per_mm, options.deviation_nu,
+                                             options.deviation_nv);
+  }
+  const int core = CoreParameterCount(kind);
+  const CameraEstimate& cam = fit.cameras[static_cast<size_t>(photo)];
+  std::vector<Eigen::Vector3d> out;
+  for (const Eigen::Vector2d& at : uv) {
+    const double s = 0.5 * at.x() * nominal.width_mm, y = -0.5 * at.y() * nominal.height_mm;
+    Eigen::Vector3d normal;
+    Eigen::Vector3d p = CoreScreenPoint<double>(kind, fit.shape.data(), s, y, 0.5 * nominal.width_mm, &normal);
+    if (basis) {
+      const Eigen::VectorXd w = basis->Weights(at);
+      p += w.dot(Eigen::Map<const Eigen::VectorXd>(fit.shape.data() + core, w.size())) * normal;
+    }
+    out.push_back(cam.centre_from_cam.transpose() * (p - cam.position_in_centre_mm));
+  }
+  return out;
 }
 
 double RadiusCramerRaoBoundMm(const Monitor& true_monitor, const CameraModel& camera,

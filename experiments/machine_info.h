@@ -3,9 +3,9 @@
 
 #include <string>
 
-namespace curvecheck::app {
+namespace curvecheck::experiments {
 
 // "CPU model, N cores, build type, date".
 std::string DescribeMachine();
 
-}  // namespace curvecheck::app
+}  // namespace curvecheck::experiments

@@ -1,4 +1,4 @@
-#include "app/machine_info.h"
+#include "experiments/machine_info.h"
 
 #include <fmt/chrono.h>
 #include <fmt/format.h>
@@ -7,7 +7,7 @@
 #include <fstream>
 #include <thread>
 
-namespace curvecheck::app {
+namespace curvecheck::experiments {
 
 std::string DescribeMachine() {
   std::string cpu = "unknown CPU";
@@ -23,4 +23,4 @@ std::string DescribeMachine() {
                      CURVECHECK_BUILD_TYPE, fmt::gmtime(now));
 }
 
-}  // namespace curvecheck::app
+}  // namespace curvecheck::experiments

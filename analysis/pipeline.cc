@@ -3,7 +3,6 @@
 #include <fmt/format.h>
 
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 #include <map>
 #include <opencv2/imgcodecs.hpp>
@@ -13,14 +12,12 @@
 
 #include "core/error.h"
 #include "core/file_io.h"
+#include "core/stopwatch.h"
 #include "core/monitor_json.h"
 
 namespace curvecheck {
 namespace {
 
-double MsSince(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-}
 
 bool SameMonitor(const Monitor& a, const Monitor& b) {
   const auto near = [](double x, double y) { return std::abs(x - y) <= 1e-9 * std::max(1.0, std::abs(x)); };
@@ -106,7 +103,7 @@ namespace {
 AnalysisResult AnalyzeWith(const CameraModel& camera, const std::filesystem::path& camera_path,
                            const std::vector<PhotoInput>& inputs, const std::function<cv::Mat(size_t)>& load,
                            const AnalyzeOptions& options) {
-  const auto t_start = std::chrono::steady_clock::now();
+  const Stopwatch total_watch;
   options.Check("analyze options");
   if (inputs.empty()) throw Error("analyze", "no photos given", "give one or more photos with their pattern.json");
   AnalysisResult r;
@@ -142,7 +139,7 @@ AnalysisResult AnalyzeWith(const CameraModel& camera, const std::filesystem::pat
     pa.input = inputs[i];
     pa.name = PhotoNameFor(inputs[i].photo, names);
     const PatternFile& pattern = r.patterns[i];
-    auto t0 = std::chrono::steady_clock::now();
+    Stopwatch watch;
     cv::Mat gray;
     try {
       gray = load(i);
@@ -150,7 +147,7 @@ AnalysisResult AnalyzeWith(const CameraModel& camera, const std::filesystem::pat
       pa.rejected = e.what();
       pa.rejection = PhotoRejection::kUnreadable;
     }
-    pa.read_ms = MsSince(t0);
+    pa.read_ms = watch.Ms();
     if (pa.rejected.empty() && (gray.cols != r.camera.width || gray.rows != r.camera.height)) {
       pa.rejection = PhotoRejection::kWrongSize;
       pa.rejected = fmt::format("{}: the photo is {} x {} px but the camera model {} is for {} x {} px; use the model "
@@ -174,9 +171,9 @@ AnalysisResult AnalyzeWith(const CameraModel& camera, const std::filesystem::pat
         ids.push_back(f.id);
         px.push_back(f.px);
       }
-      t0 = std::chrono::steady_clock::now();
+      watch.Restart();
       pa.verification = VerifyCorrection(pattern, r.camera, ids, px, options.verify);
-      pa.verify_ms = MsSince(t0);
+      pa.verify_ms = watch.Ms();
       if (pa.verification.failure_kind != VerificationFailure::kNone) {
         pa.rejection = PhotoRejection::kVerification;
         pa.rejected = fmt::format("{}: {}", inputs[i].photo.string(), pa.verification.failure);
@@ -210,7 +207,7 @@ AnalysisResult AnalyzeWith(const CameraModel& camera, const std::filesystem::pat
     r.fit_failure = "no usable photo";
     r.fit_failure_kind = FitFailure::kNoUsablePhoto;
   } else {
-    const auto t0 = std::chrono::steady_clock::now();
+    const Stopwatch fit_watch;
     try {
       r.fit = FitScreen(r.monitor, r.camera, observations, options.fit);
     } catch (const Error& e) {
@@ -221,9 +218,9 @@ AnalysisResult AnalyzeWith(const CameraModel& camera, const std::filesystem::pat
       r.fit_failure_kind = too_few ? FitFailure::kTooFewFeatures : FitFailure::kSolver;
       for (PhotoAnalysis& p : r.photos) p.fit_index = -1;
     }
-    r.fit_ms = MsSince(t0);
+    r.fit_ms = fit_watch.Ms();
   }
-  r.total_ms = MsSince(t_start);
+  r.total_ms = total_watch.Ms();
   return r;
 }
 

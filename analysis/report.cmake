@@ -3,7 +3,8 @@
 add_library(curvecheck_analysis_result_reader STATIC ${CMAKE_CURRENT_SOURCE_DIR}/result_reader.cc)
 target_link_libraries(curvecheck_analysis_result_reader PUBLIC curvecheck_core nlohmann_json::nlohmann_json
                       PRIVATE fmt::fmt)
-add_library(curvecheck_analysis_report STATIC ${CMAKE_CURRENT_SOURCE_DIR}/report.cc)
+add_library(curvecheck_analysis_report STATIC ${CMAKE_CURRENT_SOURCE_DIR}/report.cc
+            ${CMAKE_CURRENT_SOURCE_DIR}/report_charts.cc ${CMAKE_CURRENT_SOURCE_DIR}/report_format.cc)
 target_link_libraries(curvecheck_analysis_report PUBLIC curvecheck_analysis_result_reader curvecheck_core
                       PRIVATE fmt::fmt)
 target_compile_definitions(curvecheck_analysis_report PRIVATE CURVECHECK_VERSION="${PROJECT_VERSION}")

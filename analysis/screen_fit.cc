@@ -6,7 +6,6 @@
 
 #include <Eigen/Geometry>
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 #include <limits>
 #include <memory>
@@ -23,6 +22,7 @@
 #include "core/error.h"
 #include "core/math_util.h"
 #include "core/screen_geometry.h"
+#include "core/stopwatch.h"
 
 namespace curvecheck {
 namespace {
@@ -31,7 +31,7 @@ constexpr double kZ95 = 1.959963984540054;
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 constexpr double kInf = std::numeric_limits<double>::infinity();
 
-using Pose = std::array<double, 7>;  // quaternion x y z w (centre_from_cam), camera position in the centre frame
+using PoseBlock = std::array<double, 7>;  // quaternion x y z w (centre_from_cam), camera position in the centre frame
 
 struct Obs {
   int photo = 0, index = 0;  // photo and index in it
@@ -42,7 +42,7 @@ struct Obs {
 
 // All parameters of one model: poses and shape.
 struct State {
-  std::vector<Pose> poses;
+  std::vector<PoseBlock> poses;
   std::vector<double> core;  // CoreParameterCount
   std::vector<double> dev;   // deviation coefficients (cylinder+deviation)
 };
@@ -56,10 +56,6 @@ struct Setup {
   std::vector<std::string> feature_ids;
   double half_width_mm = 0;
 };
-
-double Ms(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-}
 
 std::unique_ptr<ReprojectionCost> MakeCost(const Setup& setup, ScreenModelKind kind, const DeviationBasis* basis,
                                            const Obs& o) {
@@ -131,7 +127,7 @@ ceres::Solver::Summary Solve(const Setup& setup, BuiltProblem& b, State* st) {
     // Poses touch disjoint residuals: eliminate them (Schur), leaving a small dense system in the shape.
     so.linear_solver_type = ceres::DENSE_SCHUR;
     auto ordering = std::make_shared<ceres::ParameterBlockOrdering>();
-    for (Pose& pose : st->poses) {
+    for (PoseBlock& pose : st->poses) {
       if (b.problem->HasParameterBlock(pose.data())) ordering->AddElementToGroup(pose.data(), 0);
     }
     if (!st->core.empty()) ordering->AddElementToGroup(st->core.data(), 1);
@@ -181,7 +177,7 @@ double MadSigma(const std::vector<Eigen::Vector2d>& r) {
 }
 
 // PnP against the nominal geometry on undistorted normalized coordinates (RANSAC, then iterative refinement).
-Pose InitialPose(const Setup& setup, int photo) {
+PoseBlock InitialPose(const Setup& setup, int photo) {
   const Monitor& m = *setup.nominal;
   std::vector<cv::Point3d> object;
   std::vector<Eigen::Vector2d> pixels;
@@ -241,7 +237,7 @@ struct ModelWork {
 void Covariances(const Setup& setup, ModelWork& w, BuiltProblem& b, ModelFit* fit) {
   State& st = w.state;
   std::vector<std::pair<const double*, const double*>> pairs;
-  for (Pose& pose : st.poses) {
+  for (PoseBlock& pose : st.poses) {
     if (b.problem->HasParameterBlock(pose.data())) pairs.emplace_back(pose.data(), pose.data());
   }
   if (!st.core.empty()) pairs.emplace_back(st.core.data(), st.core.data());
@@ -271,7 +267,7 @@ void Covariances(const Setup& setup, ModelWork& w, BuiltProblem& b, ModelFit* fi
   fit->cameras.assign(static_cast<size_t>(setup.photos), CameraEstimate{});
   for (int p = 0; p < setup.photos; ++p) {
     CameraEstimate& cam = fit->cameras[static_cast<size_t>(p)];
-    const Pose& pose = st.poses[static_cast<size_t>(p)];
+    const PoseBlock& pose = st.poses[static_cast<size_t>(p)];
     cam.centre_from_cam = Eigen::Quaterniond(pose[3], pose[0], pose[1], pose[2]).normalized().toRotationMatrix();
     cam.position_in_centre_mm = Eigen::Vector3d(pose[4], pose[5], pose[6]);
     cam.position_sigma_mm.setConstant(kNaN);
@@ -672,7 +668,7 @@ ScreenFitResult FitScreen(const Monitor& nominal, const CameraModel& camera,
           ScreenModelName(kind), setup.obs.size(), 2 * setup.obs.size(), parameters));
       continue;
     }
-    const auto t0 = std::chrono::steady_clock::now();
+    const Stopwatch watch;
     ModelWork w;
     w.kind = kind;
     const State* from = cylinder >= 0 ? &work[static_cast<size_t>(cylinder)].state : nullptr;
@@ -686,7 +682,7 @@ ScreenFitResult FitScreen(const Monitor& nominal, const CameraModel& camera,
       w.state.dev.assign(static_cast<size_t>(w.basis->size()), 0.0);
     }
     FitRobust(setup, w, all);
-    time_ms.push_back(Ms(t0));
+    time_ms.push_back(watch.Ms());
     work.push_back(std::move(w));
     if (kind == ScreenModelKind::kCylinder && work.back().robust_ok) cylinder = static_cast<int>(work.size()) - 1;
   }
@@ -706,12 +702,12 @@ ScreenFitResult FitScreen(const Monitor& nominal, const CameraModel& camera,
   }
 
   for (size_t i = 0; i < work.size(); ++i) {
-    const auto t0 = std::chrono::steady_clock::now();
+    const Stopwatch watch;
     ModelFit fit;
     fit.model = ScreenModelName(work[i].kind);
     FitFinal(setup, work[i], inlier, &fit);
     fit.heldout_rms_px = HeldOut(setup, work[i], inlier);
-    fit.time_ms = time_ms[i] + Ms(t0);
+    fit.time_ms = time_ms[i] + watch.Ms();
     result.candidates.push_back(std::move(fit));
   }
   Choose(options, &result);

@@ -1,10 +1,8 @@
 #include "calibrate/calibrate.h"
 
 #include <fmt/format.h>
-#include <stdlib.h>
 
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 #include <limits>
 #include <opencv2/calib3d.hpp>
@@ -12,6 +10,9 @@
 #include "calibrate/mrcal_solve_script.h"
 #include "core/error.h"
 #include "core/file_io.h"
+#include "core/stats.h"
+#include "core/stopwatch.h"
+#include "core/subprocess.h"
 
 namespace curvecheck {
 namespace {
@@ -21,34 +22,11 @@ double Num(const nlohmann::json& j) {
   return j.is_number() ? j.get<double>() : std::numeric_limits<double>::quiet_NaN();
 }
 
-double Median(std::vector<double> v) {
+// The median of the finite values (core/stats.h); NaN when there is none (no uncertainty to report).
+double FiniteMedian(std::vector<double> v) {
   v.erase(std::remove_if(v.begin(), v.end(), [](double x) { return !std::isfinite(x); }), v.end());
-  if (v.empty()) return std::numeric_limits<double>::quiet_NaN();
-  std::nth_element(v.begin(), v.begin() + static_cast<long>(v.size() / 2), v.end());
-  return v[v.size() / 2];
+  return v.empty() ? std::numeric_limits<double>::quiet_NaN() : Median(std::move(v));
 }
-
-std::string ShellQuote(const std::string& s) {
-  std::string q = "'";
-  for (char c : s) q += c == '\'' ? std::string("'\\''") : std::string(1, c);
-  return q + "'";
-}
-
-// A private temporary folder, removed when this goes out of scope.
-struct TempDir {
-  fs::path path;
-  TempDir() {
-    std::string tmpl = (fs::temp_directory_path() / "curvecheck-calibrate-XXXXXX").string();
-    if (!mkdtemp(tmpl.data())) throw Error(tmpl, "cannot create a temporary folder", "check TMPDIR");
-    path = tmpl;
-  }
-  ~TempDir() {
-    std::error_code ec;
-    fs::remove_all(path, ec);
-  }
-  TempDir(const TempDir&) = delete;
-  TempDir& operator=(const TempDir&) = delete;
-};
 
 // Focal length seed (px) from OpenCV: the closed-form estimate from the boards' homographies.
 double FocalSeedPx(const std::vector<const ChessboardDetection*>& used, const BoardSpec& board, int width, int height) {
@@ -159,7 +137,7 @@ double CandidateResult::SigmaCentralMedian(int width, int height) const {
       v.push_back(uncertainty.sigma_px[i]);
     }
   }
-  return Median(v);
+  return FiniteMedian(v);
 }
 
 double CandidateResult::SigmaObservedMedian() const {
@@ -167,7 +145,7 @@ double CandidateResult::SigmaObservedMedian() const {
   for (size_t i = 0; i < uncertainty.sigma_px.size(); ++i) {
     if (uncertainty.observed[i]) v.push_back(uncertainty.sigma_px[i]);
   }
-  return Median(v);
+  return FiniteMedian(v);
 }
 
 double CandidateResult::SigmaObservedMax() const {
@@ -242,28 +220,21 @@ CalibrationResult Calibrate(const std::vector<ChessboardDetection>& detections, 
     in["halves"] = nullptr;
   }
 
-  TempDir tmp;
-  in["out_dir"] = tmp.path.string();
-  WriteFileAtomic(tmp.path / "in.json", in.dump());
-  WriteFileAtomic(tmp.path / "mrcal_solve.py", MrcalSolveScript());
-  const std::string cmd = fmt::format("{} {} {} {} 2>{}", ShellQuote(options.python),
-                                      ShellQuote((tmp.path / "mrcal_solve.py").string()),
-                                      ShellQuote((tmp.path / "in.json").string()),
-                                      ShellQuote((tmp.path / "out.json").string()),
-                                      ShellQuote((tmp.path / "log").string()));
-  const auto t0 = std::chrono::steady_clock::now();
-  const int status = std::system(cmd.c_str());
-  r.optimize_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  const TempFolder tmp("curvecheck-calibrate", "the mrcal solver");
+  in["out_dir"] = tmp.path().string();
+  WriteFileAtomic(tmp.path() / "in.json", in.dump());
+  WriteFileAtomic(tmp.path() / "mrcal_solve.py", MrcalSolveScript());
+  const Stopwatch watch;
+  const ProcessResult run = RunProcess({options.python, (tmp.path() / "mrcal_solve.py").string(),
+                                        (tmp.path() / "in.json").string(), (tmp.path() / "out.json").string()});
+  r.optimize_s = watch.Seconds();
   std::error_code ec;
-  if (status != 0 || !fs::exists(tmp.path / "out.json", ec)) {
-    std::string log = fs::exists(tmp.path / "log", ec) ? ReadFileToString(tmp.path / "log") : "";
-    while (!log.empty() && log.back() == '\n') log.pop_back();
-    const size_t nl = log.rfind('\n');
-    throw Error(options.python, fmt::format("the mrcal solver failed (exit status {}): {}", status,
-                                            nl == std::string::npos ? log : log.substr(nl + 1)),
+  if (run.status != 0 || !fs::exists(tmp.path() / "out.json", ec)) {
+    throw Error(options.python, fmt::format("the mrcal solver failed (exit status {}): {}", run.status,
+                                            run.LastLine()),
                 "install python3-mrcal (scripts/debian-packages.txt) and check that /usr/bin/python3 imports mrcal");
   }
-  const nlohmann::json out = nlohmann::json::parse(ReadFileToString(tmp.path / "out.json"));
+  const nlohmann::json out = nlohmann::json::parse(ReadFileToString(tmp.path() / "out.json"));
   for (const auto& c : out.at("candidates")) {
     CandidateResult cr = ParseCandidate(c);
     cr.no_structure = cr.error.empty() && cr.structure_z <= options.structure_z_max;

@@ -20,15 +20,12 @@
 #include "calibrate/calibrate.h"
 #include "synth/synthetic_board.h"
 #include "core/error.h"
+#include "core/stats.h"
+#include "core/stopwatch.h"
 
 namespace {
 namespace fs = std::filesystem;
 using namespace curvecheck;
-
-double Median(std::vector<double> v) {
-  std::sort(v.begin(), v.end());
-  return v[v.size() / 2];
-}
 
 int Run(int argc, char** argv) {
   int views = 30, width = 6000, height = 4000, runs = 3;
@@ -69,19 +66,19 @@ int Run(int argc, char** argv) {
   if (!cached) {
     std::cout << fmt::format("rendering {} synthetic {}x{} photos into {} (once)...\n", views, width, height, dir.string())
               << std::flush;
-    const auto t0 = std::chrono::steady_clock::now();
+    const Stopwatch watch;
     const SyntheticBoardSet set = MakeSyntheticBoardSet(o);
     for (int k = 0; k < views; ++k) cv::imwrite(photos[static_cast<size_t>(k)].string(), set.views[static_cast<size_t>(k)].photo);
-    std::cout << fmt::format("  rendered in {:.0f} s\n", std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+    std::cout << fmt::format("  rendered in {:.0f} s\n", watch.Seconds());
   }
   std::cout << fmt::format("machine: {} hardware threads; {} photos {}x{}, board {}x{}\n",
                            std::thread::hardware_concurrency(), views, width, height, board.corners_x, board.corners_y);
   std::vector<double> detect_s, optimize_s;
   CalibrationResult last;
   for (int run = 0; run < runs; ++run) {
-    const auto t0 = std::chrono::steady_clock::now();
+    const Stopwatch watch;
     const std::vector<ChessboardDetection> d = DetectChessboards(photos, board, ChessboardOptions());
-    detect_s.push_back(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+    detect_s.push_back(watch.Seconds());
     int found = 0;
     for (const ChessboardDetection& x : d) found += x.found ? 1 : 0;
     last = Calibrate(d, board, CalibrateOptions());

@@ -1,10 +1,8 @@
 #include "capture/presenter_display.h"
 
-#include <fcntl.h>
 #include <fmt/format.h>
 #include <poll.h>
 #include <signal.h>
-#include <sys/wait.h>
 #include <unistd.h>
 
 #include <chrono>
@@ -23,40 +21,13 @@ PresenterProcess::PresenterProcess(std::filesystem::path binary, const SessionPl
       settle_ms_(settle_ms),
       timeout_ms_(timeout_ms) {}
 
-PresenterProcess::~PresenterProcess() {
-  if (pid_ > 0) {
-    ::kill(pid_, SIGTERM);
-    int status = 0;
-    ::waitpid(pid_, &status, 0);
-  }
-  if (out_fd_ >= 0) ::close(out_fd_);
-  if (err_fd_ >= 0) ::close(err_fd_);
-}
+PresenterProcess::~PresenterProcess() = default;  // the child gets SIGTERM and is reaped (ChildProcess)
 
 void PresenterProcess::Start(size_t first) {
   std::vector<std::string> args = {binary_.string(), "present", "--display", std::to_string(display_)};
   if (windowed_) args.emplace_back("--windowed");
   for (size_t i = first; i < plan_.shots.size(); ++i) args.push_back(plan_.shots[i].pattern_png.string());
-  int out[2], err[2];
-  if (::pipe2(out, O_CLOEXEC) != 0 || ::pipe2(err, O_CLOEXEC) != 0) {
-    throw Error("capture session", "cannot create a pipe to the presenter", "check the process limits");
-  }
-  std::vector<char*> argv;
-  for (std::string& a : args) argv.push_back(a.data());
-  argv.push_back(nullptr);
-  const pid_t pid = ::fork();
-  if (pid < 0) throw Error("capture session", "cannot start the presenter (fork failed)", "");
-  if (pid == 0) {
-    ::dup2(out[1], STDOUT_FILENO);
-    ::dup2(err[1], STDERR_FILENO);
-    ::execv(argv[0], argv.data());
-    ::_exit(127);
-  }
-  ::close(out[1]);
-  ::close(err[1]);
-  pid_ = pid;
-  out_fd_ = out[0];
-  err_fd_ = err[0];
+  child_ = ChildProcess::Start(args);
   first_ = first;
 }
 
@@ -84,7 +55,7 @@ void PresenterProcess::WaitForShown(int k) {
       throw Error("curvecheck present", fmt::format("did not report image {} on screen within {} ms", k, timeout_ms_),
                   "check the display (--display) and that the patterns match its resolution");
     }
-    pollfd fds[2] = {{out_fd_, POLLIN, 0}, {err_fd_, POLLIN, 0}};
+    pollfd fds[2] = {{child_.stdout_fd(), POLLIN, 0}, {child_.stderr_fd(), POLLIN, 0}};
     ::poll(fds, 2, left_ms);
     bool out_closed = false;
     for (int i = 0; i < 2; ++i) {
@@ -100,26 +71,26 @@ void PresenterProcess::WaitForShown(int k) {
     if (out_closed && out_buf_.find('\n') == std::string::npos) {
       // Collect what it said on stderr, then reap it.
       char buf[4096];
-      for (ssize_t n; (n = ::read(err_fd_, buf, sizeof buf)) > 0;) err_buf_.append(buf, static_cast<size_t>(n));
-      int status = 0;
-      ::waitpid(pid_, &status, 0);
-      pid_ = -1;
+      for (ssize_t n; (n = ::read(child_.stderr_fd(), buf, sizeof buf)) > 0;) {
+        err_buf_.append(buf, static_cast<size_t>(n));
+      }
+      const int status = child_.Wait();
       const std::string said = last_err_line();
       throw Error("curvecheck present",
-                  fmt::format("exited (status {}) before showing image {}{}", WIFEXITED(status) ? WEXITSTATUS(status) : -1,
-                              k, said.empty() ? "" : ": " + said),
+                  fmt::format("exited (status {}) before showing image {}{}", status < 128 ? status : -1, k,
+                              said.empty() ? "" : ": " + said),
                   "");
     }
   }
 }
 
 void PresenterProcess::Show(size_t index, const PlannedShot& /*shot*/) {
-  if (pid_ < 0 && shown_ == 0) {
+  if (!child_.running() && shown_ == 0) {
     Start(index);
-  } else if (pid_ < 0 || index != first_ + static_cast<size_t>(shown_)) {
+  } else if (!child_.running() || index != first_ + static_cast<size_t>(shown_)) {
     throw Error("capture session", fmt::format("shot {} shown out of order", index + 1), "");
   } else {
-    ::kill(pid_, SIGUSR1);
+    child_.Signal(SIGUSR1);
   }
   WaitForShown(shown_ + 1);
   ++shown_;

@@ -5,13 +5,12 @@
 // counts as on screen when its line arrives, and the session then waits settle_ms more for the panel.
 #pragma once
 
-#include <sys/types.h>
-
 #include <filesystem>
 #include <string>
 #include <vector>
 
 #include "capture/session.h"
+#include "core/subprocess.h"
 
 namespace curvecheck {
 
@@ -40,8 +39,7 @@ class PresenterProcess {
   int display_;
   bool windowed_;
   int settle_ms_, timeout_ms_;
-  pid_t pid_ = -1;
-  int out_fd_ = -1, err_fd_ = -1;
+  ChildProcess child_;  // `curvecheck present`, stdout and stderr on pipes
   size_t first_ = 0;
   int shown_ = 0;
   std::string out_buf_, err_buf_;

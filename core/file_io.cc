@@ -4,6 +4,7 @@
 #include <unistd.h>
 
 #include <cerrno>
+#include <cstdlib>
 #include <cstring>
 #include <fstream>
 #include <random>
@@ -69,6 +70,20 @@ void WriteFileAtomic(const fs::path& path, std::string_view contents) {
     ::unlink(tmp.c_str());
     throw Error(path.string(), std::string("cannot replace: ") + std::strerror(err), "check the output folder");
   }
+}
+
+TempFolder::TempFolder(const std::string& prefix, const std::string& purpose) {
+  std::string pattern = (fs::temp_directory_path() / (prefix + "_XXXXXX")).string();
+  if (::mkdtemp(pattern.data()) == nullptr) {
+    throw Error(fs::temp_directory_path().string(), "cannot create a temporary folder for " + purpose,
+                "make the temporary folder writable (or set TMPDIR)");
+  }
+  path_ = pattern;
+}
+
+TempFolder::~TempFolder() {
+  std::error_code ec;
+  fs::remove_all(path_, ec);
 }
 
 }  // namespace curvecheck

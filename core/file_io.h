@@ -16,4 +16,18 @@ std::string ReadFileToString(const std::filesystem::path& path);
 // is not writable, or the disk is full; the target is then untouched and no temporary file is left.
 void WriteFileAtomic(const std::filesystem::path& path, std::string_view contents);
 
+// A private temporary folder (mode 0700, under TMPDIR or /tmp, named <prefix>_XXXXXX), removed with everything in
+// it when the object goes. Throws Error if it cannot be created; the message names `purpose` ("gnuplot").
+class TempFolder {
+ public:
+  TempFolder(const std::string& prefix, const std::string& purpose);
+  ~TempFolder();
+  TempFolder(const TempFolder&) = delete;
+  TempFolder& operator=(const TempFolder&) = delete;
+  const std::filesystem::path& path() const { return path_; }
+
+ private:
+  std::filesystem::path path_;
+};
+
 }  // namespace curvecheck

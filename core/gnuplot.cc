@@ -1,15 +1,13 @@
 #include "core/gnuplot.h"
 
-#include <fcntl.h>
 #include <fmt/format.h>
-#include <sys/wait.h>
-#include <unistd.h>
 
 #include <cmath>
 #include <cstdlib>
 
 #include "core/error.h"
 #include "core/file_io.h"
+#include "core/subprocess.h"
 
 namespace curvecheck {
 namespace fs = std::filesystem;
@@ -21,27 +19,6 @@ std::string TerminalLine(ChartFormat format, ChartSize size) {
                        size.width, size.height);
   }
   return fmt::format("set terminal pngcairo size {},{} noenhanced font 'sans,10'\n", size.width, size.height);
-}
-
-// Runs `gnuplot script` in `cwd` with stdout and stderr sent to `log`; returns the exit status (127: not found).
-int RunGnuplotProcess(const fs::path& script, const fs::path& cwd, const fs::path& log) {
-  const pid_t pid = ::fork();
-  if (pid < 0) throw Error("gnuplot", "cannot start a process", "free some memory or processes");
-  if (pid == 0) {
-    const int fd = ::open(log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0600);
-    if (fd >= 0) {
-      ::dup2(fd, 1);
-      ::dup2(fd, 2);
-      ::close(fd);
-    }
-    if (!cwd.empty() && ::chdir(cwd.c_str()) != 0) ::_exit(126);
-    ::execlp("gnuplot", "gnuplot", script.c_str(), static_cast<char*>(nullptr));
-    ::_exit(127);
-  }
-  int status = 0;
-  while (::waitpid(pid, &status, 0) < 0) {
-  }
-  return WIFEXITED(status) ? WEXITSTATUS(status) : 128;
 }
 
 std::string FirstLines(const std::string& text, int n) {
@@ -60,20 +37,6 @@ std::string FirstLines(const std::string& text, int n) {
 
 }  // namespace
 
-ChartDataFolder::ChartDataFolder(const std::string& purpose) {
-  std::string pattern = (fs::temp_directory_path() / "curvecheck_chart_XXXXXX").string();
-  if (::mkdtemp(pattern.data()) == nullptr) {
-    throw Error(fs::temp_directory_path().string(), "cannot create a temporary folder for " + purpose,
-                "make the temporary folder writable (or set TMPDIR)");
-  }
-  path_ = pattern;
-}
-
-ChartDataFolder::~ChartDataFolder() {
-  std::error_code ec;
-  fs::remove_all(path_, ec);
-}
-
 std::string GnuplotString(std::string_view text) {
   std::string out = "\"";
   for (char c : text) {
@@ -86,12 +49,13 @@ std::string GnuplotString(std::string_view text) {
 std::string RenderGnuplot(std::string_view script, ChartFormat format, ChartSize size, const fs::path& working_dir) {
   ChartDataFolder tmp;
   const fs::path image = tmp.path() / (format == ChartFormat::kSvg ? "chart.svg" : "chart.png");
-  const fs::path gp = tmp.path() / "chart.gp", log = tmp.path() / "gnuplot.log";
+  const fs::path gp = tmp.path() / "chart.gp";
   WriteFileAtomic(gp, TerminalLine(format, size) + fmt::format("set output {}\n", GnuplotString(image.string())) +
                           std::string(script) + "\nunset output\n");
-  const int rc = RunGnuplotProcess(gp, working_dir.empty() ? fs::path() : fs::absolute(working_dir), log);
-  std::string messages;
-  if (fs::exists(log)) messages = ReadFileToString(log);
+  const ProcessResult run =
+      RunProcess({"gnuplot", gp.string()}, working_dir.empty() ? fs::path() : fs::absolute(working_dir));
+  const int rc = run.status;
+  const std::string messages = run.stderr_text + run.stdout_text;
   if (rc == 127) throw Error("gnuplot", "the gnuplot program was not found", "install gnuplot-nox (./bootstrap does)");
   if (rc != 0 || !fs::exists(image) || fs::file_size(image) == 0) {
     throw Error("gnuplot", fmt::format("drawing a chart failed (exit {}): {}", rc, FirstLines(messages, 4)),

@@ -11,6 +11,8 @@
 #include <string_view>
 #include <vector>
 
+#include "core/file_io.h"
+
 namespace curvecheck {
 
 enum class ChartFormat { kPng, kSvg };
@@ -39,18 +41,11 @@ std::filesystem::path WriteGnuplotChart(const std::filesystem::path& image, std:
 // dominate.
 std::vector<bool> ParetoFront(const std::vector<double>& cost, const std::vector<double>& error);
 
-// A private temporary folder for a chart's script and data files, removed with everything in it when the object
-// goes. Throws Error if it cannot be created (the message names `purpose`, e.g. "gnuplot").
-class ChartDataFolder {
+// A private temporary folder for a chart's script and data files (curvecheck_chart_XXXXXX), removed with
+// everything in it when the object goes. Throws Error if it cannot be created (the message names `purpose`).
+class ChartDataFolder : public TempFolder {
  public:
-  explicit ChartDataFolder(const std::string& purpose = "gnuplot");
-  ~ChartDataFolder();
-  ChartDataFolder(const ChartDataFolder&) = delete;
-  ChartDataFolder& operator=(const ChartDataFolder&) = delete;
-  const std::filesystem::path& path() const { return path_; }
-
- private:
-  std::filesystem::path path_;
+  explicit ChartDataFolder(const std::string& purpose = "gnuplot") : TempFolder("curvecheck_chart", purpose) {}
 };
 
 // Base64 (RFC 4648, with padding) of `bytes`: for data: URIs in self-contained HTML.

@@ -10,6 +10,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "core/error.h"
+#include "core/image_decode.h"
 #include "core/file_io.h"
 
 namespace curvecheck {
@@ -146,8 +147,7 @@ void CheckImageHeader(std::string_view bytes, const std::string& source) {
   }
 }
 
-Image8 DecodeImage8(std::string_view bytes, const std::string& source) {
-  const std::filesystem::path path(source);
+cv::Mat DecodeImage(std::string_view bytes, const std::string& source) {
   CheckImageHeader(bytes, source);
   const cv::Mat raw(1, static_cast<int>(bytes.size()), CV_8U, const_cast<char*>(bytes.data()));
   cv::Mat img;
@@ -157,9 +157,15 @@ Image8 DecodeImage8(std::string_view bytes, const std::string& source) {
     img = cv::Mat();
   }
   if (img.empty()) {
-    throw Error(path.string(), "is not a readable image (corrupt, truncated or unsupported format)",
+    throw Error(source, "is not a readable image (corrupt, truncated or unsupported format)",
                 "give a PNG or JPEG file");
   }
+  return img;
+}
+
+Image8 DecodeImage8(std::string_view bytes, const std::string& source) {
+  const std::filesystem::path path(source);
+  cv::Mat img = DecodeImage(bytes, source);
   if (img.depth() == CV_16U) img.convertTo(img, CV_8U, 1.0 / 257.0);
   if (img.depth() != CV_8U) throw Error(path.string(), "has an unsupported pixel type", "give an 8 or 16 bit image");
   Image8 out;

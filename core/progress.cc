@@ -19,8 +19,7 @@ Progress::Progress(std::string what, int total, std::ostream& out, std::optional
     : what_(std::move(what)),
       total_(std::max(total, 0)),
       out_(out),
-      tty_(tty.value_or(IsTerminal(out))),
-      start_(std::chrono::steady_clock::now()) {}
+      tty_(tty.value_or(IsTerminal(out))) {}
 
 Progress::~Progress() {
   if (drawn_) out_ << "\n" << std::flush;
@@ -29,7 +28,7 @@ Progress::~Progress() {
 void Progress::Skip(int done) {
   done_ = std::max(done, 0);
   skipped_ = done_;
-  start_ = std::chrono::steady_clock::now();
+  watch_.Restart();
 }
 
 void Progress::Step(const std::string& item) {
@@ -50,7 +49,7 @@ void Progress::Step(const std::string& item) {
   std::string left;
   const int timed = done_ - skipped_;
   if (timed >= 2 && done_ < total_) {
-    const double elapsed_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
+    const double elapsed_s = watch_.Seconds();
     left = fmt::format(" {:.1f} s left", elapsed_s / timed * (total_ - done_));
   }
   // \r returns to the line start; \x1b[K clears what a longer previous line left behind.

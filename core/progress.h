@@ -6,10 +6,11 @@
 // The time left is the mean time per step so far times the steps left (shown from the second step on).
 #pragma once
 
-#include <chrono>
 #include <optional>
 #include <ostream>
 #include <string>
+
+#include "core/stopwatch.h"
 
 namespace curvecheck {
 
@@ -39,7 +40,7 @@ class Progress {
   int done_ = 0;
   int skipped_ = 0;
   bool drawn_ = false;
-  std::chrono::steady_clock::time_point start_;
+  Stopwatch watch_;  // since the first counted step
 };
 
 // True if `out` is std::cout or std::cerr (or clog) and its file descriptor is a terminal.

@@ -101,6 +101,18 @@ int ChildProcess::Wait() {
   return 128;
 }
 
+std::optional<int> ChildProcess::TryWait() {
+  if (pid_ <= 0) return 127;
+  int status = 0;
+  const pid_t r = ::waitpid(pid_, &status, WNOHANG);
+  if (r == 0 || (r < 0 && errno == EINTR)) return std::nullopt;
+  pid_ = -1;
+  if (r < 0) return 127;
+  if (WIFEXITED(status)) return WEXITSTATUS(status);
+  if (WIFSIGNALED(status)) return 128 + WTERMSIG(status);
+  return 128;
+}
+
 std::string ProcessResult::LastLine() const {
   const std::string& text = stderr_text.find_first_not_of(" \n\r\t") != std::string::npos ? stderr_text : stdout_text;
   size_t end = text.find_last_not_of(" \n\r\t");
@@ -116,12 +128,18 @@ ProcessResult RunProcess(const std::vector<std::string>& argv, const std::filesy
   std::string* sinks[2] = {&result.stdout_text, &result.stderr_text};
   int open = 2;
   char buffer[65536];
+  std::optional<int> status;
+  // Until both pipes end, or the program has exited and its pipes are drained: a grandchild that inherited them
+  // (a browser's helper processes) may hold them open after the program itself is gone.
   while (open > 0) {
-    if (::poll(fds, 2, -1) < 0) {
-      if (errno == EINTR) continue;
-      break;
+    const int ready = ::poll(fds, 2, status ? 0 : 100);
+    if (ready < 0 && errno != EINTR) break;
+    if (ready == 0) {
+      if (status) break;  // exited, and nothing more to read
+      status = child.TryWait();
+      continue;
     }
-    for (int i = 0; i < 2; ++i) {
+    for (int i = 0; i < 2 && ready > 0; ++i) {
       if (fds[i].fd < 0 || fds[i].revents == 0) continue;
       const ssize_t n = ::read(fds[i].fd, buffer, sizeof buffer);
       if (n > 0) {
@@ -132,7 +150,7 @@ ProcessResult RunProcess(const std::vector<std::string>& argv, const std::filesy
       }
     }
   }
-  result.status = child.Wait();
+  result.status = status ? *status : child.Wait();
   return result;
 }
 

@@ -9,6 +9,7 @@
 #include <sys/types.h>
 
 #include <filesystem>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -37,6 +38,8 @@ class ChildProcess {
   void Signal(int signal) const;
   // Waits for the child and returns its status (convention above). The pipes stay open until destruction.
   int Wait();
+  // The status if the child has exited (reaping it), else nullopt; does not block.
+  std::optional<int> TryWait();
 
  private:
   void Release();

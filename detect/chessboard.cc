@@ -4,73 +4,59 @@
 
 #include <algorithm>
 #include <atomic>
-#include <cstdlib>
-#include <chrono>
 #include <cmath>
-#include <mrgingham/mrgingham.hh>
-#include <opencv2/calib3d.hpp>
-#include <opencv2/imgcodecs.hpp>
-#include <opencv2/imgproc.hpp>
+#include <opencv2/core.hpp>
+#include <optional>
 #include <thread>
 
 #include "core/error.h"
-#include "core/file_io.h"
-#include "core/image_io.h"
+#include "core/stopwatch.h"
+#include "detect/detect.h"
+#include "detect/detect_board.h"
 
 namespace curvecheck {
 namespace {
 
-double SmallestSpacingPx(const std::vector<cv::Point2f>& c, const BoardSpec& b) {
+using detect_internal::CornerGrid;
+
+double SmallestSpacingPx(const CornerGrid& g) {
   double best = 1e30;
-  for (int r = 0; r < b.corners_y; ++r) {
-    for (int k = 0; k < b.corners_x; ++k) {
-      const cv::Point2f p = c[static_cast<size_t>(r * b.corners_x + k)];
-      if (k + 1 < b.corners_x) best = std::min(best, cv::norm(c[static_cast<size_t>(r * b.corners_x + k + 1)] - p));
-      if (r + 1 < b.corners_y) best = std::min(best, cv::norm(c[static_cast<size_t>((r + 1) * b.corners_x + k)] - p));
+  for (int r = 0; r < g.height; ++r) {
+    for (int k = 0; k < g.width; ++k) {
+      const cv::Point2d p = g.px[static_cast<size_t>(r * g.width + k)];
+      if (k + 1 < g.width) best = std::min(best, cv::norm(g.px[static_cast<size_t>(r * g.width + k + 1)] - p));
+      if (r + 1 < g.height) best = std::min(best, cv::norm(g.px[static_cast<size_t>((r + 1) * g.width + k)] - p));
     }
   }
   return best;
 }
 
+// The shared board detectors of detect_board.h: classic on the reduced copy, then SB on it, then every corner
+// refined at full resolution with one window for the whole board.
 bool DetectOpenCv(const cv::Mat& gray, const BoardSpec& b, const ChessboardOptions& o, ChessboardDetection& d) {
-  const int longest = std::max(gray.cols, gray.rows);
-  const double scale = (o.search_max_px > 0 && longest > o.search_max_px) ? double(o.search_max_px) / longest : 1.0;
-  cv::Mat small = gray;
-  if (scale < 1.0) cv::resize(gray, small, cv::Size(), scale, scale, cv::INTER_AREA);
-  const cv::Size pattern(b.corners_x, b.corners_y);
-  std::vector<cv::Point2f> c;
+  const cv::Size inner(b.corners_x, b.corners_y);
   d.detector = "opencv-classic";
-  bool ok = cv::findChessboardCorners(small, pattern, c, cv::CALIB_CB_ADAPTIVE_THRESH | cv::CALIB_CB_NORMALIZE_IMAGE);
-  if (!ok) {
+  std::optional<CornerGrid> grid = detect_internal::RunOpenCvClassic(gray, inner, o.search_max_px);
+  if (!grid) {
     d.detector = "opencv-sb";
-    ok = cv::findChessboardCornersSB(small, pattern, c, cv::CALIB_CB_EXHAUSTIVE);
+    grid = detect_internal::RunOpenCvSb(gray, inner, /*accuracy=*/false, o.search_max_px);
   }
-  if (!ok || c.size() != static_cast<size_t>(b.corner_count())) return false;
-  // To full resolution: pixel centres at integers in both, so q_full = (q_small + 0.5) / scale - 0.5.
-  for (cv::Point2f& p : c) p = cv::Point2f(float((p.x + 0.5) / scale - 0.5), float((p.y + 0.5) / scale - 0.5));
-  const double spacing = SmallestSpacingPx(c, b);
-  const int half = static_cast<int>(std::clamp(o.subpix_window_fraction * spacing, 2.0, 30.0));
-  const std::vector<cv::Point2f> before = c;
-  cv::cornerSubPix(gray, c, cv::Size(half, half), cv::Size(-1, -1),
-                   cv::TermCriteria(cv::TermCriteria::EPS + cv::TermCriteria::COUNT, 100, 1e-4));
-  for (size_t i = 0; i < c.size(); ++i) {
+  if (!grid) return false;
+  const int half = static_cast<int>(std::clamp(o.subpix_window_fraction * SmallestSpacingPx(*grid), 2.0, 30.0));
+  for (const cv::Point2d& coarse : grid->px) {
+    const cv::Point2d fine = detect_internal::RefineXCorner(gray, 0, coarse, half);
     // A corner that ran more than its window away was pulled off by something else: not a clean detection.
-    if (cv::norm(c[i] - before[i]) > half) return false;
-    d.corners_px.emplace_back(c[i].x, c[i].y);
+    if (cv::norm(fine - coarse) > half) return false;
+    d.corners_px.emplace_back(fine.x, fine.y);
   }
   return true;
 }
 
 bool DetectMrgingham(const cv::Mat& gray, const BoardSpec& b, ChessboardDetection& d) {
   d.detector = "mrgingham";
-  std::vector<mrgingham::PointDouble> pts;
-  // A non-null refinement buffer asks mrgingham to refine every corner (it reallocs it; we free it).
-  signed char* levels = nullptr;
-  const int found = mrgingham::find_chessboard_from_image_array(pts, &levels, b.corners_x, gray);
-  free(levels);
-  if (found < 0) return false;
-  if (pts.size() != static_cast<size_t>(b.corner_count())) return false;
-  for (const auto& p : pts) d.corners_px.emplace_back(p.x, p.y);
+  const std::optional<CornerGrid> grid = detect_internal::RunMrgingham(gray, b.corners_x);
+  if (!grid || grid->px.size() != static_cast<size_t>(b.corner_count())) return false;
+  for (const cv::Point2d& p : grid->px) d.corners_px.emplace_back(p.x, p.y);
   return true;
 }
 
@@ -126,20 +112,16 @@ std::vector<ChessboardDetection> DetectChessboards(const std::vector<std::filesy
   std::atomic<size_t> next{0};
   auto worker = [&] {
     for (size_t i = next++; i < photos.size(); i = next++) {
-      const auto t0 = std::chrono::steady_clock::now();
+      const Stopwatch watch;
       try {
-        // Through core's header check (format, size cap, cut-off files, which libpng/libjpeg would decode
-        // with a warning on stderr).
+        // The photo reader of the feature detection (core's one decoder with its header checks), in 8 bits.
         cv::Mat gray;
-        std::string bytes;
         try {
-          bytes = ReadFileToString(photos[i]);
-          CheckImageHeader(bytes, photos[i].string());
-          gray = cv::imdecode(cv::Mat(1, static_cast<int>(bytes.size()), CV_8U, bytes.data()), cv::IMREAD_GRAYSCALE);
+          gray = ReadPhotoGray(photos[i]);
+          if (gray.depth() == CV_16U) gray.convertTo(gray, CV_8U, 1.0 / 257.0);
         } catch (const Error& e) {
           out[i].problem = e.problem();
         }
-        if (out[i].problem.empty() && gray.empty()) out[i].problem = "cannot be read as an image";
         if (out[i].problem.empty()) {
           out[i] = DetectChessboard(gray, board, options);
         }
@@ -148,7 +130,7 @@ std::vector<ChessboardDetection> DetectChessboards(const std::vector<std::filesy
         out[i].problem = fmt::format("detection failed: {}", e.what());
       }
       out[i].photo = photos[i];
-      out[i].ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+      out[i].ms = watch.Ms();
     }
   };
   const unsigned cores = std::max(1u, std::thread::hardware_concurrency());

@@ -1,12 +1,15 @@
-// Chessboard corner detection for calibration photos.
+// Chessboard corner detection for calibration photos: a plain N x M board (no ids, no pattern.json), on the same
+// detectors as the feature detection of detect.h (detect_board.h).
 //
 // Detectors (ChessboardOptions::detector):
-//   opencv     OpenCV's classic findChessboardCorners on a copy reduced to at most `search_max_px` (falling back
-//              to findChessboardCornersSB there), then cornerSubPix on the full-resolution image. Any NxM board.
-//              This is "auto": dependencies.md measured it at 0.038-0.046 px RMS against exact truth where the
-//              mrgingham library (no preprocessing) gave 0.055-0.166 px, and 17 ms at 24 MP against 725 ms;
-//              calibrate/detect_test.cc re-measures both on a synthetic photo.
-//   mrgingham  the mrgingham library (square NxN boards only), with its own sub-pixel refinement.
+//   opencv     RunOpenCvClassic (findChessboardCorners, global threshold then with histogram equalization) on a
+//              copy reduced by an integer factor to at most `search_max_px`, falling back to RunOpenCvSb
+//              (findChessboardCornersSB) on that copy; then every corner refined at full resolution (RefineXCorner,
+//              cornerSubPix) with one window for the board. Any NxM board. This is "auto": dependencies.md
+//              measured the classic detector with full-resolution refinement at 0.038-0.046 px RMS against exact
+//              truth where the mrgingham library (no preprocessing) gave 0.055-0.166 px, and 17 ms at 24 MP against
+//              725 ms; detect/chessboard_test.cc re-measures both on a synthetic photo.
+//   mrgingham  the mrgingham library (square NxN boards only), with its own sub-pixel refinement (RunMrgingham).
 // Output corners are row-major (corners_x per row), in mrcal's pixel convention (pixel centres at integers).
 // The starting corner may differ between photos (a board rotated by 180 deg, or 90 deg for square boards, or
 // seen mirrored): for a planar grid of equal spacing each of these is a proper pose of the same board, so mrcal

@@ -8,6 +8,7 @@
 #include <iostream>
 
 #include "synth/synthetic_board.h"
+#include "core/stopwatch.h"
 #include "core/test_util.h"
 
 namespace curvecheck {
@@ -41,9 +42,9 @@ TEST(Detect, CornersMatchTheTruthAndAutoIsTheMoreAccurate) {
     ChessboardOptions d;
     d.detector = det == 0 ? "auto" : "mrgingham";
     for (const SyntheticBoardView& v : set.views) {
-      const auto t0 = std::chrono::steady_clock::now();
+      const Stopwatch watch;
       const ChessboardDetection r = DetectChessboard(v.photo, set.board, d);
-      ms[det] += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+      ms[det] += watch.Ms();
       if (!r.found) continue;
       ++found[det];
       for (const Eigen::Vector2d& q : r.corners_px) {

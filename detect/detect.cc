@@ -4,7 +4,6 @@
 
 #include <Eigen/Dense>
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 #include <map>
 #include <numeric>
@@ -17,7 +16,9 @@
 #include "detect/detect_tags.h"
 #include "core/error.h"
 #include "core/file_io.h"
+#include "core/image_decode.h"
 #include "core/image_io.h"
+#include "core/stopwatch.h"
 
 namespace curvecheck {
 namespace {
@@ -512,18 +513,7 @@ cv::Mat ReadPhotoGray(const std::filesystem::path& path) {
   if (starts("\xFF\xD8") && tail.find("\xFF\xD9") == std::string_view::npos) {
     throw Error(path.string(), "is a truncated JPEG (no end-of-image marker)", "copy the photo again");
   }
-  CheckImageHeader(bytes, path.string());  // format and size cap (200 Mpx) before OpenCV allocates anything
-  const cv::Mat raw(1, static_cast<int>(bytes.size()), CV_8U, const_cast<char*>(bytes.data()));
-  cv::Mat img;
-  try {
-    img = cv::imdecode(raw, cv::IMREAD_UNCHANGED);  // keeps 16 bits; ignores EXIF rotation (the sensor's layout)
-  } catch (const cv::Exception&) {
-    img = cv::Mat();
-  }
-  if (img.empty() || img.cols == 0 || img.rows == 0) {
-    throw Error(path.string(), "is not a readable image (corrupt, truncated or unsupported format)",
-                "give a PNG, JPEG or TIFF photo");
-  }
+  cv::Mat img = DecodeImage(bytes, path.string());  // header, size cap (200 Mpx), then OpenCV; keeps 16 bits
   if (img.depth() != CV_8U && img.depth() != CV_16U) {
     throw Error(path.string(), "has an unsupported pixel type (not 8 or 16 bit integers)",
                 "give an 8 or 16 bit photo");
@@ -547,7 +537,7 @@ const char* DetectionFailureName(DetectionFailure failure) {
 }
 
 Detection DetectFeatures(const cv::Mat& photo_gray, const PatternFile& pattern, const DetectOptions& options) {
-  const auto start = std::chrono::steady_clock::now();
+  const Stopwatch watch;
   options.Check("detect options");
   if (photo_gray.empty() || photo_gray.channels() != 1 ||
       (photo_gray.depth() != CV_8U && photo_gray.depth() != CV_16U) || photo_gray.cols < 8 || photo_gray.rows < 8) {
@@ -608,7 +598,7 @@ Detection DetectFeatures(const cv::Mat& photo_gray, const PatternFile& pattern, 
   } else {
     out.features.clear();
   }
-  out.time_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  out.time_ms = watch.Ms();
   return out;
 }
 

@@ -20,9 +20,10 @@ struct CornerGrid {
 
 // mrgingham library on an 8-bit photo: gridn x gridn corners, or nullopt.
 std::optional<CornerGrid> RunMrgingham(const cv::Mat& gray8, int gridn);
-// findChessboardCornersSB at full resolution (+ CALIB_CB_ACCURACY if asked); CALIB_CB_NORMALIZE_IMAGE only if
-// it fails without.
-std::optional<CornerGrid> RunOpenCvSb(const cv::Mat& gray8, cv::Size inner, bool accuracy);
+// findChessboardCornersSB (+ CALIB_CB_ACCURACY if asked); CALIB_CB_NORMALIZE_IMAGE only if it fails without. At
+// full resolution with max_px = 0 (its own sub-pixel corners); else on a copy scaled down by an integer factor to
+// at most max_px on the longer side, the corners mapped to full resolution (coarse: refine them).
+std::optional<CornerGrid> RunOpenCvSb(const cv::Mat& gray8, cv::Size inner, bool accuracy, int max_px = 0);
 // findChessboardCorners on a copy scaled down by an integer factor to at most max_px on the longer side (0 =
 // full resolution); the coarse corners mapped to full resolution (refine them with RefineXCorners).
 std::optional<CornerGrid> RunOpenCvClassic(const cv::Mat& gray8, cv::Size inner, int max_px);

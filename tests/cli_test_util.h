@@ -14,6 +14,8 @@
 #include <string>
 #include <vector>
 
+#include "core/subprocess.h"
+
 namespace curvecheck::testing {
 
 struct CliRun {
@@ -35,19 +37,21 @@ inline std::string Quote(const std::string& s) {
   return q + "'";
 }
 
-// Runs `binary args...`, capturing stdout and stderr through files in `dir`. env: "NAME=value" assignments put
-// before the command through env(1) ("-u NAME" unsets); empty for none.
+// Runs `binary args...` (core/subprocess.h: an argv, no shell), capturing stdout and stderr. env: "NAME=value"
+// words put before the command through env(1) ("-u NAME" unsets); empty for none. `dir` is unused (kept so that
+// the callers name their folder). code: the exit status, 128 + N when killed by signal N.
 inline CliRun RunBinary(const std::string& binary, const std::vector<std::string>& args,
-                        const std::filesystem::path& dir, const std::string& env = "") {
-  std::string cmd = (env.empty() ? "" : "env " + env + " ") + Quote(binary);
-  for (const auto& a : args) cmd += " " + Quote(a);
-  cmd += " >" + Quote((dir / "out").string()) + " 2>" + Quote((dir / "err").string());
-  const int status = std::system(cmd.c_str());
-  CliRun r;
-  r.code = WIFEXITED(status) ? WEXITSTATUS(status) : 128;
-  r.out = Slurp(dir / "out");
-  r.err = Slurp(dir / "err");
-  return r;
+                        const std::filesystem::path& /*dir*/, const std::string& env = "") {
+  std::vector<std::string> argv;
+  if (!env.empty()) {
+    argv.push_back("env");
+    std::istringstream words(env);
+    for (std::string w; words >> w;) argv.push_back(w);
+  }
+  argv.push_back(binary);
+  argv.insert(argv.end(), args.begin(), args.end());
+  ProcessResult p = RunProcess(argv);
+  return CliRun{p.status, std::move(p.stdout_text), std::move(p.stderr_text)};
 }
 
 // Exit 1 with exactly one line on stderr containing every piece.

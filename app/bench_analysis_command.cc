@@ -60,19 +60,19 @@ void AddBenchModels(CLI::App& bench, std::function<int()>& run) {
   cmd->add_option("-o,--output", a->output, "Output folder")->capture_default_str();
   cmd->callback([&run, a] {
     run = [a] {
-      experiments::BenchModelsOptions& o = a->options;
-      if (o.seeds < 1 || o.seeds > 1000)
-        throw Error("--seeds", fmt::format("{} is out of range", o.seeds), "use 1..1000");
-      if (o.grid_cols < 4 || o.grid_rows < 4 || o.grid_cols > 400 || o.grid_rows > 400) {
-        throw Error("--grid", fmt::format("{}x{} is out of range", o.grid_cols, o.grid_rows),
+      experiments::BenchModelsOptions& m = a->options;
+      if (m.seeds < 1 || m.seeds > 1000)
+        throw Error("--seeds", fmt::format("{} is out of range", m.seeds), "use 1..1000");
+      if (m.grid_cols < 4 || m.grid_rows < 4 || m.grid_cols > 400 || m.grid_rows > 400) {
+        throw Error("--grid", fmt::format("{}x{} is out of range", m.grid_cols, m.grid_rows),
                     "use 4..400 per side");
       }
-      if (!(o.noise_px > 0 && o.noise_px < 10))
-        throw Error("--noise", fmt::format("{} px", o.noise_px), "use (0, 10) px");
-      o.scenes = SplitList(a->scenes);
-      if (o.scenes.empty()) throw Error("--scenes", "no scene named", "e.g. --scenes default,bulge-2mm");
+      if (!(m.noise_px > 0 && m.noise_px < 10))
+        throw Error("--noise", fmt::format("{} px", m.noise_px), "use (0, 10) px");
+      m.scenes = SplitList(a->scenes);
+      if (m.scenes.empty()) throw Error("--scenes", "no scene named", "e.g. --scenes default,bulge-2mm");
       CreateBenchFolder(a->output);
-      experiments::RunBenchModels(o, a->output, std::cout);
+      experiments::RunBenchModels(m, a->output, std::cout);
       return 0;
     };
   });

@@ -1,7 +1,6 @@
 // `curvecheck bench fit`, `bench models` and `bench analyze`: the screen fit and the whole analysis on
 // synthetic truth. Each parses and validates its options and calls its bench in experiments/ (bench_fit.h,
 // bench_models.h, bench_analyze.h).
-#include <fmt/format.h>
 
 #include <filesystem>
 #include <iostream>
@@ -10,7 +9,6 @@
 #include "app/bench_command.h"
 #include "app/cli.h"
 #include "app/output_paths.h"
-#include "core/error.h"
 #include "experiments/bench_analyze.h"
 #include "experiments/bench_fit.h"
 #include "experiments/bench_models.h"
@@ -60,19 +58,10 @@ void AddBenchModels(CLI::App& bench, std::function<int()>& run) {
   cmd->add_option("-o,--output", a->output, "Output folder")->capture_default_str();
   cmd->callback([&run, a] {
     run = [a] {
-      experiments::BenchModelsOptions& m = a->options;
-      if (m.seeds < 1 || m.seeds > 1000)
-        throw Error("--seeds", fmt::format("{} is out of range", m.seeds), "use 1..1000");
-      if (m.grid_cols < 4 || m.grid_rows < 4 || m.grid_cols > 400 || m.grid_rows > 400) {
-        throw Error("--grid", fmt::format("{}x{} is out of range", m.grid_cols, m.grid_rows),
-                    "use 4..400 per side");
-      }
-      if (!(m.noise_px > 0 && m.noise_px < 10))
-        throw Error("--noise", fmt::format("{} px", m.noise_px), "use (0, 10) px");
-      m.scenes = SplitList(a->scenes);
-      if (m.scenes.empty()) throw Error("--scenes", "no scene named", "e.g. --scenes default,bulge-2mm");
+      a->options.scenes = SplitList(a->scenes);
+      a->options.Check();
       CreateBenchFolder(a->output);
-      experiments::RunBenchModels(m, a->output, std::cout);
+      experiments::RunBenchModels(a->options, a->output, std::cout);
       return 0;
     };
   });
@@ -97,9 +86,7 @@ void AddBenchAnalyze(CLI::App& bench, std::function<int()>& run) {
   cmd->add_option("-o,--output", a->output, "Output folder")->capture_default_str();
   cmd->callback([&run, a] {
     run = [a] {
-      const int seeds = a->options.seeds;
-      if (seeds < 2)
-        throw Error("--seeds", fmt::format("is {}; at least 2 are needed for a spread", seeds), "");
+      a->options.Check();
       PrepareOutputDir(a->output, "-o");
       return experiments::RunBenchAnalyze(a->options, a->output, std::cout) ? 0 : 1;
     };

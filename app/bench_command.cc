@@ -3,8 +3,6 @@
 // app/bench_analysis_command.cc).
 #include "app/bench_command.h"
 
-#include <fmt/format.h>
-
 #include <algorithm>
 #include <filesystem>
 #include <iostream>
@@ -20,11 +18,6 @@
 namespace curvecheck::app {
 namespace {
 namespace fs = std::filesystem;
-
-void CheckRuns(int runs, int most) {
-  if (runs < 1 || runs > most)
-    throw Error("--runs", fmt::format("{} is out of range", runs), fmt::format("use 1..{}", most));
-}
 
 struct BenchRenderArgs {
   SceneArgs scene;
@@ -44,7 +37,7 @@ void AddBenchRender(CLI::App& bench, std::function<int()>& run) {
   cmd->add_flag("--quick", a->options.quick, "A reduced set of settings (for smoke tests)");
   cmd->callback([&run, a] {
     run = [a] {
-      CheckRuns(a->options.runs, 100);
+      a->options.Check();
       const Scene scene = ResolveScene(a->scene, Eigen::Vector3d(0, 0, 1000));
       CreateBenchFolder(a->output);
       experiments::RunBenchRender(scene.monitor, scene.viewpoint_in_screen, scene.spec, a->options, a->output,
@@ -67,11 +60,7 @@ void AddBenchCapture(CLI::App& bench, std::function<int()>& run) {
   cmd->add_option("-o,--output", o->output, "CSV of every run (optional)");
   cmd->callback([&run, o] {
     run = [o] {
-      CheckRuns(o->runs, 100);
-      if (!fs::exists(o->scene)) {
-        throw Error("--scene", fmt::format("'{}' does not exist", o->scene),
-                    "give a scene YAML, e.g. --scene datasets/scenes/default.yaml from the repository root");
-      }
+      o->Check();
       experiments::RunBenchCapture(*o, std::cout);
       return 0;
     };
@@ -96,11 +85,7 @@ void AddBenchDetect(CLI::App& bench, std::function<int()>& run) {
                 "Display pixels uniform (fill factor 1, no RGB stripes) and 4x4 supersampling: no moire");
   cmd->callback([&run, a] {
     run = [a] {
-      CheckRuns(a->options.runs, 100);
-      if (!fs::exists(a->options.scene)) {
-        throw Error("--scene", fmt::format("'{}' does not exist", a->options.scene),
-                    "give a scene file (datasets/scenes/*.yaml) or run from the repository root");
-      }
+      a->options.Check();
       CreateBenchFolder(a->output);
       experiments::RunBenchDetect(a->options, a->output, std::cout);
       return 0;
@@ -131,10 +116,7 @@ void AddBenchCalibrate(CLI::App& bench, std::function<int()>& run) {
       a->options.splined_nx = {8};
     }
     run = [a] {
-      CheckRuns(a->options.runs, 50);
-      const int views = a->options.views;
-      if (views < 6 || views > 200)
-        throw Error("--views", fmt::format("{} is out of range", views), "use 6..200");
+      a->options.Check();
       CreateBenchFolder(a->output);
       experiments::RunBenchCalibrate(a->options, a->output, std::cout);
       return 0;

@@ -9,7 +9,6 @@
 #include <memory>
 #include <tuple>
 
-#include "analysis/pipeline.h"
 #include "app/cli.h"
 #include "app/output_paths.h"
 #include "core/error.h"
@@ -77,17 +76,8 @@ int RunSweep(const SweepArgs& a) {
   }
   if (o.methods.empty())
     throw Error("--method", "no method given", "give exact, none, strips, warp, mesh or all");
-  if (!(a.scale > 0 && a.scale <= 1))
-    throw Error("--scale", fmt::format("is {}", a.scale), "give 0 < scale <= 1");
-  if (a.jobs < 1 || a.jobs > 256)
-    throw Error("--jobs", fmt::format("is {}", a.jobs), "give 1 to 256 workers");
-  if (!(a.tolerance > 0)) throw Error("--tolerance", "must be positive", "give display px, e.g. 0.5");
-  if (a.seed < 0) throw Error("--seed", "must be 0 or more", "");
   std::tie(o.shard_index, o.shard_count) = ParseShard(a.shard);
   o.models = SplitList(a.models);
-  AnalyzeOptions analyze;
-  analyze.fit.models = o.models;
-  analyze.Check("--models");
   o.scene = a.scene;
   o.camera_scale = a.scale;
   o.jobs = a.jobs;
@@ -96,6 +86,7 @@ int RunSweep(const SweepArgs& a) {
   o.rows = a.rows;
   o.tolerance_display_px = a.tolerance;
   o.command_line = CommandLine();
+  o.Check();
 
   const fs::path out = a.output;
   std::vector<fs::path> inputs;

@@ -6,6 +6,7 @@
 #include <map>
 
 #include "analysis/screen_fit_test_util.h"
+#include "core/error.h"
 #include "core/file_io.h"
 #include "core/screen_geometry.h"
 #include "core/stats.h"
@@ -33,7 +34,12 @@ struct SeedTrial {
 
 }  // namespace
 
+void BenchAnalyzeOptions::Check() const {
+  if (seeds < 2) throw Error("--seeds", fmt::format("is {}; at least 2 are needed for a spread", seeds), "");
+}
+
 bool RunBenchAnalyze(const BenchAnalyzeOptions& a, const fs::path& out, std::ostream& log) {
+  a.Check();
   SyntheticScene scene = FindScene(a.scene, "--scene");
   const std::string scene_source = SceneSource(a.scene);
   const Monitor& m = scene.monitor;

@@ -20,6 +20,9 @@ struct BenchAnalyzeOptions {
   std::string scene = "default";  // scene file, or the name of an embedded scene (scene_lookup.h)
   int seeds = 20;                 // photos (noise seeds 1..seeds); at least 2 for a spread
   int cols = 32, rows = 9;        // checkerboard squares
+
+  // Throws Error naming --seeds for fewer than 2 seeds.
+  void Check() const;
 };
 
 // Runs the bench into `out` (an existing folder: pattern.json, analyze_bench.csv, analyze_bench.txt),

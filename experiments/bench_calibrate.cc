@@ -67,7 +67,13 @@ plot \
 
 }  // namespace
 
+void BenchCalibrateOptions::Check() const {
+  CheckCount(runs, 1, 50, "--runs");
+  CheckCount(views, 6, 200, "--views");
+}
+
 void RunBenchCalibrate(const BenchCalibrateOptions& a, const fs::path& dir, std::ostream& log) {
+  a.Check();
   SyntheticBoardOptions o;
   o.camera = StrongOpencv8Lens();
   o.views = a.views;

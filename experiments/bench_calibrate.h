@@ -24,6 +24,9 @@ struct BenchCalibrateOptions {
   uint64_t seed = 7;                          // seed of the set's poses and noise
   std::vector<int> splined_nx = {8, 12, 16};  // knot counts across of the splined models
   bool quick = false;  // recorded in the CSV's command line (the caller reduced views, knots)
+
+  // Throws Error naming the option for runs outside 1..50 or views outside 6..200.
+  void Check() const;
 };
 
 // Runs the bench, prints its table to `log`, and writes calibrate_bench.csv, calibrate_bench.png and its .gp

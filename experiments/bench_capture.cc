@@ -3,9 +3,11 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <filesystem>
 #include <tuple>
 #include <vector>
 
+#include "core/error.h"
 #include "core/file_io.h"
 #include "core/image_io.h"
 #include "core/stats.h"
@@ -26,7 +28,16 @@ Spread Summarize(const std::vector<double>& v) {
 
 }  // namespace
 
+void BenchCaptureOptions::Check() const {
+  CheckCount(runs, 1, 100, "--runs");
+  if (!std::filesystem::exists(scene)) {
+    throw Error("--scene", fmt::format("'{}' does not exist", scene),
+                "give a scene YAML, e.g. --scene datasets/scenes/default.yaml from the repository root");
+  }
+}
+
 void RunBenchCapture(const BenchCaptureOptions& a, std::ostream& log) {
+  a.Check();
   const SyntheticScene scene = LoadScene(a.scene);
   Image8 display;
   std::string display_source = a.display;

@@ -12,10 +12,13 @@ namespace curvecheck::experiments {
 
 struct BenchCaptureOptions {
   std::string scene = "datasets/scenes/default.yaml";  // scene file
-  std::string
-      display;   // display image (PNG at the monitor's resolution); empty: the default checkerboard rendered
-  int runs = 5;  // timed runs after the first (median reported)
-  std::string output;  // CSV of every run; empty: none
+  // Display image (PNG at the monitor's resolution); empty: the default checkerboard rendered for the camera.
+  std::string display;
+  int runs = 5;         // timed runs after the first (median reported)
+  std::string output;   // CSV of every run; empty: none
+
+  // Throws Error naming the option for runs outside 1..100 or a scene file that does not exist.
+  void Check() const;
 };
 
 // Runs the bench and prints its tables to `log` (and writes the CSV). Throws Error for a bad scene or display

@@ -78,7 +78,16 @@ struct Case {
 
 }  // namespace
 
+void BenchDetectOptions::Check() const {
+  CheckCount(runs, 1, 100, "--runs");
+  if (!fs::exists(scene)) {
+    throw Error("--scene", fmt::format("'{}' does not exist", scene),
+                "give a scene file (datasets/scenes/*.yaml) or run from the repository root");
+  }
+}
+
 void RunBenchDetect(const BenchDetectOptions& a, const fs::path& dir, std::ostream& log) {
+  a.Check();
   SyntheticScene scene = LoadScene(a.scene);
   if (a.uniform_display) {  // as the detect tests: no screen-door grid, finer supersampling
     scene.display.fill_factor = 1;

@@ -18,6 +18,9 @@ struct BenchDetectOptions {
   int runs = 3;                                           // timed runs per detector (median reported)
   std::string patterns = "checkerboard,square,apriltag";  // which patterns to photograph
   bool uniform_display = false;  // display pixels uniform (fill factor 1, no RGB stripes), 4x4 supersampling
+
+  // Throws Error naming the option for runs outside 1..100 or a scene file that does not exist.
+  void Check() const;
 };
 
 // Runs the bench, prints its table and the Pareto front to `log`, and writes detect_bench.csv,

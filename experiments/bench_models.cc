@@ -101,7 +101,17 @@ unset multiplot
 
 }  // namespace
 
+void BenchModelsOptions::Check() const {
+  CheckCount(seeds, 1, 1000, "--seeds");
+  if (grid_cols < 4 || grid_rows < 4 || grid_cols > 400 || grid_rows > 400) {
+    throw Error("--grid", fmt::format("{}x{} is out of range", grid_cols, grid_rows), "use 4..400 per side");
+  }
+  if (!(noise_px > 0 && noise_px < 10)) throw Error("--noise", fmt::format("{} px", noise_px), "use (0, 10) px");
+  if (scenes.empty()) throw Error("--scenes", "no scene named", "e.g. --scenes default,bulge-2mm");
+}
+
 void RunBenchModels(const BenchModelsOptions& a, const fs::path& dir, std::ostream& log) {
+  a.Check();
   const std::string machine = DescribeMachine();
   log << fmt::format("bench models: {}; {}x{} features, noise {} px per coordinate, {} seeds per case\n",
                      machine, a.grid_cols, a.grid_rows, a.noise_px, a.seeds);

@@ -124,9 +124,12 @@ plot \
 
 }  // namespace
 
+void BenchRenderOptions::Check() const { CheckCount(runs, 1, 100, "--runs"); }
+
 void RunBenchRender(const Monitor& monitor, const Eigen::Vector3d& viewpoint_in_screen,
                     const PatternSpec& spec, const BenchRenderOptions& a, const fs::path& dir,
                     std::ostream& log) {
+  a.Check();
   const Pattern pattern = BuildPattern(spec, monitor, viewpoint_in_screen, TangentPlaneAtCentre(monitor));
 
   Renderer renderer;

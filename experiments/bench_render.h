@@ -16,6 +16,9 @@ namespace curvecheck::experiments {
 struct BenchRenderOptions {
   int runs = 5;        // timed runs per setting (median reported), after one warm-up
   bool quick = false;  // a reduced set of settings (smoke tests)
+
+  // Throws Error naming --runs when runs is outside 1..100.
+  void Check() const;
 };
 
 // Benchmarks every setting on `monitor` from `viewpoint_in_screen` with a pattern of `spec`; writes

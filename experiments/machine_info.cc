@@ -7,6 +7,8 @@
 #include <fstream>
 #include <thread>
 
+#include "core/error.h"
+
 namespace curvecheck::experiments {
 
 std::string DescribeMachine() {
@@ -21,6 +23,12 @@ std::string DescribeMachine() {
   const auto now = std::chrono::system_clock::to_time_t(std::chrono::system_clock::now());
   return fmt::format("{}, {} cores, build {}, {:%Y-%m-%d %H:%M} UTC", cpu, std::thread::hardware_concurrency(),
                      CURVECHECK_BUILD_TYPE, fmt::gmtime(now));
+}
+
+void CheckCount(int64_t value, int64_t lo, int64_t hi, const char* option) {
+  if (value < lo || value > hi) {
+    throw Error(option, fmt::format("{} is out of range", value), fmt::format("use {}..{}", lo, hi));
+  }
 }
 
 }  // namespace curvecheck::experiments

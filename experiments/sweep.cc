@@ -289,12 +289,28 @@ void WriteOutputs(const fs::path& out, SweepTable& table, nlohmann::json meta, c
 
 }  // namespace
 
+void SweepOptions::Check() const {
+  if (!(camera_scale > 0 && camera_scale <= 1)) {
+    throw Error("--scale", fmt::format("is {}", camera_scale), "give 0 < scale <= 1");
+  }
+  if (jobs < 1 || jobs > 256) throw Error("--jobs", fmt::format("is {}", jobs), "give 1 to 256 workers");
+  if (!(tolerance_display_px > 0)) throw Error("--tolerance", "must be positive", "give display px, e.g. 0.5");
+  if (seed < 0) throw Error("--seed", "must be 0 or more", "");
+  if (shard_count < 1 || shard_index < 1 || shard_index > shard_count) {
+    throw Error("--shard", fmt::format("{}/{} is not i/n with 1 <= i <= n", shard_index, shard_count),
+                "write e.g. --shard 2/4");
+  }
+  AnalyzeOptions analyze;
+  analyze.fit.models = models;
+  analyze.Check("--models");
+}
+
 void RunSweep(const SweepOptions& o, const fs::path& out, std::ostream& log) {
+  o.Check();
   auto sw = std::make_unique<Sweep>();
   sw->options = o;
   sw->analyze.fit.models = o.models;
   sw->analyze.verify.tolerance_display_px = o.tolerance_display_px;
-  sw->analyze.Check("--models");
   sw->base = FindScene(o.scene, "--scene");
   sw->base.camera = ScaledCamera(sw->base.camera, o.camera_scale);
   sw->scratch = out / fmt::format(".sweep-scratch-{}", o.shard_index);

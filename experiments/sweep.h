@@ -36,7 +36,10 @@ struct SweepOptions {
   int cols = 32, rows = 9;            // checkerboard squares (unless square_px varies them)
   double tolerance_display_px = 0.5;  // verification tolerance (p95)
   std::string command_line;           // provenance in sweep.json and sweep.txt
-  std::string machine;                // provenance (DescribeMachine())
+
+  // Throws Error naming the option for a camera scale outside (0, 1], jobs outside 1..256, a tolerance that is
+  // not positive, a negative seed, a shard outside 1..shard_count, or unknown screen models.
+  void Check() const;
 };
 
 // Runs this shard of the sweep and writes sweep.csv, sweep.json, sweep.txt and the charts

@@ -10,6 +10,7 @@
 #include <thread>
 
 #include "core/error.h"
+#include "core/file_io.h"
 #include "core/stopwatch.h"
 #include "detect/detect.h"
 #include "detect/detect_board.h"
@@ -114,10 +115,10 @@ std::vector<ChessboardDetection> DetectChessboards(const std::vector<std::filesy
     for (size_t i = next++; i < photos.size(); i = next++) {
       const Stopwatch watch;
       try {
-        // The photo reader of the feature detection (core's one decoder with its header checks), in 8 bits.
+        // Core's one decoder with its header checks (format, size cap, cut-off files), as gray, in 8 bits.
         cv::Mat gray;
         try {
-          gray = ReadPhotoGray(photos[i]);
+          gray = DecodePhotoGray(ReadFileToString(photos[i]), photos[i].string());
           if (gray.depth() == CV_16U) gray.convertTo(gray, CV_8U, 1.0 / 257.0);
         } catch (const Error& e) {
           out[i].problem = e.problem();

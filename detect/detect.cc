@@ -502,6 +502,21 @@ void DetectOptions::Check(const std::string& where) const {
   range("border_px", border_px, 0, 1e6, "use a non-negative number of px, e.g. 4");
 }
 
+cv::Mat DecodePhotoGray(std::string_view bytes, const std::string& source) {
+  const std::filesystem::path path(source);
+  cv::Mat img = DecodeImage(bytes, source);  // header, size cap (200 Mpx), then OpenCV; keeps 16 bits
+  if (img.depth() != CV_8U && img.depth() != CV_16U) {
+    throw Error(path.string(), "has an unsupported pixel type (not 8 or 16 bit integers)",
+                "give an 8 or 16 bit photo");
+  }
+  if (img.channels() == 3) cv::cvtColor(img, img, cv::COLOR_BGR2GRAY);
+  if (img.channels() == 4) cv::cvtColor(img, img, cv::COLOR_BGRA2GRAY);
+  if (img.channels() != 1) {
+    throw Error(path.string(), fmt::format("has {} channels", img.channels()), "give a gray or colour photo");
+  }
+  return img;
+}
+
 cv::Mat ReadPhotoGray(const std::filesystem::path& path) {
   const std::string bytes = ReadFileToString(path);
   if (bytes.empty()) throw Error(path.string(), "is empty (0 bytes)", "give a photo (PNG, JPEG, TIFF)");
@@ -513,17 +528,7 @@ cv::Mat ReadPhotoGray(const std::filesystem::path& path) {
   if (starts("\xFF\xD8") && tail.find("\xFF\xD9") == std::string_view::npos) {
     throw Error(path.string(), "is a truncated JPEG (no end-of-image marker)", "copy the photo again");
   }
-  cv::Mat img = DecodeImage(bytes, path.string());  // header, size cap (200 Mpx), then OpenCV; keeps 16 bits
-  if (img.depth() != CV_8U && img.depth() != CV_16U) {
-    throw Error(path.string(), "has an unsupported pixel type (not 8 or 16 bit integers)",
-                "give an 8 or 16 bit photo");
-  }
-  if (img.channels() == 3) cv::cvtColor(img, img, cv::COLOR_BGR2GRAY);
-  if (img.channels() == 4) cv::cvtColor(img, img, cv::COLOR_BGRA2GRAY);
-  if (img.channels() != 1) {
-    throw Error(path.string(), fmt::format("has {} channels", img.channels()), "give a gray or colour photo");
-  }
-  return img;
+  return DecodePhotoGray(bytes, path.string());
 }
 
 const char* DetectionFailureName(DetectionFailure failure) {

@@ -44,6 +44,7 @@
 #include <filesystem>
 #include <opencv2/core.hpp>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "pattern/pattern_json.h"
@@ -125,6 +126,9 @@ struct Detection {
 // with OpenCV's luma weights. Throws Error(file, problem, fix) on missing, unreadable, truncated (PNG and JPEG
 // end markers are checked) or empty images and on other pixel types.
 cv::Mat ReadPhotoGray(const std::filesystem::path& path);
+// The same from the bytes of a photo file (`source` names it in errors), with core's header checks and wording
+// (DecodeImage) but without ReadPhotoGray's own truncation messages.
+cv::Mat DecodePhotoGray(std::string_view bytes, const std::string& source);
 
 // Detects the pattern of pattern.json in a photo (CV_8U or CV_16U, one channel). Never throws for a photo
 // without the pattern or with a different one: it returns `failure` instead. Throws Error for invalid

@@ -4,7 +4,6 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
-#include <chrono>
 #include <cmath>
 #include <cstdlib>
 #include <iostream>
@@ -12,6 +11,7 @@
 #include <memory>
 
 #include "core/correction.h"
+#include "core/stopwatch.h"
 #include "core/test_util.h"
 
 // What these tests prove: the CPU reference is precise (n = 32 against n = 64 area samples per axis), the
@@ -194,12 +194,12 @@ class PlacementBiasTest : public ::testing::Test {
   static std::vector<PlacementBiasSummary> Measure(const View& v, const std::vector<RenderOptions>& options) {
     auto it = references_.find(v.name);
     if (it == references_.end()) {
-      const auto t0 = std::chrono::steady_clock::now();
+      const Stopwatch watch;
       Pattern pattern = BuildPattern(v.spec, v.monitor, v.viewpoint, TangentPlaneAtCentre(v.monitor));
       std::vector<ReferenceCrop> crops =
           RenderReferenceCrops(v.monitor, v.viewpoint, WithFeatureSubset(pattern, 20));
       std::cout << fmt::format("  {:34} reference crops: {:.1f} s\n", v.name,
-                               std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+                               watch.Seconds());
       it = references_.emplace(v.name, std::pair(std::move(pattern), std::move(crops))).first;
     }
     const auto& [pattern, crops] = it->second;

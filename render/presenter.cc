@@ -5,22 +5,22 @@
 #include "render/presenter.h"
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 #include <unistd.h>
 
 #include <array>
 #include <atomic>
-#include <chrono>
 #include <csignal>
 #include <cstdio>
-#include <cstdlib>
-#include <cstring>
 #include <deque>
 #include <opencv2/core.hpp>
-#include <opencv2/imgcodecs.hpp>
 #include <vulkan/vulkan_raii.hpp>
 
 #include "core/error.h"
 #include "core/file_io.h"
+#include "core/image_decode.h"
+#include "core/stopwatch.h"
+#include "render/presentation.h"
 #include "render/vulkan_error.h"
 #define GLFW_INCLUDE_NONE
 #include <GLFW/glfw3.h>
@@ -36,9 +36,7 @@ namespace curvecheck {
 namespace {
 
 namespace fs = std::filesystem;
-using Clock = std::chrono::steady_clock;
 
-constexpr uint64_t kVulkanTimeoutNs = 10'000'000'000;  // a present or copy that takes longer is an error
 constexpr double kPollSeconds = 0.01;                  // event wait granularity (signals are polled)
 constexpr double kWindowSettleSeconds = 2.0;           // time a window manager gets to place the window
 
@@ -87,8 +85,9 @@ class SignalScope {
 // ---------------------------------------------------------------------------------------------------------------
 // Images.
 
-// libpng (inside OpenCV) prints its errors to stderr; they are captured so that the one-line Error carries them
-// and nothing else reaches the terminal. Redirects the process-wide stderr for its lifetime.
+// libpng (inside OpenCV, behind core/image_decode.h) prints its errors to stderr; they are captured so that the
+// one-line Error carries them and nothing else reaches the terminal. Redirects the process-wide stderr for its
+// lifetime.
 class StderrCapture {
  public:
   StderrCapture() {
@@ -145,29 +144,25 @@ struct LoadedImage {
   cv::Mat pixels;  // CV_8UC1 (gray), CV_8UC3 (BGR) or CV_8UC4 (BGRA), as decoded
 };
 
+// Decodes with the project's one decoder (core/image_decode.h: the header and the size cap are checked before
+// OpenCV decodes), which keeps the stored bit depth so that 16-bit images are refused, not scaled.
 LoadedImage LoadImage(const fs::path& path) {
   const std::string bytes = ReadFileToString(path);
   const std::string fix = "the presenter shows 8-bit PNG images (gray, RGB or RGBA); re-render or re-export it";
   if (bytes.empty()) throw Error(path.string(), "the file is empty", fix);
   cv::Mat decoded;
-  std::string messages;
+  std::string problem;
   {
     StderrCapture capture;
     try {
-      const cv::Mat encoded(1, static_cast<int>(bytes.size()), CV_8U, const_cast<char*>(bytes.data()));
-      decoded = cv::imdecode(encoded, cv::IMREAD_UNCHANGED);
-    } catch (const cv::Exception& e) {
-      messages = e.err;
+      decoded = DecodeImage(bytes, path.string());
+    } catch (const Error& e) {
+      problem = "the file " + e.problem();
     }
     const std::string printed = capture.Finish();
-    if (!printed.empty()) messages += (messages.empty() ? "" : "; ") + printed;
+    if (!printed.empty()) problem += (problem.empty() ? "" : "; ") + printed;
   }
-  if (decoded.empty()) {
-    throw Error(path.string(),
-                "cannot decode the image: corrupt, truncated or not an image" +
-                    (messages.empty() ? std::string() : " (" + messages + ")"),
-                fix);
-  }
+  if (decoded.empty()) throw Error(path.string(), "cannot decode the image: " + problem, fix);
   if (decoded.depth() != CV_8U) {
     throw Error(path.string(), fmt::format("the image has {}-bit samples", decoded.elemSize1() * 8),
                 "the presenter shows 8-bit code values unchanged; write the pattern as an 8-bit PNG");
@@ -273,312 +268,31 @@ struct WindowDeleter {
 using WindowPtr = std::unique_ptr<GLFWwindow, WindowDeleter>;
 
 // ---------------------------------------------------------------------------------------------------------------
-// Vulkan.
+// GLFW's side of the Vulkan presentation (render/presentation.h).
 
-std::string Join(const std::vector<std::string>& parts) {
-  std::string out;
-  for (const std::string& p : parts) out += (out.empty() ? "" : ", ") + p;
-  return out;
-}
-
-struct Presentation {
-  vk::raii::Context context;
-  vk::raii::Instance instance{nullptr};
-  vk::raii::SurfaceKHR surface{nullptr};
-  vk::raii::PhysicalDevice physical{nullptr};
-  std::string device_name;
-  uint32_t queue_family = 0;
-  vk::raii::Device device{nullptr};
-  vk::raii::Queue queue{nullptr};
-  vk::SurfaceFormatKHR format;
-  vk::raii::SwapchainKHR swapchain{nullptr};
-  std::vector<vk::Image> swapchain_images;
-  std::vector<vk::raii::Semaphore> copied;  // per swapchain image: the copy is done, present may read
-  vk::raii::Semaphore acquired{nullptr};
-  vk::raii::Fence copy_done{nullptr};
-  vk::raii::CommandPool pool{nullptr};
-  vk::raii::CommandBuffer cmd{nullptr};
-  vk::raii::Buffer staging{nullptr};
-  vk::raii::DeviceMemory staging_memory{nullptr};
-  uint8_t* staging_bytes = nullptr;
-  uint32_t width = 0, height = 0;
-
-  Presentation(GLFWwindow* window, uint32_t image_width, uint32_t image_height);
-  ~Presentation();
-  Presentation(const Presentation&) = delete;
-  Presentation& operator=(const Presentation&) = delete;
-
-  bool bgra() const { return format.format == vk::Format::eB8G8R8A8Unorm; }
-  void CheckSurfaceExtent() const;
-  void CreateSwapchain();
-  // Copies the staging buffer to the screen; returns when the present has returned and the queue is idle.
-  void Present();
-};
-
-Presentation::Presentation(GLFWwindow* window, uint32_t image_width, uint32_t image_height)
-    : width(image_width), height(image_height) {
-  uint32_t extension_count = 0;
-  const char** extensions = glfwGetRequiredInstanceExtensions(&extension_count);
+// The instance extensions GLFW's surfaces need.
+std::vector<const char*> SurfaceExtensions() {
+  uint32_t count = 0;
+  const char** extensions = glfwGetRequiredInstanceExtensions(&count);
   if (!extensions) {
     throw Error("Vulkan", "the Vulkan loader has no window-system surface support (" + GlfwLastError() + ")",
                 "install libvulkan1 and a driver with window-system support (mesa-vulkan-drivers for lavapipe)");
   }
-  const vk::ApplicationInfo app("curvecheck present", 1, "curvecheck", 1, VK_API_VERSION_1_1);
-  instance = vk::raii::Instance(context, vk::InstanceCreateInfo({}, &app, 0, nullptr, extension_count, extensions));
-
-  VkSurfaceKHR raw_surface = VK_NULL_HANDLE;
-  const VkResult surface_result = glfwCreateWindowSurface(*instance, window, nullptr, &raw_surface);
-  if (surface_result != VK_SUCCESS) {
-    throw Error("Vulkan",
-                fmt::format("cannot create a Vulkan surface for the window ({}; {})",
-                            vk::to_string(static_cast<vk::Result>(surface_result)), GlfwLastError()),
-                "install a Vulkan driver with window-system support (mesa-vulkan-drivers for lavapipe)");
-  }
-  surface = vk::raii::SurfaceKHR(instance, raw_surface);
-
-  // Device: one that can present to this surface and has VK_KHR_swapchain; discrete GPU first.
-  // CURVECHECK_VULKAN_DEVICE (a substring of the device name) restricts the choice, as for the renderer.
-  const char* wanted = std::getenv("CURVECHECK_VULKAN_DEVICE");
-  vk::raii::PhysicalDevices devices(instance);
-  int best = -1, best_score = -1;
-  uint32_t best_family = 0;
-  std::vector<std::string> rejected;
-  for (size_t i = 0; i < devices.size(); ++i) {
-    const vk::PhysicalDeviceProperties props = devices[i].getProperties();
-    const std::string name = props.deviceName.data();
-    if (wanted && name.find(wanted) == std::string::npos) {
-      rejected.push_back(name + ": not CURVECHECK_VULKAN_DEVICE");
-      continue;
-    }
-    bool has_swapchain = false;
-    for (const vk::ExtensionProperties& e : devices[i].enumerateDeviceExtensionProperties()) {
-      has_swapchain = has_swapchain || std::strcmp(e.extensionName.data(), VK_KHR_SWAPCHAIN_EXTENSION_NAME) == 0;
-    }
-    if (!has_swapchain) {
-      rejected.push_back(name + ": no VK_KHR_swapchain");
-      continue;
-    }
-    const auto families = devices[i].getQueueFamilyProperties();
-    const vk::QueueFlags copy_capable =
-        vk::QueueFlagBits::eGraphics | vk::QueueFlagBits::eCompute | vk::QueueFlagBits::eTransfer;
-    int family = -1;
-    for (uint32_t f = 0; f < families.size() && family < 0; ++f) {
-      if ((families[f].queueFlags & copy_capable) && devices[i].getSurfaceSupportKHR(f, *surface)) {
-        family = static_cast<int>(f);
-      }
-    }
-    if (family < 0) {
-      rejected.push_back(name + ": cannot present to this window");
-      continue;
-    }
-    const int score = props.deviceType == vk::PhysicalDeviceType::eDiscreteGpu     ? 3
-                      : props.deviceType == vk::PhysicalDeviceType::eIntegratedGpu ? 2
-                                                                                    : 1;
-    if (score > best_score) best = static_cast<int>(i), best_score = score, best_family = static_cast<uint32_t>(family);
-  }
-  if (best < 0) {
-    throw Error("Vulkan",
-                "no Vulkan device can present to the window" +
-                    (rejected.empty() ? std::string(" (the loader found none)") : " (" + Join(rejected) + ")"),
-                "install the Vulkan driver of the GPU that drives this output, or mesa-vulkan-drivers (lavapipe)");
-  }
-  physical = std::move(devices[static_cast<size_t>(best)]);
-  device_name = physical.getProperties().deviceName.data();
-  queue_family = best_family;
-
-  const float priority = 1.0f;
-  const vk::DeviceQueueCreateInfo queue_info({}, queue_family, 1, &priority);
-  const std::array<const char*, 1> device_extensions = {VK_KHR_SWAPCHAIN_EXTENSION_NAME};
-  device = vk::raii::Device(physical, vk::DeviceCreateInfo({}, queue_info, {}, device_extensions));
-  queue = device.getQueue(queue_family, 0);
-
-  // Format: 8-bit UNORM, so that code values are stored and scanned out unchanged (an SRGB format would encode
-  // them). The colour space SRGB_NONLINEAR says the values are already display-encoded: no conversion.
-  const std::vector<vk::SurfaceFormatKHR> formats = physical.getSurfaceFormatsKHR(*surface);
-  bool found = false;
-  for (vk::Format wanted_format : {vk::Format::eB8G8R8A8Unorm, vk::Format::eR8G8B8A8Unorm}) {
-    for (const vk::SurfaceFormatKHR& f : formats) {
-      if (!found && f.format == wanted_format && f.colorSpace == vk::ColorSpaceKHR::eSrgbNonlinear) {
-        format = f;
-        found = true;
-      }
-    }
-  }
-  if (!found && formats.size() == 1 && formats[0].format == vk::Format::eUndefined) {
-    format = vk::SurfaceFormatKHR(vk::Format::eB8G8R8A8Unorm, vk::ColorSpaceKHR::eSrgbNonlinear);
-    found = true;
-  }
-  if (!found) {
-    std::vector<std::string> names;
-    for (const vk::SurfaceFormatKHR& f : formats) {
-      names.push_back(vk::to_string(f.format) + "/" + vk::to_string(f.colorSpace));
-    }
-    throw Error("Vulkan",
-                fmt::format("{} offers no B8G8R8A8_UNORM or R8G8B8A8_UNORM swapchain format for this output (only {})",
-                            device_name, Join(names)),
-                "set the output to 8 bits per channel (24-bit colour depth); 10-bit outputs are not supported");
-  }
-
-  pool = vk::raii::CommandPool(device, {vk::CommandPoolCreateFlagBits::eResetCommandBuffer, queue_family});
-  cmd = std::move(vk::raii::CommandBuffers(device, {*pool, vk::CommandBufferLevel::ePrimary, 1}).front());
-  acquired = vk::raii::Semaphore(device, vk::SemaphoreCreateInfo());
-  copy_done = vk::raii::Fence(device, vk::FenceCreateInfo());
-
-  const vk::DeviceSize bytes = vk::DeviceSize{width} * height * 4;
-  staging = vk::raii::Buffer(device, vk::BufferCreateInfo({}, bytes, vk::BufferUsageFlagBits::eTransferSrc));
-  const vk::MemoryRequirements req = staging.getMemoryRequirements();
-  const vk::MemoryPropertyFlags props =
-      vk::MemoryPropertyFlagBits::eHostVisible | vk::MemoryPropertyFlagBits::eHostCoherent;
-  const vk::PhysicalDeviceMemoryProperties mem = physical.getMemoryProperties();
-  uint32_t type = mem.memoryTypeCount;
-  for (uint32_t t = 0; t < mem.memoryTypeCount && type == mem.memoryTypeCount; ++t) {
-    if ((req.memoryTypeBits & (1u << t)) && (mem.memoryTypes[t].propertyFlags & props) == props) type = t;
-  }
-  if (type == mem.memoryTypeCount) {
-    throw Error("Vulkan", device_name + " has no host-visible coherent memory for the image upload",
-                "use another Vulkan device (CURVECHECK_VULKAN_DEVICE)");
-  }
-  staging_memory = vk::raii::DeviceMemory(device, vk::MemoryAllocateInfo(req.size, type));
-  staging.bindMemory(*staging_memory, 0);
-  staging_bytes = static_cast<uint8_t*>(staging_memory.mapMemory(0, bytes));
-
-  CreateSwapchain();
+  return {extensions, extensions + count};
 }
 
-Presentation::~Presentation() {
-  if (*device) {
-    try {
-      device.waitIdle();
-    } catch (const vk::SystemError&) {
-      // Destruction proceeds regardless; the error, if any, was reported by the call that failed first.
+Presentation::MakeSurface SurfaceMaker(GLFWwindow* window) {
+  return [window](VkInstance instance) {
+    VkSurfaceKHR surface = VK_NULL_HANDLE;
+    const VkResult result = glfwCreateWindowSurface(instance, window, nullptr, &surface);
+    if (result != VK_SUCCESS) {
+      throw Error("Vulkan",
+                  fmt::format("cannot create a Vulkan surface for the window ({}; {})",
+                              vk::to_string(static_cast<vk::Result>(result)), GlfwLastError()),
+                  "install a Vulkan driver with window-system support (mesa-vulkan-drivers for lavapipe)");
     }
-  }
-}
-
-void Presentation::CheckSurfaceExtent() const {
-  const vk::SurfaceCapabilitiesKHR caps = physical.getSurfaceCapabilitiesKHR(*surface);
-  const bool any_size = caps.currentExtent.width == 0xFFFFFFFFu;
-  if (!any_size && (caps.currentExtent.width != width || caps.currentExtent.height != height)) {
-    throw Error("window",
-                fmt::format("the window's surface is {}x{} px, not the image's {}x{} (the window system resized it)",
-                            caps.currentExtent.width, caps.currentExtent.height, width, height),
-                "the presenter never scales: disable desktop scaling for this output, or use exclusive fullscreen "
-                "(without --windowed)");
-  }
-}
-
-void Presentation::CreateSwapchain() {
-  CheckSurfaceExtent();
-  const vk::SurfaceCapabilitiesKHR caps = physical.getSurfaceCapabilitiesKHR(*surface);
-  if (caps.currentExtent.width == 0xFFFFFFFFu &&
-      (width < caps.minImageExtent.width || width > caps.maxImageExtent.width ||
-       height < caps.minImageExtent.height || height > caps.maxImageExtent.height)) {
-    throw Error("Vulkan", fmt::format("{} cannot make a {}x{} swapchain for this output", device_name, width, height),
-                "use another Vulkan device (CURVECHECK_VULKAN_DEVICE)");
-  }
-  if (!(caps.supportedUsageFlags & vk::ImageUsageFlagBits::eTransferDst)) {
-    throw Error("Vulkan", device_name + " cannot copy into swapchain images (no TRANSFER_DST usage)",
-                "use another Vulkan device (CURVECHECK_VULKAN_DEVICE)");
-  }
-  if (caps.currentTransform != vk::SurfaceTransformFlagBitsKHR::eIdentity) {
-    throw Error("window",
-                "the output is rotated or mirrored by the window system (" + vk::to_string(caps.currentTransform) + ")",
-                "set the output's rotation to normal; the presenter never resamples");
-  }
-  uint32_t count = std::max(caps.minImageCount, 2u);
-  if (caps.maxImageCount > 0) count = std::min(count, caps.maxImageCount);
-  const vk::CompositeAlphaFlagBitsKHR alpha =
-      (caps.supportedCompositeAlpha & vk::CompositeAlphaFlagBitsKHR::eOpaque) ? vk::CompositeAlphaFlagBitsKHR::eOpaque
-      : (caps.supportedCompositeAlpha & vk::CompositeAlphaFlagBitsKHR::eInherit)
-          ? vk::CompositeAlphaFlagBitsKHR::eInherit
-          : vk::CompositeAlphaFlagBitsKHR::ePostMultiplied;
-  // The alpha byte is 255 anyway, so every composite-alpha mode shows the code values as they are.
-  vk::SwapchainCreateInfoKHR info({}, *surface, count, format.format, format.colorSpace, vk::Extent2D(width, height),
-                                  1, vk::ImageUsageFlagBits::eTransferDst, vk::SharingMode::eExclusive, {},
-                                  vk::SurfaceTransformFlagBitsKHR::eIdentity, alpha, vk::PresentModeKHR::eFifo, true,
-                                  *swapchain);
-  vk::raii::SwapchainKHR next(device, info);
-  swapchain = std::move(next);
-  swapchain_images = swapchain.getImages();
-  copied.clear();
-  for (size_t i = 0; i < swapchain_images.size(); ++i) copied.emplace_back(device, vk::SemaphoreCreateInfo());
-}
-
-void Presentation::Present() {
-  for (int attempt = 0;; ++attempt) {
-    // Out of date: the window changed under us. Refuse if its size is no longer the image's (in
-    // CheckSurfaceExtent), else make a new swapchain and try again.
-    auto recreate = [&] {
-      if (attempt >= 2) {
-        throw Error("Vulkan", "the swapchain stays out of date after being re-created twice",
-                    "keep the output's mode and the window unchanged while presenting");
-      }
-      queue.waitIdle();
-      CreateSwapchain();
-    };
-    uint32_t index = 0;
-    bool suboptimal = false;
-    try {
-      const auto [result, acquired_index] = swapchain.acquireNextImage(kVulkanTimeoutNs, *acquired, nullptr);
-      if (result == vk::Result::eTimeout || result == vk::Result::eNotReady) {
-        throw Error("Vulkan", fmt::format("{} did not hand out a swapchain image within {} s", device_name,
-                                          kVulkanTimeoutNs / 1'000'000'000),
-                    "check that the display is not locked or switched off");
-      }
-      // eSuboptimalKHR: the image is still presentable; the extent is checked after the present.
-      suboptimal = result == vk::Result::eSuboptimalKHR;
-      index = acquired_index;
-    } catch (const vk::OutOfDateKHRError&) {
-      recreate();
-      continue;
-    }
-
-    cmd.reset();
-    cmd.begin(vk::CommandBufferBeginInfo(vk::CommandBufferUsageFlagBits::eOneTimeSubmit));
-    const vk::ImageSubresourceRange range(vk::ImageAspectFlagBits::eColor, 0, 1, 0, 1);
-    const vk::ImageMemoryBarrier to_copy({}, vk::AccessFlagBits::eTransferWrite, vk::ImageLayout::eUndefined,
-                                         vk::ImageLayout::eTransferDstOptimal, VK_QUEUE_FAMILY_IGNORED,
-                                         VK_QUEUE_FAMILY_IGNORED, swapchain_images[index], range);
-    cmd.pipelineBarrier(vk::PipelineStageFlagBits::eTransfer, vk::PipelineStageFlagBits::eTransfer, {}, {}, {},
-                        to_copy);
-    const vk::BufferImageCopy region(0, 0, 0, {vk::ImageAspectFlagBits::eColor, 0, 0, 1}, {0, 0, 0},
-                                     {width, height, 1});
-    cmd.copyBufferToImage(*staging, swapchain_images[index], vk::ImageLayout::eTransferDstOptimal, region);
-    const vk::ImageMemoryBarrier to_present(vk::AccessFlagBits::eTransferWrite, {},
-                                            vk::ImageLayout::eTransferDstOptimal, vk::ImageLayout::ePresentSrcKHR,
-                                            VK_QUEUE_FAMILY_IGNORED, VK_QUEUE_FAMILY_IGNORED,
-                                            swapchain_images[index], range);
-    cmd.pipelineBarrier(vk::PipelineStageFlagBits::eTransfer, vk::PipelineStageFlagBits::eBottomOfPipe, {}, {}, {},
-                        to_present);
-    cmd.end();
-
-    device.resetFences(*copy_done);
-    const vk::PipelineStageFlags wait_stage = vk::PipelineStageFlagBits::eTransfer;
-    const vk::CommandBuffer command = *cmd;
-    const vk::Semaphore signal = *copied[index];
-    queue.submit(vk::SubmitInfo(*acquired, wait_stage, command, signal), *copy_done);
-
-    const vk::SwapchainKHR chain = *swapchain;
-    vk::Result presented = vk::Result::eSuccess;
-    bool out_of_date = false;
-    try {
-      presented = queue.presentKHR(vk::PresentInfoKHR(signal, chain, index));
-    } catch (const vk::OutOfDateKHRError&) {
-      out_of_date = true;
-    }
-    if (device.waitForFences(*copy_done, true, kVulkanTimeoutNs) != vk::Result::eSuccess) {
-      throw Error("Vulkan", fmt::format("copying the image to the screen took more than {} s on {}",
-                                        kVulkanTimeoutNs / 1'000'000'000, device_name),
-                  "run again; if it repeats, update the driver");
-    }
-    queue.waitIdle();
-    if (out_of_date) {
-      recreate();
-      continue;
-    }
-    if (suboptimal || presented == vk::Result::eSuboptimalKHR) CheckSurfaceExtent();  // refuse if not exact
-    return;
-  }
+    return surface;
+  };
 }
 
 // Makes the window system finish what the presenter asked of it: on X11, a round trip on the connection that
@@ -636,7 +350,7 @@ int RunPresenter(const PresenterOptions& options, std::ostream& log) {
     throw Error(where_display,
                 monitor_count == 0 ? "the display has no output (monitor)"
                                    : fmt::format("there is no output {}; the outputs are: {}", options.display,
-                                                 Join(outputs)),
+                                                 fmt::join(outputs, ", ")),
                 "choose one of the outputs listed (0 is the primary)");
   }
   GLFWmonitor* monitor = monitors[options.display];
@@ -701,9 +415,9 @@ int RunPresenter(const PresenterOptions& options, std::ostream& log) {
                                              fb_w, fb_h, x, y, now ? now->width : 0, now ? now->height : 0,
                                              monitor_x, monitor_y, width, height));
   };
-  const auto settle_start = Clock::now();
+  const Stopwatch settle;
   auto [exact, why] = geometry();
-  while (!exact && std::chrono::duration<double>(Clock::now() - settle_start).count() < kWindowSettleSeconds) {
+  while (!exact && settle.Seconds() < kWindowSettleSeconds) {
     glfwWaitEventsTimeout(kPollSeconds);
     std::tie(exact, why) = geometry();
   }
@@ -715,18 +429,19 @@ int RunPresenter(const PresenterOptions& options, std::ostream& log) {
   }
 
   return WithVulkanErrors([&] {
-    Presentation presentation(window.get(), static_cast<uint32_t>(width), static_cast<uint32_t>(height));
+    Presentation presentation(SurfaceExtensions(), SurfaceMaker(window.get()), static_cast<uint32_t>(width),
+                              static_cast<uint32_t>(height));
     const size_t n = images.size();
     size_t current = 0;
     auto show = [&](size_t index, bool report) {
-      PackPixels(images[index].pixels, presentation.bgra(), presentation.staging_bytes);
+      PackPixels(images[index].pixels, presentation.bgra(), presentation.staging_bytes());
       presentation.Present();
       SyncWindowSystem();
       state.needs_redraw = false;
       if (report) log << fmt::format("shown {}/{} {}", index + 1, n, images[index].path.string()) << std::endl;
     };
     show(current, true);
-    auto shown_at = Clock::now();
+    Stopwatch shown;  // since the current image was reported shown
 
     while (!g_quit_requested.load() && !glfwWindowShouldClose(window.get())) {
       glfwWaitEventsTimeout(kPollSeconds);
@@ -740,15 +455,14 @@ int RunPresenter(const PresenterOptions& options, std::ostream& log) {
       } else if (g_next_requests.load() > 0) {
         g_next_requests.fetch_sub(1);
         step = 1;
-      } else if (options.hold_ms &&
-                 std::chrono::duration<double, std::milli>(Clock::now() - shown_at).count() >= *options.hold_ms) {
+      } else if (options.hold_ms && shown.Ms() >= *options.hold_ms) {
         if (current + 1 == n) break;
         step = 1;
       }
       if (step != 0) {
         current = step > 0 ? (current + 1) % n : (current + n - 1) % n;
         show(current, true);
-        shown_at = Clock::now();
+        shown.Restart();
       } else if (state.needs_redraw) {
         show(current, false);  // same image again after an expose: not a new image, not reported
       }

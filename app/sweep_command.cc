@@ -19,18 +19,14 @@ namespace curvecheck::app {
 namespace {
 namespace fs = std::filesystem;
 
+// The options that need parsing; the rest bind straight to `options`.
 struct SweepArgs {
-  std::vector<std::string> factors;
-  std::string method = "exact";
-  std::string scene = "default";
-  double scale = 0.25;
-  int jobs = 1;
-  std::string shard = "1/1";
-  std::string output = "sweep";
-  int64_t seed = 1;
+  std::vector<std::string> factors;  // NAME=start:stop:count
+  std::string method = "exact";      // a method, a comma list, or all
+  std::string shard = "1/1";         // i/n
   std::string models = "flat,cylinder";
-  int cols = 32, rows = 9;
-  double tolerance = 0.5;
+  std::string output = "sweep";
+  experiments::SweepOptions options;
 };
 
 struct MergeArgs {
@@ -59,7 +55,7 @@ void CheckOutputs(const fs::path& out, const std::vector<fs::path>& inputs) {
 }
 
 int RunSweep(const SweepArgs& a) {
-  experiments::SweepOptions o;
+  experiments::SweepOptions o = a.options;
   if (a.factors.empty() || a.factors.size() > 2) {
     throw Error("--factor", fmt::format("{} factors given", a.factors.size()),
                 "give one or two, e.g. --factor yaw=0:40:5 --factor distance=800:2000:4");
@@ -78,20 +74,13 @@ int RunSweep(const SweepArgs& a) {
     throw Error("--method", "no method given", "give exact, none, strips, warp, mesh or all");
   std::tie(o.shard_index, o.shard_count) = ParseShard(a.shard);
   o.models = SplitList(a.models);
-  o.scene = a.scene;
-  o.camera_scale = a.scale;
-  o.jobs = a.jobs;
-  o.seed = a.seed;
-  o.cols = a.cols;
-  o.rows = a.rows;
-  o.tolerance_display_px = a.tolerance;
   o.command_line = CommandLine();
   o.Check();
 
   const fs::path out = a.output;
   std::vector<fs::path> inputs;
   std::error_code ec;
-  if (fs::exists(a.scene, ec)) inputs.emplace_back(a.scene);
+  if (fs::exists(o.scene, ec)) inputs.emplace_back(o.scene);
   PrepareOutputDir(out, "-o");
   CheckOutputs(out, inputs);
   experiments::RunSweep(o, out, std::cout);
@@ -127,18 +116,20 @@ void AddSweepCommand(CLI::App& app, std::function<int()>& run) {
   cmd->add_option("--factor", a->factors, factor_help);
   cmd->add_option("--method", a->method, "exact|none|strips|warp|mesh, a comma list, or all")
       ->capture_default_str();
-  cmd->add_option("--scene", a->scene, "Scene YAML, or the name of an embedded scene")->capture_default_str();
-  cmd->add_option("--scale", a->scale,
+  cmd->add_option("--scene", a->options.scene, "Scene YAML, or the name of an embedded scene")
+      ->capture_default_str();
+  cmd->add_option("--scale", a->options.camera_scale,
                   "Camera imager scale (0 < s <= 1; 0.25: 1500 x 1000 px for the default)")
       ->capture_default_str();
-  cmd->add_option("--jobs,-j", a->jobs, "Worker threads over the points")->capture_default_str();
+  cmd->add_option("--jobs,-j", a->options.jobs, "Worker threads over the points")->capture_default_str();
   cmd->add_option("--shard", a->shard, "Run only shard i of n (points k with k mod n = i - 1)")
       ->capture_default_str();
-  cmd->add_option("--seed", a->seed, "Noise seed of point 0 (point k uses seed + k)")->capture_default_str();
+  cmd->add_option("--seed", a->options.seed, "Noise seed of point 0 (point k uses seed + k)")
+      ->capture_default_str();
   cmd->add_option("--models", a->models, "Screen models to fit, comma-separated")->capture_default_str();
-  cmd->add_option("--cols", a->cols, "Checkerboard squares across")->capture_default_str();
-  cmd->add_option("--rows", a->rows, "Checkerboard squares down")->capture_default_str();
-  cmd->add_option("--tolerance", a->tolerance, "Verification tolerance, display px (p95)")
+  cmd->add_option("--cols", a->options.cols, "Checkerboard squares across")->capture_default_str();
+  cmd->add_option("--rows", a->options.rows, "Checkerboard squares down")->capture_default_str();
+  cmd->add_option("--tolerance", a->options.tolerance_display_px, "Verification tolerance, display px (p95)")
       ->capture_default_str();
   cmd->add_option("-o,--output", a->output, "Output folder")->capture_default_str();
   CLI::App* merge =

@@ -24,16 +24,15 @@ namespace curvecheck::experiments {
 
 struct BenchModelsOptions {
   // Scene names: files <name>.yaml in scenes_dir, or embedded scenes when scenes_dir is empty.
-  std::vector<std::string> scenes = {"default", "radius-8pct", "lean-1deg", "bulge-2mm"
-
-  // Throws Error naming the option for seeds outside 1..1000, a grid side outside 4..400, noise outside
-  // (0, 10) px, or no scene.
-  void Check() const;
-};
+  std::vector<std::string> scenes = {"default", "radius-8pct", "lean-1deg", "bulge-2mm"};
   std::string scenes_dir;
   int seeds = 5;                       // noise seeds per case (times: median over them)
   int grid_cols = 63, grid_rows = 17;  // features across and down
   double noise_px = 0.1;               // detection noise, px per coordinate
+
+  // Throws Error naming the option for seeds outside 1..1000, a grid side outside 4..400, noise outside
+  // (0, 10) px, or no scene.
+  void Check() const;
 };
 
 // Runs the bench and writes models_bench.csv and models_bench.png (+ .gp: two panels, time vs radius error

@@ -268,8 +268,8 @@ void Covariances(const Setup& setup, ModelWork& w, BuiltProblem& b, ModelFit* fi
   for (int p = 0; p < setup.photos; ++p) {
     CameraEstimate& cam = fit->cameras[static_cast<size_t>(p)];
     const PoseBlock& pose = st.poses[static_cast<size_t>(p)];
-    cam.centre_from_cam = Eigen::Quaterniond(pose[3], pose[0], pose[1], pose[2]).normalized().toRotationMatrix();
-    cam.position_in_centre_mm = Eigen::Vector3d(pose[4], pose[5], pose[6]);
+    cam.centre_from_cam = Pose(Eigen::Quaterniond(pose[3], pose[0], pose[1], pose[2]),
+                               Eigen::Vector3d(pose[4], pose[5], pose[6]));
     cam.position_sigma_mm.setConstant(kNaN);
     if (!b.problem->HasParameterBlock(pose.data())) continue;
     Eigen::Matrix<double, 6, 6, Eigen::RowMajor> c6;
@@ -343,7 +343,7 @@ void RadiusFromCurvature(const Setup& setup, ModelFit* fit) {
     }
   }
   for (CameraEstimate& cam : fit->cameras) {
-    cam.position_in_screen_mm = cam.position_in_centre_mm;
+    cam.position_in_screen_mm = cam.centre_from_cam.translation;
     if (fit->radius_mm) cam.position_in_screen_mm.z() -= *fit->radius_mm;
   }
 }
@@ -742,29 +742,28 @@ ScreenFitResult FitScreen(const Monitor& nominal, const CameraModel& camera,
 }
 
 double RadiusCramerRaoBoundMm(const Monitor& true_monitor, const CameraModel& camera,
-                              const std::vector<CentrePose>& poses,
+                              const std::vector<Pose>& centre_from_cams,
                               const std::vector<std::vector<Eigen::Vector2d>>& display_px, double sigma_px) {
   true_monitor.Check("true monitor");
   camera.Check("camera model");
   if (true_monitor.is_flat()) {
     throw Error("Cramer-Rao bound", "the true monitor is flat: the radius is infinite", "give a curved monitor");
   }
-  if (poses.size() != display_px.size() || poses.empty()) {
+  if (centre_from_cams.size() != display_px.size() || centre_from_cams.empty()) {
     throw Error("Cramer-Rao bound", "give one pose per list of display positions", "");
   }
   State st;
   st.core = {true_monitor.curvature_per_mm};
-  for (const CentrePose& p : poses) {
-    const Eigen::Quaterniond q(p.centre_from_cam);
-    st.poses.push_back({q.x(), q.y(), q.z(), q.w(), p.position_in_centre_mm.x(), p.position_in_centre_mm.y(),
-                        p.position_in_centre_mm.z()});
+  for (const Pose& p : centre_from_cams) {
+    const Eigen::Quaterniond& q = p.rotation;
+    st.poses.push_back({q.x(), q.y(), q.z(), q.w(), p.translation.x(), p.translation.y(), p.translation.z()});
   }
   ceres::ProductManifold<ceres::EigenQuaternionManifold, ceres::EuclideanManifold<3>> manifold{
       ceres::EigenQuaternionManifold(), ceres::EuclideanManifold<3>()};
   ceres::Problem::Options po;
   po.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
   ceres::Problem pr(po);
-  for (size_t p = 0; p < poses.size(); ++p) {
+  for (size_t p = 0; p < centre_from_cams.size(); ++p) {
     for (const Eigen::Vector2d& px : display_px[p]) {
       const Eigen::Vector2d uv = UvFromDisplayPx(true_monitor, px);
       const double s = 0.5 * uv.x() * true_monitor.width_mm, y = -0.5 * uv.y() * true_monitor.height_mm;

@@ -20,6 +20,7 @@
 
 #include "core/camera_model.h"
 #include "core/monitor.h"
+#include "core/pose.h"
 
 namespace curvecheck {
 
@@ -89,8 +90,8 @@ struct FitOptions {
 };
 
 struct CameraEstimate {
-  Eigen::Matrix3d centre_from_cam = Eigen::Matrix3d::Identity();
-  Eigen::Vector3d position_in_centre_mm = Eigen::Vector3d::Zero();
+  // The camera in the centre frame: its translation is the camera centre there (mm), sigma below.
+  Pose centre_from_cam;
   Eigen::Vector3d position_sigma_mm = Eigen::Vector3d::Zero();
   // In the architecture's screen frame: origin on the fitted axis (centre frame shifted by -R in z); the centre
   // frame itself when the radius is not a number (flat within its interval).
@@ -178,18 +179,12 @@ std::vector<Eigen::Vector3d> FittedSurfacePointsInCamera(const Monitor& nominal,
                                                          const std::vector<Eigen::Vector2d>& uv,
                                                          const FitOptions& options);
 
-// A camera pose for RadiusCramerRaoBoundMm: rotation and position of the camera in the centre frame.
-struct CentrePose {
-  Eigen::Matrix3d centre_from_cam = Eigen::Matrix3d::Identity();
-  Eigen::Vector3d position_in_centre_mm = Eigen::Vector3d::Zero();
-};
-
 // Cramer-Rao bound of the radius (mm) of the `cylinder` model for isotropic Gaussian pixel noise sigma_px
 // (per coordinate) at the given true configuration: monitor (its curvature is the truth, must be non-zero),
-// one pose and one list of display positions per photo. sigma_R = sigma_px sqrt([(J^T J)^-1]_kk) / k^2, with
+// one camera pose (centre_from_cam) and one list of display positions per photo. sigma_R = sigma_px sqrt([(J^T J)^-1]_kk) / k^2, with
 // J the Jacobian of all residuals with respect to the poses and k at the truth.
 double RadiusCramerRaoBoundMm(const Monitor& true_monitor, const CameraModel& camera,
-                              const std::vector<CentrePose>& poses,
+                              const std::vector<Pose>& centre_from_cams,
                               const std::vector<std::vector<Eigen::Vector2d>>& display_px, double sigma_px);
 
 }  // namespace curvecheck

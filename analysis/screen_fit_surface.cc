@@ -22,7 +22,7 @@ std::vector<Eigen::Vector3d> FittedSurfacePointsInCamera(const Monitor& nominal,
                                              options.deviation_nv);
   }
   const int core = CoreParameterCount(kind);
-  const CameraEstimate& cam = fit.cameras[static_cast<size_t>(photo)];
+  const Pose cam_from_centre = fit.cameras[static_cast<size_t>(photo)].centre_from_cam.Inverse();
   std::vector<Eigen::Vector3d> out;
   for (const Eigen::Vector2d& at : uv) {
     const double s = 0.5 * at.x() * nominal.width_mm, y = -0.5 * at.y() * nominal.height_mm;
@@ -32,7 +32,7 @@ std::vector<Eigen::Vector3d> FittedSurfacePointsInCamera(const Monitor& nominal,
       const Eigen::VectorXd w = basis->Weights(at);
       p += w.dot(Eigen::Map<const Eigen::VectorXd>(fit.shape.data() + core, w.size())) * normal;
     }
-    out.push_back(cam.centre_from_cam.transpose() * (p - cam.position_in_centre_mm));
+    out.push_back(cam_from_centre * p);
   }
   return out;
 }

@@ -70,8 +70,8 @@ TEST(ScreenFitTest, IdealCylinderChoosesCylinderAndRecoversTheRadius) {
   ASSERT_EQ(cyl.cameras.size(), 1u);
   const CameraEstimate& cam = cyl.cameras[0];
   for (int a = 0; a < 3; ++a) {
-    EXPECT_LT(std::abs(cam.position_in_centre_mm[a] - Eigen::Vector3d(0, 0, 1500)[a]), 4 * cam.position_sigma_mm[a])
-        << a << ": " << cam.position_in_centre_mm.transpose() << " +- " << cam.position_sigma_mm.transpose();
+    EXPECT_LT(std::abs(cam.centre_from_cam.translation[a] - Eigen::Vector3d(0, 0, 1500)[a]), 4 * cam.position_sigma_mm[a])
+        << a << ": " << cam.centre_from_cam.translation.transpose() << " +- " << cam.position_sigma_mm.transpose();
   }
   EXPECT_NEAR(cam.position_in_screen_mm.z(), 500, 4 * cam.position_sigma_mm.z() + 3 * *cyl.radius_sigma_mm);
   // Every candidate reports its fit; flat does not fit a 1000R panel at all.
@@ -279,7 +279,7 @@ TEST(ScreenFitTest, SeveralPhotosAreFittedJointly) {
   for (size_t p = 0; p < 3; ++p) {
     const Eigen::Vector3d truth = scenes[p].camera_position_in_screen + Eigen::Vector3d(0, 0, 1000);
     for (int a = 0; a < 3; ++a) {
-      EXPECT_LT(std::abs(cyl.cameras[p].position_in_centre_mm[a] - truth[a]), 4 * cyl.cameras[p].position_sigma_mm[a])
+      EXPECT_LT(std::abs(cyl.cameras[p].centre_from_cam.translation[a] - truth[a]), 4 * cyl.cameras[p].position_sigma_mm[a])
           << p << " " << a;
     }
   }

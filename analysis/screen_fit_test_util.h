@@ -53,11 +53,8 @@ inline SurfaceFn AxisLeanSurface(const SyntheticScene& scene, double lean_deg) {
 }
 
 // The camera pose of the scene in the nominal centre frame.
-inline CentrePose ScenePose(const SyntheticScene& scene) {
-  CentrePose p;
-  p.centre_from_cam = scene.screen_from_cam;
-  p.position_in_centre_mm = scene.camera_position_in_screen - ScreenCentreInScreen(scene.monitor);
-  return p;
+inline Pose ScenePose(const SyntheticScene& scene) {
+  return Pose(scene.screen_from_cam, scene.camera_position_in_screen - ScreenCentreInScreen(scene.monitor));
 }
 
 // Observations of the features at `display_px` (those that project into the image), each detected with

@@ -164,6 +164,7 @@ TEST_F(VerifyTest, TooFewFeaturesGiveNoVerdict) {
   px.resize(6);
   const Verification v = VerifyCorrection(pattern_, camera_, ids, px);
   EXPECT_EQ(v.failure, "only 6 usable features; at least 8 are needed for a verdict");
+  EXPECT_EQ(v.failure_kind, VerificationFailure::kTooFewFeatures);
   EXPECT_FALSE(v.pass);
 }
 

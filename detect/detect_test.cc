@@ -335,6 +335,11 @@ TEST(Detect, BlankAndOtherPatternsFailWithAReason) {
   }
   EXPECT_EQ(DetectFeatures(blank, tag_shot.pattern, With("auto")).failure,
             "pattern not found: no tag36h11 tag in the photo");
+  // The typed outcome goes with the prose (callers branch on the kind, never on the text).
+  EXPECT_EQ(DetectFeatures(blank, board_shot.pattern, With("auto")).failure_kind, DetectionFailure::kPatternNotFound);
+  EXPECT_EQ(DetectFeatures(blank, tag_shot.pattern, With("auto")).failure_kind, DetectionFailure::kPatternNotFound);
+  EXPECT_EQ(DetectFeatures(tag_shot.photo, tag_shot.pattern, With("auto")).failure_kind, DetectionFailure::kNone);
+  EXPECT_STREQ(DetectionFailureName(DetectionFailure::kPatternNotFound), "pattern_not_found");
 
   // Tags of other ids.
   PatternSpec other_tags = tags;
@@ -345,6 +350,7 @@ TEST(Detect, BlankAndOtherPatternsFailWithAReason) {
       ToPatternFile(other, tag_shot.scene.monitor, tag_shot.scene.camera_position_in_screen, "exact");
   EXPECT_EQ(DetectFeatures(tag_shot.photo, other_file, With("auto")).failure,
             "different pattern: ids not in pattern.json: the photo shows tags 0..35, pattern.json has tags 100..135");
+  EXPECT_EQ(DetectFeatures(tag_shot.photo, other_file, With("auto")).failure_kind, DetectionFailure::kDifferentPattern);
   // A board of another size.
   PatternSpec other_board;
   other_board.cols = 10;
@@ -358,9 +364,12 @@ TEST(Detect, BlankAndOtherPatternsFailWithAReason) {
             "pattern not found: the photo shows a checkerboard, but no complete one of 9x6 inner corners "
             "(opencv-classic): a different pattern, or part of it outside the photo?");
   EXPECT_TRUE(d.features.empty());
+  EXPECT_EQ(d.failure_kind, DetectionFailure::kPatternNotFound);
   // Tags where a board was expected.
-  EXPECT_THAT(DetectFeatures(tag_shot.photo, board_shot.pattern, With("auto")).failure,
+  const Detection tags_for_board = DetectFeatures(tag_shot.photo, board_shot.pattern, With("auto"));
+  EXPECT_THAT(tags_for_board.failure,
               ::testing::StartsWith("different pattern: the photo shows tag36h11 tags (0..35)"));
+  EXPECT_EQ(tags_for_board.failure_kind, DetectionFailure::kDifferentPattern);
   // Usage errors throw.
   EXPECT_THAT(MessageOf([&] { DetectFeatures(blank, board_shot.pattern, With("apriltag")); }),
               ::testing::HasSubstr("cannot detect a plain checkerboard"));

@@ -390,5 +390,34 @@ TEST(SyntheticCamera, SeedMustBeAWholeNumber) {
   }
 }
 
+// The scene reader names a mistyped key (here from an override) with its path and the keys it knows.
+TEST(SceneReader, UnknownKeyIsNamed) {
+  const std::filesystem::path scene = Datasets() / "scenes/default.yaml";
+  const std::string message = testing::MessageOf([&] { LoadScene(scene, {"optics.blurr=none"}); });
+  EXPECT_THAT(message, ::testing::HasSubstr("'optics.blurr' is not a known key"));
+  EXPECT_THAT(message, ::testing::HasSubstr("blur_px"));
+}
+
+// `--set` overrides: applied before the checks (which name them), or refused with what to write.
+TEST(SceneReader, OverridesAreAppliedAndChecked) {
+  const std::filesystem::path scene = Datasets() / "scenes/default.yaml";
+  const SyntheticScene s = LoadScene(scene, {"true_monitor.radius_mm=flat", "optics.blur=disc", "display.bezel_mm=0"});
+  EXPECT_EQ(s.truth.curvature_per_mm, 0.0);
+  EXPECT_EQ(s.optics.blur, "disc");
+  EXPECT_EQ(s.display.bezel_mm, 0.0);
+  EXPECT_EQ(s.optics.blur_px, 0.7);  // from the file
+  const std::map<std::string, std::string> refused = {
+      {"optics", "is not KEY=VALUE"},
+      {"optics..blur=none", "has an empty key"},
+      {"monitor.name=x", "'monitor' is not a mapping"},
+      {"optics.blur=[", "has a value that is not YAML"},
+      {"optics.blur=box", "default.yaml with optics.blur=box: key 'optics.blur' is not none, gaussian or disc"},
+  };
+  for (const auto& [override_text, expected] : refused) {
+    EXPECT_THAT(testing::MessageOf([&] { LoadScene(scene, {override_text}); }), ::testing::HasSubstr(expected))
+        << override_text;
+  }
+}
+
 }  // namespace
 }  // namespace curvecheck

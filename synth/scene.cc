@@ -1,0 +1,225 @@
+#include "synth/scene.h"
+
+#include <fmt/format.h>
+#include <yaml-cpp/yaml.h>
+
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <cmath>
+#include <functional>
+
+#include "core/config.h"
+#include "core/error.h"
+#include "core/screen_geometry.h"
+#include "datasets/monitor_presets.h"
+
+namespace curvecheck {
+namespace {
+
+Eigen::Vector3d Vec3(const ConfigMap& c, const std::string& key) {
+  const std::vector<double> v = c.Numbers(key, 3);
+  return {v[0], v[1], v[2]};
+}
+
+// true_monitor: starts from the nominal curvature already in `truth`.
+void ReadTrueMonitor(const ConfigMap& t, const Monitor& nominal, TrueMonitor* truth) {
+  t.RejectUnknownKeys({"radius_mm", "translation_mm", "rotation_deg", "lean_deg", "bumps"});
+  if (t.Has("radius_mm")) {
+    truth->curvature_per_mm = t.IsWord("radius_mm", "flat") ? 0.0 : 1.0 / t.PositiveNumber("radius_mm");
+  }
+  if (t.Has("translation_mm")) truth->translation_mm = Vec3(t, "translation_mm");
+  if (t.Has("rotation_deg")) truth->rotation_deg = Vec3(t, "rotation_deg");
+  if (t.Has("lean_deg")) {
+    truth->lean_deg = t.Number("lean_deg");
+    if (!(std::abs(truth->lean_deg) < 45)) t.Fail("lean_deg", "is not within +-45 deg", "give the axis tilt in degrees");
+  }
+  if (t.Has("bumps")) {
+    for (const ConfigMap& b : t.MapList("bumps")) {
+      b.RejectUnknownKeys({"u", "v", "sigma_u", "sigma_v", "height_mm"});
+      TrueMonitor::Bump bump;
+      bump.u = b.Number("u");
+      bump.v = b.Number("v");
+      bump.sigma_u = b.PositiveNumber("sigma_u");
+      bump.sigma_v = b.PositiveNumber("sigma_v");
+      bump.height_mm = b.Number("height_mm");
+      truth->bumps.push_back(bump);
+    }
+  }
+  Monitor check = nominal;
+  check.curvature_per_mm = truth->curvature_per_mm;
+  check.Check(t.source() + " (true_monitor)");
+}
+
+void ReadDisplay(const ConfigMap& d, DisplayModel* display) {
+  d.RejectUnknownKeys({"fill_factor", "rgb_stripes", "gamma", "black", "bezel_mm", "bezel", "room"});
+  if (d.Has("fill_factor")) display->fill_factor = d.PositiveNumber("fill_factor");
+  if (d.Has("rgb_stripes")) display->rgb_stripes = d.IsWord("rgb_stripes", "true");
+  if (d.Has("gamma")) display->gamma = d.PositiveNumber("gamma");
+  if (d.Has("black")) display->black = d.Number("black");
+  if (d.Has("bezel_mm")) display->bezel_mm = d.Number("bezel_mm");
+  if (d.Has("bezel")) display->bezel = d.Number("bezel");
+  if (d.Has("room")) display->room = d.Number("room");
+  if (display->fill_factor > 1) d.Fail("fill_factor", "is above 1", "give the emitting fraction, 0..1");
+  if (display->bezel_mm < 0) {
+    d.Fail("bezel_mm", fmt::format("is {}, below zero", display->bezel_mm), "give 0 or more mm");
+  }
+}
+
+void ReadOptics(const ConfigMap& o, Optics* optics) {
+  o.RejectUnknownKeys({"supersample", "blur", "blur_px", "vignetting", "exposure"});
+  if (o.Has("supersample")) optics->supersample = o.PositiveInt("supersample");
+  if (o.Has("blur")) optics->blur = o.String("blur");
+  if (o.Has("blur_px")) optics->blur_px = o.Number("blur_px");
+  if (o.Has("vignetting")) optics->vignetting = o.Number("vignetting");
+  if (o.Has("exposure")) optics->exposure = o.PositiveNumber("exposure");
+  if (optics->blur != "none" && optics->blur != "gaussian" && optics->blur != "disc") {
+    o.Fail("blur", "is not none, gaussian or disc", "choose one");
+  }
+  if (optics->supersample > 8) o.Fail("supersample", "is above 8", "use 1..8 rays per pixel per axis");
+  if (optics->blur_px < 0) o.Fail("blur_px", fmt::format("is {}, below zero", optics->blur_px), "give 0 or more px");
+  if (optics->vignetting < 0 || optics->vignetting > 1) {
+    o.Fail("vignetting", fmt::format("is {}, outside 0..1", optics->vignetting), "give the corner light loss, 0..1");
+  }
+}
+
+void ReadSensor(const ConfigMap& n, Sensor* sensor) {
+  n.RejectUnknownKeys({"gamma", "full_well_e", "read_noise_e", "noise", "seed", "bits"});
+  if (n.Has("gamma")) sensor->gamma = n.PositiveNumber("gamma");
+  if (n.Has("full_well_e")) sensor->full_well_e = n.PositiveNumber("full_well_e");
+  if (n.Has("read_noise_e")) sensor->read_noise_e = n.Number("read_noise_e");
+  if (sensor->read_noise_e < 0) {
+    n.Fail("read_noise_e", fmt::format("is {}, below zero", sensor->read_noise_e), "give 0 or more electrons");
+  }
+  if (n.Has("noise")) sensor->noise = n.IsWord("noise", "true");
+  if (n.Has("seed")) {
+    // A whole number that a double holds exactly; anything else (negative, fractional, 1e30) would be an
+    // undefined conversion (found by fuzz_scene).
+    const double seed = n.Number("seed");
+    if (!(seed >= 0 && seed <= 9007199254740992.0 && seed == std::floor(seed))) {
+      n.Fail("seed", fmt::format("is {}", seed), "give a whole number from 0 to 2^53");
+    }
+    sensor->seed = static_cast<uint64_t>(seed);
+  }
+  if (n.Has("bits")) sensor->bits = n.PositiveInt("bits");
+  if (sensor->bits != 8 && sensor->bits != 16) n.Fail("bits", "is not 8 or 16", "choose 8 or 16");
+}
+
+// Applies one "dotted.key=value" override to the YAML document `root` (read from `path`, named in errors).
+void ApplyOverride(const std::string& o, const std::filesystem::path& path, YAML::Node* root) {
+  const size_t eq = o.find('=');
+  if (eq == std::string::npos || eq == 0) {
+    throw Error(o, "is not KEY=VALUE", "write e.g. optics.blur=none or true_monitor.lean_deg=0.5");
+  }
+  std::vector<std::string> keys;
+  for (size_t start = 0, dot; start <= eq; start = dot + 1) {
+    dot = std::min(o.find('.', start), eq);
+    keys.push_back(o.substr(start, dot - start));
+    if (keys.back().empty()) throw Error(o, "has an empty key", "write e.g. optics.blur=none");
+  }
+  YAML::Node node;
+  node.reset(*root);
+  for (size_t i = 0; i + 1 < keys.size(); ++i) {
+    if (node[keys[i]] && !node[keys[i]].IsMap()) {
+      throw Error(o, fmt::format("'{}' is not a mapping in {}", keys[i], path.string()), "set a field inside it");
+    }
+    YAML::Node child = node[keys[i]];
+    node.reset(child);
+  }
+  try {
+    node[keys.back()] = YAML::Load(o.substr(eq + 1));
+  } catch (const YAML::Exception& e) {
+    throw Error(o, fmt::format("has a value that is not YAML ({})", e.msg), "quote it or fix its syntax");
+  }
+}
+
+}  // namespace
+
+Eigen::Matrix3d ScreenFromCamLookAt(const Eigen::Vector3d& position, const Eigen::Vector3d& look_at,
+                                    const Eigen::Vector3d& up) {
+  const Eigen::Vector3d z = (look_at - position).normalized();
+  const Eigen::Vector3d x = z.cross(up).normalized();
+  if (!x.allFinite() || x.norm() < 0.5) {
+    throw Error("camera", "the up vector is parallel to the viewing direction", "give another up vector");
+  }
+  Eigen::Matrix3d r;
+  r.col(0) = x;
+  r.col(1) = z.cross(x);
+  r.col(2) = z;
+  return r;
+}
+
+namespace {
+
+// The scene reader of both SceneFromConfig overloads. `scene_dir` null: the scene is in no folder, so its monitor
+// is a preset name or a path as given, and `read_camera` reads the camera model it names.
+SyntheticScene ReadScene(const ConfigMap& c, const std::filesystem::path* scene_dir,
+                         const std::function<CameraModel(const std::string& model)>& read_camera) {
+  c.RejectUnknownKeys({"format", "name", "monitor", "camera", "true_monitor", "display", "optics", "sensor"});
+  if (c.Has("format") && c.String("format") != "curvecheck.scene/1") {
+    c.Fail("format", "is not 'curvecheck.scene/1'", "this version reads curvecheck.scene/1");
+  }
+  SyntheticScene s;
+  const std::string monitor_spec = c.String("monitor");
+  const std::filesystem::path monitor_path = scene_dir ? *scene_dir / monitor_spec : std::filesystem::path();
+  s.monitor = LoadMonitor(scene_dir && std::filesystem::exists(monitor_path) ? monitor_path.string() : monitor_spec);
+  s.truth.curvature_per_mm = s.monitor.curvature_per_mm;
+
+  const ConfigMap cam = c.Map("camera");
+  cam.RejectUnknownKeys({"model", "position_mm", "look_at_mm", "up"});
+  s.camera_model_path = cam.String("model");
+  s.camera = read_camera(s.camera_model_path);
+  s.camera_position_in_screen = Vec3(cam, "position_mm");
+  const Eigen::Vector3d look_at = cam.Has("look_at_mm") ? Vec3(cam, "look_at_mm") : ScreenCentreInScreen(s.monitor);
+  const Eigen::Vector3d up = cam.Has("up") ? Vec3(cam, "up") : Eigen::Vector3d::UnitY();
+  s.screen_from_cam = ScreenFromCamLookAt(s.camera_position_in_screen, look_at, up);
+
+  if (c.Has("true_monitor")) ReadTrueMonitor(c.Map("true_monitor"), s.monitor, &s.truth);
+  if (c.Has("display")) ReadDisplay(c.Map("display"), &s.display);
+  if (c.Has("optics")) ReadOptics(c.Map("optics"), &s.optics);
+  if (c.Has("sensor")) ReadSensor(c.Map("sensor"), &s.sensor);
+  CheckViewpoint(s.monitor, s.camera_position_in_screen, c.source() + " (camera.position_mm)");
+  return s;
+}
+
+}  // namespace
+
+SyntheticScene SceneFromConfig(const ConfigMap& c, const std::filesystem::path& scene_dir) {
+  return ReadScene(c, &scene_dir, [&](const std::string& model) { return ReadCameraModel(scene_dir / model); });
+}
+
+SyntheticScene SceneFromConfig(const ConfigMap& c,
+                               const std::function<CameraModel(const std::string& model)>& read_camera) {
+  return ReadScene(c, nullptr, read_camera);
+}
+
+SyntheticScene LoadScene(const std::filesystem::path& path, const std::vector<std::string>& overrides) {
+  if (overrides.empty()) return SceneFromConfig(ConfigMap::Load(path), path.parent_path());
+  const ConfigMap original = ConfigMap::Load(path);  // syntax errors named with the file's lines
+  YAML::Node root = YAML::LoadFile(path.string());
+  for (const std::string& o : overrides) ApplyOverride(o, path, &root);
+  YAML::Emitter out;
+  out << root;
+  std::string source = path.string() + " with";
+  for (const std::string& o : overrides) source += " " + o;
+  return SceneFromConfig(ConfigMap::Parse(out.c_str(), source), path.parent_path());
+}
+
+CameraModel ScaledCamera(const CameraModel& camera, double scale) {
+  if (!(scale > 0 && scale <= 1)) {
+    throw Error("imager scale", fmt::format("{} is not in (0, 1]", scale), "give a fraction such as 0.5");
+  }
+  if (camera.lensmodel.rfind("LENSMODEL_CAHVOR", 0) == 0 || camera.intrinsics.size() < 4) {
+    throw Error("imager scale", fmt::format("{} has no fx, fy, cx, cy core to scale", camera.lensmodel),
+                "use the full imager with this lens model");
+  }
+  CameraModel c = camera;
+  c.width = std::max(1, static_cast<int>(std::lround(camera.width * scale)));
+  c.height = std::max(1, static_cast<int>(std::lround(camera.height * scale)));
+  c.intrinsics[0] *= scale;
+  c.intrinsics[1] *= scale;
+  c.intrinsics[2] = (camera.intrinsics[2] + 0.5) * scale - 0.5;
+  c.intrinsics[3] = (camera.intrinsics[3] + 0.5) * scale - 0.5;
+  return c;
+}
+
+}  // namespace curvecheck

@@ -1,0 +1,60 @@
+#include "synth/truth_json.h"
+
+#include "core/screen_geometry.h"
+#include "pattern/pattern.h"
+#include "synth/true_monitor.h"
+
+namespace curvecheck {
+
+nlohmann::json TruthJson(const SyntheticScene& s, const std::vector<Feature>& features) {
+  nlohmann::json j;
+  j["format"] = "curvecheck.truth/1";
+  const TrueMonitor& t = s.truth;
+  nlohmann::json bumps = nlohmann::json::array();
+  for (const auto& b : t.bumps) {
+    bumps.push_back({{"u", b.u}, {"v", b.v}, {"sigma_u", b.sigma_u}, {"sigma_v", b.sigma_v}, {"height_mm", b.height_mm}});
+  }
+  j["true_monitor"] = {{"radius_mm", t.curvature_per_mm == 0 ? nlohmann::json("flat") : nlohmann::json(1 / t.curvature_per_mm)},
+                       {"translation_mm", {t.translation_mm.x(), t.translation_mm.y(), t.translation_mm.z()}},
+                       {"rotation_deg", {t.rotation_deg.x(), t.rotation_deg.y(), t.rotation_deg.z()}},
+                       {"lean_deg", t.lean_deg},
+                       {"lean_definition", kLeanDefinition},
+                       {"bumps", bumps}};
+  const Eigen::Vector3d& c = s.camera_position_in_screen;
+  nlohmann::json rot = nlohmann::json::array();
+  for (int r = 0; r < 3; ++r) rot.push_back({s.screen_from_cam(r, 0), s.screen_from_cam(r, 1), s.screen_from_cam(r, 2)});
+  j["camera"] = {{"model", s.camera_model_path},
+                 {"lensmodel", s.camera.lensmodel},
+                 {"intrinsics", s.camera.intrinsics},
+                 {"imagersize", {s.camera.width, s.camera.height}},
+                 {"position_mm", {c.x(), c.y(), c.z()}},
+                 {"screen_from_cam", rot}};
+  nlohmann::json out = nlohmann::json::array();
+  const Eigen::Matrix3d cam_from_screen = s.screen_from_cam.transpose();
+  for (const Feature& f : features) {
+    nlohmann::json e = {{"id", f.id}};
+    bool visible = f.visible && f.display_px.has_value();
+    if (f.display_px) {
+      const Eigen::Vector2d uv = UvFromDisplayPx(s.monitor, *f.display_px);
+      Eigen::Vector3d normal;
+      const Eigen::Vector3d p = TrueSurfacePointInScreen(s, uv, &normal);
+      const Eigen::Vector3d p_cam = cam_from_screen * (p - c);
+      e["point_mm"] = {p.x(), p.y(), p.z()};
+      visible = visible && p_cam.z() > 0 && normal.dot(c - p) > 0;
+      if (p_cam.z() > 0) {
+        const Eigen::Vector2d q = ProjectPoint(s.camera, p_cam);
+        e["image_px"] = {q.x(), q.y()};
+        visible = visible && q.x() >= -0.5 && q.y() >= -0.5 && q.x() <= s.camera.width - 0.5 &&
+                  q.y() <= s.camera.height - 0.5;
+      } else {
+        e["image_px"] = nullptr;
+      }
+    }
+    e["visible"] = visible;
+    out.push_back(e);
+  }
+  j["features"] = out;
+  return j;
+}
+
+}  // namespace curvecheck

@@ -227,6 +227,7 @@ struct ModelWork {
   ScreenModelKind kind;
   State state;
   std::unique_ptr<DeviationBasis> basis;
+  double basis_curvature_per_mm = 0;  // what `basis` was built around
   std::vector<Eigen::Vector2d> robust_residuals;
   Eigen::MatrixXd dev_covariance;  // of the deviation coefficients, scaled by the noise
   bool robust_ok = false;
@@ -387,6 +388,7 @@ void FitFinal(const Setup& setup, ModelWork& w, const std::vector<bool>& inlier,
              fit->parameters * std::log(static_cast<double>(n));
   fit->shape = w.state.core;
   fit->shape.insert(fit->shape.end(), w.state.dev.begin(), w.state.dev.end());
+  fit->deviation_basis_curvature_per_mm = w.basis ? w.basis_curvature_per_mm : 0;
   Covariances(setup, w, b, fit);
   RadiusFromCurvature(setup, fit);
 }
@@ -676,6 +678,7 @@ ScreenFitResult FitScreen(const Monitor& nominal, const CameraModel& camera,
     if (!w.state.core.empty()) w.state.core[0] = k0;
     if (kind == ScreenModelKind::kCylinderDeviation) {
       w.basis = std::make_unique<DeviationBasis>(nominal, k0, options.deviation_nu, options.deviation_nv);
+      w.basis_curvature_per_mm = k0;
       w.state.dev.assign(static_cast<size_t>(w.basis->size()), 0.0);
     }
     FitRobust(setup, w, all);

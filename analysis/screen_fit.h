@@ -126,6 +126,9 @@ struct ModelFit {
   int iterations = 0;  // solver iterations, robust and final pass (held-out folds not counted)
   // Shape parameters as fitted (CoreParameterCount values, then the deviation coefficients).
   std::vector<double> shape;
+  // cylinder+deviation: the curvature its deviation basis was built around (the cylinder's robust fit, or the
+  // nominal when the cylinder was not fitted); 0 for the other models. FittedSurfacePointsInCamera needs it.
+  double deviation_basis_curvature_per_mm = 0;
 };
 
 struct FeatureDeviation {
@@ -166,6 +169,15 @@ struct ScreenFitResult {
 // an error.
 ScreenFitResult FitScreen(const Monitor& nominal, const CameraModel& camera,
                           const std::vector<PhotoObservations>& photos, const FitOptions& options);
+
+// The surface points of candidate `fit` at display coordinates `uv` (-1..1 edge to edge), in the frame of the camera
+// of photo `photo` as fitted (x right, y down, z forward), mm: the model's surface, deviation field included, placed
+// by that photo's fitted pose. `options` must be the ones the fit ran with (the deviation basis's size). For
+// comparing a fitted shape with a truth in a frame free of the fit's gauge (benchmarks). Throws Error for a photo
+// out of range.
+std::vector<Eigen::Vector3d> FittedSurfacePointsInCamera(const Monitor& nominal, const ModelFit& fit, int photo,
+                                                         const std::vector<Eigen::Vector2d>& uv,
+                                                         const FitOptions& options);
 
 // Cramer-Rao bound of the radius (mm) of the `cylinder` model for isotropic Gaussian pixel noise sigma_px
 // (per coordinate) at the given true configuration: monitor (its curvature is the truth, must be non-zero),

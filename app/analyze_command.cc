@@ -6,7 +6,6 @@
 
 #include <fmt/format.h>
 
-#include <chrono>
 #include <filesystem>
 #include <iostream>
 #include <memory>
@@ -18,6 +17,7 @@
 #include "app/output_paths.h"
 #include "core/error.h"
 #include "core/file_io.h"
+#include "core/stopwatch.h"
 
 namespace curvecheck::app {
 namespace {
@@ -85,7 +85,7 @@ int RunAnalyze(AnalyzeArgs a) {
   if (!a.no_report) {
     // The page from the document just written, read back as `curvecheck report` reads it (so it shows what the file
     // says: a non-finite number in memory is null there), and the overlays beside it.
-    const auto t0 = std::chrono::steady_clock::now();
+    const Stopwatch watch;
     std::string html;
     try {
       const nlohmann::json result = ParseResultJson(result_text, result_path.string());
@@ -100,7 +100,7 @@ int RunAnalyze(AnalyzeArgs a) {
     }
     WriteFileAtomic(report_path, html);
     std::cout << fmt::format("wrote {} ({:.2f} MB) in {:.0f} ms\n", report_path.string(), html.size() / 1e6,
-                             std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
+                             watch.Ms());
   }
   return 0;
 }

@@ -1,228 +1,147 @@
-// `curvecheck bench render`: speed against accuracy of every correction method and setting. For each setting:
-// the median render time over several runs (device set-up and uploads excluded, reported separately) and the
-// mapping error against the exact mapping (MeasureMappingError). Writes a CSV, a gnuplot chart (error against
-// time, log-log, Pareto front marked) and its script, and prints a table.
+// `curvecheck bench`: the benchmark subcommands. Each parses and validates its options and calls its bench in
+// experiments/ (bench_render.h, bench_capture.h, bench_detect.h, bench_calibrate.h; the others in
+// app/bench_analysis_command.cc).
 #include "app/bench_command.h"
-
-#include <fmt/format.h>
 
 #include <algorithm>
 #include <filesystem>
 #include <iostream>
+#include <memory>
 
-#include "app/bench_analyze.h"
-#include "app/bench_calibrate.h"
-#include "app/bench_detect.h"
-#include "app/bench_fit.h"
-#include "app/bench_models.h"
-#include "app/machine_info.h"
 #include "app/render_options.h"
 #include "core/error.h"
-#include "core/file_io.h"
-#include "core/gnuplot.h"
-#include "render/mapping_error.h"
-#include "render/renderer.h"
+#include "experiments/bench_calibrate.h"
+#include "experiments/bench_capture.h"
+#include "experiments/bench_detect.h"
+#include "experiments/bench_render.h"
 
 namespace curvecheck::app {
 namespace {
 namespace fs = std::filesystem;
 
-struct BenchArgs {
+struct BenchRenderArgs {
   SceneArgs scene;
-  int runs = 5;
+  experiments::BenchRenderOptions options;
   std::string output = "bench-out";
-  bool quick = false;
 };
 
-struct Row {
-  MethodOptions method;
-  double median_ms = 0, min_ms = 0, upload_ms = 0;
-  MappingError error;
-  bool pareto = false;
+void AddBenchRender(CLI::App& bench, std::function<int()>& run) {
+  auto a = std::make_shared<BenchRenderArgs>();
+  CLI::App* cmd = bench.add_subcommand(
+      "render",
+      "Every correction method and setting: render time vs mapping error; CSV + chart with the Pareto front");
+  AddSceneOptions(*cmd, a->scene, "1 m in front of the screen centre (the axis of a 1000R panel)");
+  cmd->add_option("--runs", a->options.runs, "Timed runs per setting (median reported)")
+      ->capture_default_str();
+  cmd->add_option("-o,--output", a->output, "Output folder")->capture_default_str();
+  cmd->add_flag("--quick", a->options.quick, "A reduced set of settings (for smoke tests)");
+  cmd->callback([&run, a] {
+    run = [a] {
+      a->options.Check();
+      const Scene scene = ResolveScene(a->scene, Eigen::Vector3d(0, 0, 1000));
+      CreateBenchFolder(a->output);
+      experiments::RunBenchRender(scene.monitor, scene.viewpoint_in_screen, scene.spec, a->options, a->output,
+                                  std::cout);
+      return 0;
+    };
+  });
+}
+
+void AddBenchCapture(CLI::App& bench, std::function<int()>& run) {
+  auto o = std::make_shared<experiments::BenchCaptureOptions>();
+  CLI::App* cmd = bench.add_subcommand(
+      "capture", "Synthetic camera speed on one scene: median wall and CPU time, rays/s, share per stage");
+  cmd->add_option("--scene", o->scene, "Scene YAML")->capture_default_str();
+  cmd->add_option(
+      "--display", o->display,
+      "Display image (PNG at the monitor's resolution); default: the default checkerboard rendered "
+      "for the camera position (Vulkan)");
+  cmd->add_option("--runs", o->runs, "Timed runs after the first (median reported)")->capture_default_str();
+  cmd->add_option("-o,--output", o->output, "CSV of every run (optional)");
+  cmd->callback([&run, o] {
+    run = [o] {
+      o->Check();
+      experiments::RunBenchCapture(*o, std::cout);
+      return 0;
+    };
+  });
+}
+
+struct BenchDetectArgs {
+  experiments::BenchDetectOptions options;
+  std::string output = "bench-out";
 };
 
-std::vector<MethodOptions> Settings(const Monitor& m, bool quick) {
-  std::vector<MethodOptions> out;
-  MethodOptions o;
-  out.push_back(o);  // exact analytic
-  for (int ss : quick ? std::vector<int>{2} : std::vector<int>{2, 4}) {
-    o.antialiasing = AntiAliasing::kSupersample;
-    o.supersample = ss;
-    out.push_back(o);
-  }
-  o = MethodOptions();
-  o.method = Method::kNone;
-  out.push_back(o);
-  o.method = Method::kStrips;
-  for (int n : quick ? std::vector<int>{8, 64} : std::vector<int>{8, 16, 32, 64, 128, 256}) {
-    o.strips = n;
-    out.push_back(o);
-  }
-  o = MethodOptions();
-  o.method = Method::kWarp;
-  for (double s : quick ? std::vector<double>{1} : std::vector<double>{1, 1.25, 2}) {
-    for (WarpFilter f : {WarpFilter::kBilinear, WarpFilter::kCubic}) {
-      o.warp_scale = s;
-      o.warp_filter = f;
-      out.push_back(o);
+void AddBenchDetect(CLI::App& bench, std::function<int()>& run) {
+  auto a = std::make_shared<BenchDetectArgs>();
+  experiments::BenchDetectOptions& o = a->options;
+  CLI::App* cmd = bench.add_subcommand(
+      "detect", "Every detector on synthetic photos of a scene: median time and error against the truth");
+  cmd->add_option("--scene", o.scene, "Scene YAML (its camera takes the photos)")->capture_default_str();
+  cmd->add_option("--runs", o.runs, "Timed runs per detector (median reported)")->capture_default_str();
+  cmd->add_option("--patterns", o.patterns, "Which of checkerboard,square,apriltag")->capture_default_str();
+  cmd->add_option("-o,--output", a->output, "Output folder (detect_bench.csv, detect_bench.png and its .gp)");
+  cmd->add_flag("--uniform-display", o.uniform_display,
+                "Display pixels uniform (fill factor 1, no RGB stripes) and 4x4 supersampling: no moire");
+  cmd->callback([&run, a] {
+    run = [a] {
+      a->options.Check();
+      CreateBenchFolder(a->output);
+      experiments::RunBenchDetect(a->options, a->output, std::cout);
+      return 0;
+    };
+  });
+}
+
+struct BenchCalibrateArgs {
+  experiments::BenchCalibrateOptions options;
+  std::string output = "bench-calibrate";
+};
+
+void AddBenchCalibrate(CLI::App& bench, std::function<int()>& run) {
+  auto a = std::make_shared<BenchCalibrateArgs>();
+  experiments::BenchCalibrateOptions& o = a->options;
+  CLI::App* cmd = bench.add_subcommand(
+      "calibrate",
+      "Lens models on a synthetic set with a known lens: calibration time vs error against the truth");
+  cmd->add_option("--runs", o.runs, "Timed calibrations per lens model (median reported)")
+      ->capture_default_str();
+  cmd->add_option("--views", o.views, "Photos in the synthetic set")->capture_default_str();
+  cmd->add_option("--seed", o.seed, "Seed of the set's poses and noise")->capture_default_str();
+  cmd->add_option("-o,--output", a->output, "Output folder")->capture_default_str();
+  cmd->add_flag("--quick", o.quick, "12 views and one splined density (for smoke tests)");
+  cmd->callback([&run, a] {
+    if (a->options.quick) {
+      a->options.views = std::min(a->options.views, 12);
+      a->options.splined_nx = {8};
     }
-  }
-  o.warp_scale = 1;
-  o.warp_filter = WarpFilter::kCubic;
-  for (int spacing : quick ? std::vector<int>{64} : std::vector<int>{256, 64, 16}) {
-    o.warp_grid_cols = (m.width_px + spacing - 1) / spacing;
-    o.warp_grid_rows = (m.height_px + spacing - 1) / spacing;
-    out.push_back(o);
-  }
-  o = MethodOptions();
-  o.method = Method::kMesh;
-  o.mesh_subdivision = MeshSubdivision::kUniform;
-  for (int level : quick ? std::vector<int>{4} : std::vector<int>{1, 4, 16, 64}) {
-    o.mesh_level = level;
-    out.push_back(o);
-  }
-  for (auto [sub, tol] : quick ? std::vector<std::pair<MeshSubdivision, double>>{{MeshSubdivision::kExtended, 0.05}}
-                               : std::vector<std::pair<MeshSubdivision, double>>{{MeshSubdivision::kPerez, 0.05},
-                                                                                  {MeshSubdivision::kExtended, 0.2},
-                                                                                  {MeshSubdivision::kExtended, 0.05},
-                                                                                  {MeshSubdivision::kExtended, 0.01}}) {
-    o.mesh_subdivision = sub;
-    o.mesh_tolerance_px = tol;
-    out.push_back(o);
-  }
-  return out;
-}
-
-// Marks the settings that no other setting beats in both time and worst error.
-void MarkParetoFront(std::vector<Row>& rows) {
-  std::vector<double> t, e;
-  for (const Row& r : rows) {
-    t.push_back(r.median_ms);
-    e.push_back(r.error.max_px);
-  }
-  const std::vector<bool> front = ParetoFront(t, e);
-  for (size_t i = 0; i < rows.size(); ++i) rows[i].pareto = front[i];
-}
-
-std::string Csv(const std::vector<Row>& rows, const std::string& header) {
-  std::string s = header;
-  s += "method,setting,median_ms,min_ms,upload_ms,rms_px,p99_px,max_px,missing_pixels,pareto\n";
-  for (const Row& r : rows) {
-    s += fmt::format("{},\"{}\",{:.3f},{:.3f},{:.3f},{:.6g},{:.6g},{:.6g},{},{}\n", MethodName(r.method.method),
-                     r.method.Label(), r.median_ms, r.min_ms, r.upload_ms, r.error.rms_px, r.error.p99_px,
-                     r.error.max_px, r.error.missing_pixels, r.pareto ? 1 : 0);
-  }
-  return s;
-}
-
-// gnuplot script: worst mapping error against median render time, log-log, one colour per method, every point
-// labelled (a method that cannot reach an accuracy shows where it stays), the Pareto front as a line.
-std::string GnuplotScript(const std::string& csv, const std::string& title) {
-  return fmt::format(R"(set datafile separator ','
-set title {title}
-set logscale xy
-set xlabel 'median render time per frame (ms), device set-up excluded'
-set ylabel 'worst mapping error vs exact (display px)'
-set grid xtics ytics mxtics mytics lc rgb '#dddddd'
-set key outside right top
-set format y '%g'
-set arrow from graph 0, first 0.02 to graph 1, first 0.02 nohead dt 2 lc rgb '#888888'
-set label 'placement target 0.02 px' at graph 0.01, first 0.025 tc rgb '#666666'
-lowclip(y) = (y > 1e-5 ? y : 1e-5)
-plot \
-  for [m in "exact none strips warp mesh"] '{csv}' skip 1 using (strcol(1) eq m ? $3 : 1/0):(lowclip($8)) with points pt 7 ps 1.5 title m, \
-  '{csv}' skip 1 using 3:(lowclip($8)):2 with labels offset 0.8,0.6 left font ',8' notitle, \
-  '< grep ",1$" {csv} | sort -t, -k3 -g' using 3:(lowclip($8)) with lines lw 2 lc rgb '#cc0000' title 'Pareto front'
-)",
-                     fmt::arg("title", GnuplotString(title)), fmt::arg("csv", csv));
-}
-
-int RunBenchRender(const BenchArgs& a) {
-  if (a.runs < 1 || a.runs > 100) throw Error("--runs", fmt::format("{} is out of range", a.runs), "use 1..100");
-  const Scene scene = ResolveScene(a.scene, Eigen::Vector3d(0, 0, 1000));
-  const Pattern pattern =
-      BuildPattern(scene.spec, scene.monitor, scene.viewpoint_in_screen, TangentPlaneAtCentre(scene.monitor));
-  const fs::path dir = a.output;
-  std::error_code ec;
-  fs::create_directories(dir, ec);
-  if (!fs::is_directory(dir)) throw Error(dir.string(), "cannot create the output folder", "choose a writable path");
-
-  Renderer renderer;
-  const std::string machine = DescribeMachine();
-  const Eigen::Vector3d& v = scene.viewpoint_in_screen;
-  const std::string title =
-      fmt::format("{} ({}x{}), viewpoint ({:g}, {:g}, {:g}) mm, {} on {}; median of {} runs\n{}", scene.monitor.name,
-                  scene.monitor.width_px, scene.monitor.height_px, v.x(), v.y(), v.z(), PatternKindName(pattern.spec.kind),
-                  renderer.device_name(), a.runs, machine);
-  std::cout << title << "\n";
-  std::cout << fmt::format("{:<38} {:>10} {:>10} {:>10} {:>10} {:>10}\n", "setting", "median ms", "min ms", "rms px",
-                           "p99 px", "max px");
-  std::vector<Row> rows;
-  for (const MethodOptions& method : Settings(scene.monitor, a.quick)) {
-    RenderOptions options;
-    options.method = method;
-    Row row;
-    row.method = method;
-    try {
-      renderer.Render(scene.monitor, scene.viewpoint_in_screen, pattern, options);  // warm-up: pipelines, caches
-      std::vector<double> times, uploads;
-      for (int i = 0; i < a.runs; ++i) {
-        RenderTiming t;
-        renderer.Render(scene.monitor, scene.viewpoint_in_screen, pattern, options, &t);
-        times.push_back(t.render_ms);
-        uploads.push_back(t.upload_ms);
-      }
-      std::sort(times.begin(), times.end());
-      std::sort(uploads.begin(), uploads.end());
-      row.median_ms = times[times.size() / 2];
-      row.min_ms = times.front();
-      row.upload_ms = uploads[uploads.size() / 2];
-      const CoordinateImage coords =
-          renderer.RenderCoordinates(scene.monitor, scene.viewpoint_in_screen, pattern, options);
-      row.error = MeasureMappingError(scene.monitor, scene.viewpoint_in_screen, pattern, coords);
-    } catch (const Error& e) {
-      std::cout << fmt::format("{:<38} refused: {}\n", method.Label(), e.what());
-      continue;
-    }
-    std::cout << fmt::format("{:<38} {:>10.1f} {:>10.1f} {:>10.4f} {:>10.4f} {:>10.4f}\n", method.Label(),
-                             row.median_ms, row.min_ms, row.error.rms_px, row.error.p99_px, row.error.max_px);
-    rows.push_back(row);
-  }
-  MarkParetoFront(rows);
-  std::cout << fmt::format("device set-up (instance, device, pipelines): {:.1f} ms\nPareto front:", renderer.setup_ms());
-  for (const Row& r : rows) {
-    if (r.pareto) std::cout << fmt::format(" [{} {:.1f} ms, {:.3g} px]", r.method.Label(), r.median_ms, r.error.max_px);
-  }
-  std::cout << "\n";
-
-  const fs::path csv = dir / "render_bench.csv", png = dir / "render_bench.png", gp = dir / "render_bench.gp";
-  std::string one_line_title = title;
-  std::replace(one_line_title.begin(), one_line_title.end(), '\n', ';');
-  WriteFileAtomic(csv, Csv(rows, fmt::format("# {}\n# device set-up {:.1f} ms\n", one_line_title, renderer.setup_ms())));
-  WriteGnuplotChart(png, GnuplotScript(csv.filename().string(), title), {1400, 900});
-  std::cout << fmt::format("wrote {}, {} and {}\n", csv.string(), png.string(), gp.string());
-  return 0;
+    run = [a] {
+      a->options.Check();
+      CreateBenchFolder(a->output);
+      experiments::RunBenchCalibrate(a->options, a->output, std::cout);
+      return 0;
+    };
+  });
 }
 
 }  // namespace
 
+void CreateBenchFolder(const fs::path& dir) {
+  std::error_code ec;
+  fs::create_directories(dir, ec);
+  if (!fs::is_directory(dir))
+    throw Error(dir.string(), "cannot create the output folder", "choose a writable path");
+}
+
 void AddBenchCommand(CLI::App& app, std::function<int()>& run) {
-  CLI::App* bench = app.add_subcommand("bench", "Speed against accuracy benchmarks (medians of several runs)");
+  CLI::App* bench =
+      app.add_subcommand("bench", "Speed against accuracy benchmarks (medians of several runs)");
   bench->require_subcommand(1);
-  auto args = std::make_shared<BenchArgs>();
-  CLI::App* render = bench->add_subcommand(
-      "render", "Every correction method and setting: render time vs mapping error; CSV + chart with the Pareto front");
-  AddSceneOptions(*render, args->scene, "1 m in front of the screen centre (the axis of a 1000R panel)");
-  render->add_option("--runs", args->runs, "Timed runs per setting (median reported)")->capture_default_str();
-  render->add_option("-o,--output", args->output, "Output folder")->capture_default_str();
-  render->add_flag("--quick", args->quick, "A reduced set of settings (for smoke tests)");
-  render->callback([&run, args] { run = [args] { return RunBenchRender(*args); }; });
-  AddBenchCaptureCommand(*bench, run);
-  AddBenchDetectCommand(*bench, run);
-  AddBenchFitCommand(*bench, run);
-  AddBenchModelsCommand(*bench, run);
-  AddBenchAnalyzeCommand(*bench, run);
-  AddBenchCalibrateCommand(*bench, run);
+  AddBenchRender(*bench, run);
+  AddBenchCapture(*bench, run);
+  AddBenchDetect(*bench, run);
+  AddBenchAnalysisCommands(*bench, run);
+  AddBenchCalibrate(*bench, run);
 }
 
 }  // namespace curvecheck::app

@@ -8,12 +8,12 @@
 #include <fmt/format.h>
 
 #include <algorithm>
-#include <chrono>
 #include <filesystem>
 #include <iostream>
 
 #include "calibrate/calibrate.h"
 #include "core/error.h"
+#include "core/stopwatch.h"
 #include "core/file_io.h"
 
 namespace curvecheck::app {
@@ -60,9 +60,9 @@ int RunCalibrate(const CalibrateArgs& a) {
   c.cross_validate = !a.no_cross_validate;
   c.Check();
 
-  const auto t0 = std::chrono::steady_clock::now();
+  const Stopwatch watch;
   const std::vector<ChessboardDetection> detections = DetectChessboards(photos, board, d);
-  const double detect_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  const double detect_s = watch.Seconds();
   int found = 0;
   for (const ChessboardDetection& det : detections) {
     found += det.found ? 1 : 0;

@@ -4,6 +4,7 @@
 #include <exception>
 #include <functional>
 #include <iostream>
+#include <sstream>
 #include <string>
 
 #include "app/analyze_command.h"
@@ -32,6 +33,15 @@ static std::string& CommandLineStorage() {
 }
 
 const std::string& CommandLine() { return CommandLineStorage(); }
+
+std::vector<std::string> SplitList(const std::string& text, char separator) {
+  std::vector<std::string> out;
+  std::stringstream parts(text);
+  for (std::string p; std::getline(parts, p, separator);) {
+    if (!p.empty()) out.push_back(p);
+  }
+  return out;
+}
 
 int Main(int argc, char** argv) {
   for (int i = 0; i < argc; ++i) CommandLineStorage() += (i ? " " : "") + std::string(i ? argv[i] : "curvecheck");

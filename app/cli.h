@@ -1,6 +1,7 @@
 #pragma once
 
 #include <string>
+#include <vector>
 
 namespace curvecheck::app {
 
@@ -10,5 +11,8 @@ int Main(int argc, char** argv);
 
 // The command line Main was given ("curvecheck analyze ..."), for provenance in outputs.
 const std::string& CommandLine();
+
+// The non-empty parts of a list option ("flat,cylinder" -> {"flat", "cylinder"}; "a,,b" -> {"a", "b"}).
+std::vector<std::string> SplitList(const std::string& text, char separator = ',');
 
 }  // namespace curvecheck::app

@@ -6,7 +6,6 @@
 
 #include <fmt/format.h>
 
-#include <chrono>
 #include <filesystem>
 #include <iostream>
 #include <memory>
@@ -16,6 +15,7 @@
 #include "app/output_paths.h"
 #include "core/error.h"
 #include "core/file_io.h"
+#include "core/stopwatch.h"
 
 namespace curvecheck::app {
 namespace {
@@ -27,7 +27,7 @@ struct ReportArgs {
 };
 
 int RunReport(const ReportArgs& a) {
-  const auto t0 = std::chrono::steady_clock::now();
+  const Stopwatch watch;
   const fs::path result_path = a.result;
   const fs::path dir = result_path.has_parent_path() ? result_path.parent_path() : fs::path(".");
   const fs::path out = a.output.empty() ? dir / "report.html" : fs::path(a.output);
@@ -38,7 +38,7 @@ int RunReport(const ReportArgs& a) {
   CheckNotAnInput(out, inputs);
   const std::string html = ReportHtml(result, assets);
   WriteFileAtomic(out, html);
-  const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  const double ms = watch.Ms();
   std::cout << fmt::format("wrote {} ({:.2f} MB, {} overlay image(s) embedded{}) in {:.0f} ms\n", out.string(),
                            html.size() / 1e6, assets.overlay_png.size(),
                            assets.overlay_missing.empty()

@@ -6,6 +6,7 @@
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
+#include <functional>
 
 #include "core/config.h"
 #include "core/error.h"
@@ -147,21 +148,26 @@ Eigen::Matrix3d ScreenFromCamLookAt(const Eigen::Vector3d& position, const Eigen
   return r;
 }
 
-SyntheticScene SceneFromConfig(const ConfigMap& c, const std::filesystem::path& scene_dir) {
+namespace {
+
+// The scene reader of both SceneFromConfig overloads. `scene_dir` null: the scene is in no folder, so its monitor
+// is a preset name or a path as given, and `read_camera` reads the camera model it names.
+SyntheticScene ReadScene(const ConfigMap& c, const std::filesystem::path* scene_dir,
+                         const std::function<CameraModel(const std::string& model)>& read_camera) {
   c.RejectUnknownKeys({"format", "name", "monitor", "camera", "true_monitor", "display", "optics", "sensor"});
   if (c.Has("format") && c.String("format") != "curvecheck.scene/1") {
     c.Fail("format", "is not 'curvecheck.scene/1'", "this version reads curvecheck.scene/1");
   }
   SyntheticScene s;
   const std::string monitor_spec = c.String("monitor");
-  const std::filesystem::path monitor_path = scene_dir / monitor_spec;
-  s.monitor = LoadMonitor(std::filesystem::exists(monitor_path) ? monitor_path.string() : monitor_spec);
+  const std::filesystem::path monitor_path = scene_dir ? *scene_dir / monitor_spec : std::filesystem::path();
+  s.monitor = LoadMonitor(scene_dir && std::filesystem::exists(monitor_path) ? monitor_path.string() : monitor_spec);
   s.truth.curvature_per_mm = s.monitor.curvature_per_mm;
 
   const ConfigMap cam = c.Map("camera");
   cam.RejectUnknownKeys({"model", "position_mm", "look_at_mm", "up"});
   s.camera_model_path = cam.String("model");
-  s.camera = ReadCameraModel(scene_dir / s.camera_model_path);
+  s.camera = read_camera(s.camera_model_path);
   s.camera_position_in_screen = Vec3(cam, "position_mm");
   const Eigen::Vector3d look_at = cam.Has("look_at_mm") ? Vec3(cam, "look_at_mm") : ScreenCentreInScreen(s.monitor);
   const Eigen::Vector3d up = cam.Has("up") ? Vec3(cam, "up") : Eigen::Vector3d::UnitY();
@@ -173,6 +179,17 @@ SyntheticScene SceneFromConfig(const ConfigMap& c, const std::filesystem::path& 
   if (c.Has("sensor")) ReadSensor(c.Map("sensor"), &s.sensor);
   CheckViewpoint(s.monitor, s.camera_position_in_screen, c.source() + " (camera.position_mm)");
   return s;
+}
+
+}  // namespace
+
+SyntheticScene SceneFromConfig(const ConfigMap& c, const std::filesystem::path& scene_dir) {
+  return ReadScene(c, &scene_dir, [&](const std::string& model) { return ReadCameraModel(scene_dir / model); });
+}
+
+SyntheticScene SceneFromConfig(const ConfigMap& c,
+                               const std::function<CameraModel(const std::string& model)>& read_camera) {
+  return ReadScene(c, nullptr, read_camera);
 }
 
 SyntheticScene LoadScene(const std::filesystem::path& path, const std::vector<std::string>& overrides) {

@@ -6,6 +6,7 @@
 #include <Eigen/Core>
 #include <cstdint>
 #include <filesystem>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -63,6 +64,11 @@ struct SyntheticScene {
 //                   sigma_v, height_mm}] }      all optional; default: the nominal monitor
 //   display / optics / sensor: the fields of DisplayModel / Optics / Sensor, all optional
 SyntheticScene SceneFromConfig(const ConfigMap& config, const std::filesystem::path& scene_dir);
+// As above, for a scene that is in no folder (the embedded datasets: experiments/scene_lookup.h): the monitor is a
+// preset name (or a path as given), and `read_camera(model)` reads the camera model the scene names (camera.model
+// as written in the scene, relative to the scene's own place).
+SyntheticScene SceneFromConfig(const ConfigMap& config,
+                               const std::function<CameraModel(const std::string& model)>& read_camera);
 // `overrides` are "dotted.key=value" settings applied to the file's YAML before it is read (value in YAML, e.g.
 // "optics.blur=none", "sensor.noise=false", "true_monitor.lean_deg=0.5"); they go through the same checks.
 SyntheticScene LoadScene(const std::filesystem::path& path, const std::vector<std::string>& overrides = {});

@@ -13,31 +13,14 @@
 #include <string>
 #include <vector>
 
-namespace curvecheck::app {
+#include "experiments/sweep_factor.h"
 
-// A sweep factor on its grid: count values from start to stop, evenly spaced (count 1: start only).
-struct SweepFactor {
-  std::string name;  // canonical, with its unit: "yaw_deg", "noise_x", ...
-  double start = 0, stop = 0;
-  int count = 1;
-  double Value(int i) const { return count == 1 ? start : start + (stop - start) * i / (count - 1); }
-};
+namespace curvecheck::experiments {
 
-// Failure reasons, in pipeline order; a point gets the first that applies.
-//   render_refused        the correction method refused this view, or the pattern does not fit the display
-//   not_found             the detector found no pattern in the photo
-//   ambiguous_orientation the board was found but its orientation or ids are ambiguous
-//   ambiguous_ids         tags/ids that are not in pattern.json
-//   too_few_features      too few features for a verdict or a fit
-//   rejected              the photo was rejected for another reason (detail column)
-//   verification_failed   verification ran: fewer than 95% of features within the tolerance (display px)
-//   fit_failed            the screen fit threw or did not converge
-//   fit_ill_conditioned   the cylinder fit ran but the radius is not observable (FitResult warnings)
-//   error                 anything else (detail column)
-// "" on success.
+// The failure reasons of the `reason` column, in pipeline order (TrialOutcomeName of FailureOutcomes(); a point
+// gets the first that applies; "" on success).
 std::vector<std::string> SweepReasons();
-// One letter per reason for maps: render_refused R, not_found N, ambiguous_* A, too_few_features T, rejected X,
-// verification_failed V, fit_failed F, fit_ill_conditioned I, error E; success '.'.
+// The map letter of a `reason` cell (TrialOutcomeLetter; '.' for success, 'E' for a name it does not know).
 char ReasonLetter(const std::string& reason);
 
 struct SweepTable {
@@ -74,4 +57,4 @@ std::vector<std::filesystem::path> WriteSweepCharts(const SweepTable& table, con
                                                     const std::vector<std::string>& methods,
                                                     double tolerance_display_px, const std::filesystem::path& dir);
 
-}  // namespace curvecheck::app
+}  // namespace curvecheck::experiments

@@ -1,4 +1,4 @@
-#include "app/machine_info.h"
+#include "experiments/machine_info.h"
 
 #include <fmt/chrono.h>
 #include <fmt/format.h>
@@ -7,7 +7,9 @@
 #include <fstream>
 #include <thread>
 
-namespace curvecheck::app {
+#include "core/error.h"
+
+namespace curvecheck::experiments {
 
 std::string DescribeMachine() {
   std::string cpu = "unknown CPU";
@@ -23,4 +25,10 @@ std::string DescribeMachine() {
                      CURVECHECK_BUILD_TYPE, fmt::gmtime(now));
 }
 
-}  // namespace curvecheck::app
+void CheckCount(int64_t value, int64_t lo, int64_t hi, const char* option) {
+  if (value < lo || value > hi) {
+    throw Error(option, fmt::format("{} is out of range", value), fmt::format("use {}..{}", lo, hi));
+  }
+}
+
+}  // namespace curvecheck::experiments

@@ -1,4 +1,4 @@
-#include "app/sweep_table.h"
+#include "experiments/sweep_table.h"
 
 #include <fmt/format.h>
 
@@ -11,8 +11,9 @@
 #include "core/error.h"
 #include "core/file_io.h"
 #include "core/gnuplot.h"
+#include "experiments/trial_outcome.h"
 
-namespace curvecheck::app {
+namespace curvecheck::experiments {
 namespace {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
@@ -93,22 +94,12 @@ std::string Stats(const SweepTable& t, const std::vector<size_t>& rows) {
 }  // namespace
 
 std::vector<std::string> SweepReasons() {
-  return {"render_refused",      "not_found",  "ambiguous_orientation", "ambiguous_ids",      "too_few_features",
-          "rejected",            "verification_failed", "fit_failed",   "fit_ill_conditioned", "error"};
+  std::vector<std::string> names;
+  for (TrialOutcome o : FailureOutcomes()) names.emplace_back(TrialOutcomeName(o));
+  return names;
 }
 
-char ReasonLetter(const std::string& reason) {
-  if (reason.empty() || reason == "ok") return '.';
-  if (reason == "render_refused") return 'R';
-  if (reason == "not_found") return 'N';
-  if (reason.starts_with("ambiguous")) return 'A';
-  if (reason == "too_few_features") return 'T';
-  if (reason == "rejected") return 'X';
-  if (reason == "verification_failed") return 'V';
-  if (reason == "fit_failed") return 'F';
-  if (reason == "fit_ill_conditioned") return 'I';
-  return 'E';
-}
+char ReasonLetter(const std::string& reason) { return TrialOutcomeLetter(ParseTrialOutcome(reason)); }
 
 int SweepTable::Col(const std::string& name) const {
   const auto it = std::find(header.begin(), header.end(), name);
@@ -346,4 +337,4 @@ std::vector<std::filesystem::path> WriteSweepCharts(const SweepTable& t, const s
   return charts;
 }
 
-}  // namespace curvecheck::app
+}  // namespace curvecheck::experiments

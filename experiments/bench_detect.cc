@@ -1,41 +1,23 @@
-// `curvecheck bench detect`: time and accuracy of every detector on synthetic photos of a scene (the default
-// scene's 24 MP camera unless --scene says otherwise). For each pattern (the default 16x5 checkerboard, an
-// 11x11 square board for mrgingham, the default AprilTag grid) it renders the pattern exact for the camera
-// position, ray-traces one photo with the synthetic camera, then runs each applicable detector --runs times:
-// median and min wall time of DetectFeatures (photo decoding excluded), and the error of the detected features
-// against the synthetic truth (mean vector, RMS, max). Prints a table; with -o also writes detect_bench.csv.
-#include "app/bench_detect.h"
+#include "experiments/bench_detect.h"
 
 #include <fmt/format.h>
 
 #include <algorithm>
-#include <filesystem>
-#include <iostream>
 #include <map>
-#include <memory>
 #include <opencv2/core.hpp>
 
-#include "detect/detect.h"
-#include "app/machine_info.h"
-#include "synth/synthetic_camera.h"
-#include "core/correction.h"
 #include "core/error.h"
 #include "core/file_io.h"
 #include "core/gnuplot.h"
-#include "pattern/pattern.h"
-#include "render/renderer.h"
+#include "core/stats.h"
+#include "detect/detect.h"
+#include "experiments/machine_info.h"
+#include "experiments/trial.h"
+#include "pattern/pattern_json.h"
 
-namespace curvecheck::app {
+namespace curvecheck::experiments {
 namespace {
 namespace fs = std::filesystem;
-
-struct BenchDetectArgs {
-  std::string scene = "datasets/scenes/default.yaml";
-  int runs = 3;
-  std::string output = "bench-out";
-  std::string patterns = "checkerboard,square,apriltag";
-  bool uniform_display = false;
-};
 
 struct Result {
   std::string pattern, detector, failure;
@@ -45,8 +27,8 @@ struct Result {
   bool pareto = false;
 };
 
-// Within each pattern (a detector's error depends on the pattern), the detectors no other beats in both median
-// time and RMS error against the truth; a detector that found nothing is never on the front.
+// Within each pattern (a detector's error depends on the pattern), the detectors no other beats in both
+// median time and RMS error against the truth; a detector that found nothing is never on the front.
 void MarkParetoFronts(std::vector<Result>& results) {
   for (size_t i = 0; i < results.size(); ++i) {
     std::vector<double> t, e;
@@ -70,8 +52,10 @@ std::string ChartScript(const std::string& title, const std::vector<std::string>
   for (size_t i = 0; i < patterns.size(); ++i) {
     const std::string quoted = GnuplotString(patterns[i]);
     plots += fmt::format(
-        "  'detect_bench.csv' skip 2 using (strcol(1) eq {q} ? $3 : 1/0):9 with points pt 7 ps 1.4 lc {c} title {q}, \\\n"
-        "  '< grep \"^{p},.*,1$\" detect_bench.csv | sort -t, -k3 -g' using 3:9 with lines lw 2 lc {c} notitle, \\\n",
+        "  'detect_bench.csv' skip 2 using (strcol(1) eq {q} ? $3 : 1/0):9 with points pt 7 ps 1.4 lc {c} "
+        "title {q}, \\\n"
+        "  '< grep \"^{p},.*,1$\" detect_bench.csv | sort -t, -k3 -g' using 3:9 with lines lw 2 lc {c} "
+        "notitle, \\\n",
         fmt::arg("q", quoted), fmt::arg("p", patterns[i]), fmt::arg("c", i + 1));
   }
   return fmt::format(R"(set datafile separator ','
@@ -92,12 +76,18 @@ struct Case {
   DetectOptions options;
 };
 
-int RunBenchDetect(const BenchDetectArgs& a) {
-  if (a.runs < 1 || a.runs > 100) throw Error("--runs", fmt::format("{} is out of range", a.runs), "use 1..100");
-  if (!fs::exists(a.scene)) {
-    throw Error("--scene", fmt::format("'{}' does not exist", a.scene),
+}  // namespace
+
+void BenchDetectOptions::Check() const {
+  CheckCount(runs, 1, 100, "--runs");
+  if (!fs::exists(scene)) {
+    throw Error("--scene", fmt::format("'{}' does not exist", scene),
                 "give a scene file (datasets/scenes/*.yaml) or run from the repository root");
   }
+}
+
+void RunBenchDetect(const BenchDetectOptions& a, const fs::path& dir, std::ostream& log) {
+  a.Check();
   SyntheticScene scene = LoadScene(a.scene);
   if (a.uniform_display) {  // as the detect tests: no screen-door grid, finer supersampling
     scene.display.fill_factor = 1;
@@ -106,11 +96,11 @@ int RunBenchDetect(const BenchDetectArgs& a) {
   }
   Renderer renderer;
   const std::string machine = DescribeMachine();
-  std::cout << fmt::format("bench detect: scene {}{} ({}x{} px camera), median of {} runs; {}\n", a.scene,
-                           a.uniform_display ? " with a uniform display" : "", scene.camera.width,
-                           scene.camera.height, a.runs, machine);
-  std::cout << fmt::format("{:<14} {:<30} {:>9} {:>9} {:>6} {:>17} {:>8} {:>8}  {}\n", "pattern", "detector",
-                           "median ms", "min ms", "found", "mean px", "rms px", "max px", "failure/notes");
+  log << fmt::format("bench detect: scene {}{} ({}x{} px camera), median of {} runs; {}\n", a.scene,
+                     a.uniform_display ? " with a uniform display" : "", scene.camera.width,
+                     scene.camera.height, a.runs, machine);
+  log << fmt::format("{:<14} {:<30} {:>9} {:>9} {:>6} {:>17} {:>8} {:>8}  {}\n", "pattern", "detector",
+                     "median ms", "min ms", "found", "mean px", "rms px", "max px", "failure/notes");
   std::vector<Result> results;
   std::vector<std::string> labels;
   const Eigen::Vector3d viewpoint = scene.camera_position_in_screen;
@@ -153,15 +143,16 @@ int RunBenchDetect(const BenchDetectArgs& a) {
       cases.push_back(with("opencv-sb", "opencv-sb"));
       cases.push_back(with("auto", "auto"));
     }
-    const Pattern pattern = BuildPattern(spec, scene.monitor, viewpoint, TangentPlaneAtCentre(scene.monitor));
-    const GrayImage shown = renderer.Render(scene.monitor, viewpoint, pattern, RenderOptions());
-    const SyntheticPhoto photo = RenderSyntheticPhoto(scene, Image8{shown.width, shown.height, 1, shown.pixels});
+    const TrialDisplay display = RenderTrialDisplay(renderer, scene.monitor, viewpoint, spec);
+    const Pattern& pattern = display.pattern;
+    const SyntheticPhoto photo = RenderSyntheticPhoto(scene, display.image);
     const cv::Mat image = PhotoToMat(photo);
     const nlohmann::json truth_json = TruthJson(scene, pattern.features);
     std::map<std::string, Eigen::Vector2d> truth;
     for (size_t i = 0; i < pattern.features.size(); ++i) {
       const auto& t = truth_json["features"][i];
-      if (t["visible"].get<bool>()) truth[pattern.features[i].id] = {t["image_px"][0].get<double>(), t["image_px"][1].get<double>()};
+      if (t["visible"].get<bool>())
+        truth[pattern.features[i].id] = {t["image_px"][0].get<double>(), t["image_px"][1].get<double>()};
     }
     PatternFile file;
     file.raw = PatternToJson(pattern, scene.monitor, viewpoint, {{"name", "exact"}});
@@ -169,10 +160,8 @@ int RunBenchDetect(const BenchDetectArgs& a) {
     file.viewpoint_in_screen = viewpoint;
     file.method = "exact";
     file.features = pattern.features;
-    const std::string label =
-        which == "apriltag"
-            ? fmt::format("tags {}x{}", spec.tag_cols, spec.tag_rows)
-            : fmt::format("board {}x{}", spec.cols, spec.rows);
+    const std::string label = which == "apriltag" ? fmt::format("tags {}x{}", spec.tag_cols, spec.tag_rows)
+                                                  : fmt::format("board {}x{}", spec.cols, spec.rows);
     labels.push_back(label);
     for (const Case& c : cases) {
       std::vector<double> times;
@@ -181,7 +170,7 @@ int RunBenchDetect(const BenchDetectArgs& a) {
         d = DetectFeatures(image, file, c.options);
         times.push_back(d.time_ms);
       }
-      std::sort(times.begin(), times.end());
+      const double fastest = *std::min_element(times.begin(), times.end());
       Eigen::Vector2d mean = Eigen::Vector2d::Zero();
       double sum2 = 0, worst = 0;
       int n = 0;
@@ -196,60 +185,52 @@ int RunBenchDetect(const BenchDetectArgs& a) {
       }
       if (n > 0) mean /= n;
       const double rms = n > 0 ? std::sqrt(sum2 / n) : 0;
-      const double median = times[times.size() / 2];
+      const double median = Median(times);
       std::string info = d.failure;
       if (info.empty() && c.options.detector == "auto") info = "-> " + d.detector;
       for (const std::string& note : d.notes) {
-        if (note.starts_with("display pixels")) info += (info.empty() ? "" : "; ") + note.substr(0, note.find(':'));
+        if (note.starts_with("display pixels"))
+          info += (info.empty() ? "" : "; ") + note.substr(0, note.find(':'));
       }
-      std::cout << fmt::format("{:<14} {:<30} {:>9.1f} {:>9.1f} {:>6} {:>8.4f},{:>8.4f} {:>8.4f} {:>8.4f}  {}\n", label,
-                               c.label, median, times.front(), fmt::format("{}/{}", n, truth.size()), mean.x(),
-                               mean.y(), rms, worst, info);
-      Result res{label, c.label, d.failure, median, times.front(), n > 0 ? rms : NAN, n > 0 ? worst : NAN, mean, n,
+      log << fmt::format("{:<14} {:<30} {:>9.1f} {:>9.1f} {:>6} {:>8.4f},{:>8.4f} {:>8.4f} {:>8.4f}  {}\n",
+                         label, c.label, median, fastest, fmt::format("{}/{}", n, truth.size()), mean.x(),
+                         mean.y(), rms, worst, info);
+      Result res{label,
+                 c.label,
+                 d.failure,
+                 median,
+                 fastest,
+                 n > 0 ? rms : NAN,
+                 n > 0 ? worst : NAN,
+                 mean,
+                 n,
                  static_cast<int>(truth.size())};
       results.push_back(res);
     }
   }
   MarkParetoFronts(results);
-  std::cout << "Pareto front (per pattern: no other detector is both faster and more accurate):";
+  log << "Pareto front (per pattern: no other detector is both faster and more accurate):";
   for (const Result& r : results) {
-    if (r.pareto) std::cout << fmt::format(" [{}: {} {:.1f} ms, {:.4f} px]", r.pattern, r.detector, r.median_ms, r.rms_px);
+    if (r.pareto)
+      log << fmt::format(" [{}: {} {:.1f} ms, {:.4f} px]", r.pattern, r.detector, r.median_ms, r.rms_px);
   }
-  std::cout << "\n";
-  std::string csv = fmt::format("# curvecheck bench detect, scene {}, {} runs; {}\n", a.scene, a.runs, machine);
+  log << "\n";
+  std::string csv =
+      fmt::format("# curvecheck bench detect, scene {}, {} runs; {}\n", a.scene, a.runs, machine);
   csv += "pattern,detector,median_ms,min_ms,found,visible,mean_x_px,mean_y_px,rms_px,max_px,failure,pareto\n";
   const auto num = [](double v) { return std::isfinite(v) ? fmt::format("{:.5f}", v) : std::string(); };
   for (const Result& r : results) {
-    csv += fmt::format("{},{},{:.3f},{:.3f},{},{},{:.5f},{:.5f},{},{},\"{}\",{}\n", r.pattern, r.detector, r.median_ms,
-                       r.min_ms, r.found, r.visible, r.mean.x(), r.mean.y(), num(r.rms_px), num(r.max_px), r.failure,
-                       r.pareto ? 1 : 0);
+    csv += fmt::format("{},{},{:.3f},{:.3f},{},{},{:.5f},{:.5f},{},{},\"{}\",{}\n", r.pattern, r.detector,
+                       r.median_ms, r.min_ms, r.found, r.visible, r.mean.x(), r.mean.y(), num(r.rms_px),
+                       num(r.max_px), r.failure, r.pareto ? 1 : 0);
   }
-  const fs::path dir = a.output;
-  std::error_code ec;
-  fs::create_directories(dir, ec);
-  if (!fs::is_directory(dir)) throw Error(dir.string(), "cannot create the output folder", "choose a writable path");
   WriteFileAtomic(dir / "detect_bench.csv", csv);
-  const std::string title = fmt::format("detectors on a synthetic photo of {}: time vs corner error (median of {} runs)\n{}",
-                                        a.scene, a.runs, machine);
+  const std::string title =
+      fmt::format("detectors on a synthetic photo of {}: time vs corner error (median of {} runs)\n{}",
+                  a.scene, a.runs, machine);
   WriteGnuplotChart(dir / "detect_bench.png", ChartScript(title, labels), {1400, 900});
-  std::cout << fmt::format("wrote {}, {} and {}\n", (dir / "detect_bench.csv").string(),
-                           (dir / "detect_bench.png").string(), (dir / "detect_bench.gp").string());
-  return 0;
+  log << fmt::format("wrote {}, {} and {}\n", (dir / "detect_bench.csv").string(),
+                     (dir / "detect_bench.png").string(), (dir / "detect_bench.gp").string());
 }
 
-}  // namespace
-
-void AddBenchDetectCommand(CLI::App& bench, std::function<int()>& run) {
-  auto args = std::make_shared<BenchDetectArgs>();
-  CLI::App* cmd = bench.add_subcommand(
-      "detect", "Every detector on synthetic photos of a scene: median time and error against the truth");
-  cmd->add_option("--scene", args->scene, "Scene YAML (its camera takes the photos)")->capture_default_str();
-  cmd->add_option("--runs", args->runs, "Timed runs per detector (median reported)")->capture_default_str();
-  cmd->add_option("--patterns", args->patterns, "Which of checkerboard,square,apriltag")->capture_default_str();
-  cmd->add_option("-o,--output", args->output, "Output folder (detect_bench.csv, detect_bench.png and its .gp)");
-  cmd->add_flag("--uniform-display", args->uniform_display,
-                "Display pixels uniform (fill factor 1, no RGB stripes) and 4x4 supersampling: no moire");
-  cmd->callback([&run, args] { run = [args] { return RunBenchDetect(*args); }; });
-}
-
-}  // namespace curvecheck::app
+}  // namespace curvecheck::experiments

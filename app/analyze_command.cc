@@ -30,6 +30,7 @@ struct AnalyzeArgs {
   std::string output;
   AnalyzeOptions options;
   std::vector<std::string> models;
+  std::string detector = "auto";
   bool no_fit = false;
   bool no_overlays = false;
   bool no_report = false;
@@ -45,6 +46,7 @@ int RunAnalyze(AnalyzeArgs a) {
   }
   if (!a.models.empty()) a.options.fit.models = a.models;
   a.options.fit_screen = !a.no_fit;
+  a.options.detect.detector = ParseDetector(a.detector, "analyze options");
   a.options.Check("analyze options");
   if (!(a.magnification > 0)) throw Error("--magnify", "must be a positive factor", "give e.g. 50");
 
@@ -124,7 +126,7 @@ void AddAnalyzeCommand(CLI::App& app, std::function<int()>& run) {
       ->allow_extra_args(false);
   cmd->add_option("photos", args->photos, "Photos (PNG/JPEG, 8 or 16 bit)")->required();
   cmd->add_option("-o,--output", args->output, "Output folder (created if missing)")->required();
-  cmd->add_option("--detector", args->options.detect.detector,
+  cmd->add_option("--detector", args->detector,
                   "auto | mrgingham | opencv-sb | opencv-classic | apriltag")
       ->capture_default_str();
   cmd->add_option("--tolerance", args->options.verify.tolerance_display_px,

@@ -49,7 +49,7 @@ int RunCalibrate(const CalibrateArgs& a) {
   }
   const BoardSpec board = a.board_from.empty() ? BoardFromText(a.board, a.square_mm) : BoardFromPatternJson(a.board_from);
   ChessboardOptions d;
-  d.detector = a.detector;
+  d.detector = ParseChessboardDetector(a.detector);
   d.threads = a.threads;
   d.search_max_px = a.search_max_px;
   CalibrateOptions c;

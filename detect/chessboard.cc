@@ -63,10 +63,23 @@ bool DetectMrgingham(const cv::Mat& gray, const BoardSpec& b, ChessboardDetectio
 
 }  // namespace
 
-void ChessboardOptions::Check() const {
-  if (detector != "auto" && detector != "opencv" && detector != "mrgingham") {
-    throw Error("--detector", fmt::format("'{}' is not a detector", detector), "use auto, opencv or mrgingham");
+const char* ChessboardDetectorName(ChessboardDetector detector) {
+  switch (detector) {
+    case ChessboardDetector::kAuto: return "auto";
+    case ChessboardDetector::kOpenCv: return "opencv";
+    case ChessboardDetector::kMrgingham: return "mrgingham";
   }
+  return "auto";
+}
+
+ChessboardDetector ParseChessboardDetector(const std::string& name) {
+  for (ChessboardDetector d : {ChessboardDetector::kAuto, ChessboardDetector::kOpenCv, ChessboardDetector::kMrgingham}) {
+    if (name == ChessboardDetectorName(d)) return d;
+  }
+  throw Error("--detector", fmt::format("'{}' is not a detector", name), "use auto, opencv or mrgingham");
+}
+
+void ChessboardOptions::Check() const {
   if (search_max_px != 0 && search_max_px < 320) {
     throw Error("--search-max-px", fmt::format("{} px is too small to find a board in", search_max_px),
                 "use 0 (full resolution) or at least 320");
@@ -84,7 +97,7 @@ ChessboardDetection DetectChessboard(const cv::Mat& gray8, const BoardSpec& boar
   d.width = gray8.cols;
   d.height = gray8.rows;
   if (gray8.type() != CV_8UC1) throw Error("DetectChessboard", "the image is not 8-bit gray", "convert it first");
-  if (options.detector == "mrgingham") {
+  if (options.detector == ChessboardDetector::kMrgingham) {
     if (board.corners_x != board.corners_y) {
       throw Error("--detector", fmt::format("mrgingham finds square NxN boards only, not {}x{}", board.corners_x,
                                             board.corners_y),
@@ -104,7 +117,7 @@ ChessboardDetection DetectChessboard(const cv::Mat& gray8, const BoardSpec& boar
 std::vector<ChessboardDetection> DetectChessboards(const std::vector<std::filesystem::path>& photos, const BoardSpec& board,
                                          const ChessboardOptions& options) {
   options.Check();
-  if (options.detector == "mrgingham" && board.corners_x != board.corners_y) {
+  if (options.detector == ChessboardDetector::kMrgingham && board.corners_x != board.corners_y) {
     throw Error("--detector", fmt::format("mrgingham finds square NxN boards only, not {}x{}", board.corners_x,
                                           board.corners_y),
                 "use --detector opencv (or auto)");

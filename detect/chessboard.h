@@ -26,8 +26,14 @@
 
 namespace curvecheck {
 
+// The detectors above; names (auto, opencv, mrgingham) are parsed and printed only at the edges.
+enum class ChessboardDetector { kAuto, kOpenCv, kMrgingham };  // kAuto = kOpenCv
+const char* ChessboardDetectorName(ChessboardDetector detector);
+// Throws Error("--detector", "'<name>' is not a detector", the list) for any other name.
+ChessboardDetector ParseChessboardDetector(const std::string& name);
+
 struct ChessboardOptions {
-  std::string detector = "auto";  // auto | opencv | mrgingham (see above); auto = opencv
+  ChessboardDetector detector = ChessboardDetector::kAuto;
   // Longest side (px) of the reduced copy that the OpenCV search runs on; the refinement is at full resolution.
   // Smaller is faster; the board's squares must stay >= ~8 px at that scale. 0 = search at full resolution.
   int search_max_px = 1600;

@@ -18,10 +18,9 @@ using testing::MessageOf;
 
 TEST(Detect, MrgingghamRefusesNonSquareBoards) {
   ChessboardOptions o;
-  o.detector = "mrgingham";
+  o.detector = ChessboardDetector::kMrgingham;
   EXPECT_THAT(MessageOf([&] { DetectChessboards({}, BoardFromText("9x6", 25), o); }), HasSubstr("square NxN"));
-  o.detector = "sift";
-  EXPECT_THAT(MessageOf([&] { o.Check(); }), HasSubstr("not a detector"));
+  EXPECT_THAT(MessageOf([&] { ParseChessboardDetector("sift"); }), HasSubstr("not a detector"));
 }
 
 // Corner accuracy against the synthetic truth, both detectors on the same photos (an 8x8 board so that mrgingham
@@ -40,7 +39,7 @@ TEST(Detect, CornersMatchTheTruthAndAutoIsTheMoreAccurate) {
   int found[2] = {0, 0}, n[2] = {0, 0};
   for (int det = 0; det < 2; ++det) {
     ChessboardOptions d;
-    d.detector = det == 0 ? "auto" : "mrgingham";
+    d.detector = det == 0 ? ChessboardDetector::kAuto : ChessboardDetector::kMrgingham;
     for (const SyntheticBoardView& v : set.views) {
       const Stopwatch watch;
       const ChessboardDetection r = DetectChessboard(v.photo, set.board, d);
@@ -55,7 +54,7 @@ TEST(Detect, CornersMatchTheTruthAndAutoIsTheMoreAccurate) {
       }
     }
     rms[det] = std::sqrt(rms[det] / std::max(1, n[det]));
-    std::cout << d.detector << ": " << found[det] << "/" << set.views.size() << " found, corner RMS " << rms[det]
+    std::cout << ChessboardDetectorName(d.detector) << ": " << found[det] << "/" << set.views.size() << " found, corner RMS " << rms[det]
               << " px against truth, " << ms[det] / set.views.size() << " ms per photo\n";
   }
   EXPECT_EQ(found[0], 6);

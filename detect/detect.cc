@@ -26,7 +26,8 @@ namespace {
 using detect_internal::CornerGrid;
 using detect_internal::DetectedTag;
 
-constexpr const char* kDetectors[] = {"auto", "mrgingham", "opencv-sb", "opencv-classic", "apriltag"};
+constexpr Detector kDetectors[] = {Detector::kAuto, Detector::kMrgingham, Detector::kOpenCvSb,
+                                   Detector::kOpenCvClassic, Detector::kAprilTag};
 
 // What detection needs from pattern.json.
 struct PatternInfo {
@@ -478,11 +479,26 @@ std::vector<std::string> ScreenFeatures(std::vector<DetectedFeature>& features, 
   return notes;
 }
 
-void DetectOptions::Check(const std::string& where) const {
-  if (std::find(std::begin(kDetectors), std::end(kDetectors), detector) == std::end(kDetectors)) {
-    throw Error(where, fmt::format("detector '{}' is not known", detector),
-                "use auto, mrgingham, opencv-sb, opencv-classic or apriltag");
+const char* DetectorName(Detector detector) {
+  switch (detector) {
+    case Detector::kAuto: return "auto";
+    case Detector::kMrgingham: return "mrgingham";
+    case Detector::kOpenCvSb: return "opencv-sb";
+    case Detector::kOpenCvClassic: return "opencv-classic";
+    case Detector::kAprilTag: return "apriltag";
   }
+  return "auto";
+}
+
+Detector ParseDetector(const std::string& name, const std::string& where) {
+  for (Detector d : kDetectors) {
+    if (name == DetectorName(d)) return d;
+  }
+  throw Error(where, fmt::format("detector '{}' is not known", name),
+              "use auto, mrgingham, opencv-sb, opencv-classic or apriltag");
+}
+
+void DetectOptions::Check(const std::string& where) const {
   const auto range = [&](const char* name, double v, double lo, double hi, const char* fix) {
     if (!(std::isfinite(v) && v >= lo && v <= hi)) {
       throw Error(where, fmt::format("{} is {}, but must be in [{}, {}]", name, v, lo, hi), fix);
@@ -552,8 +568,8 @@ Detection DetectFeatures(const cv::Mat& photo_gray, const PatternFile& pattern, 
   }
   const PatternInfo info = ReadPatternInfo(pattern);
   const bool board_kind = info.kind != "apriltag", tag_kind = info.kind != "checkerboard";
-  std::string detector = options.detector;
-  if (detector == "auto") detector = tag_kind ? "apriltag" : "opencv-classic";
+  std::string detector = DetectorName(options.detector);
+  if (options.detector == Detector::kAuto) detector = tag_kind ? "apriltag" : "opencv-classic";
   if (detector == "apriltag" && !tag_kind) {
     throw Error("detector", "apriltag cannot detect a plain checkerboard (pattern.json has no tags)",
                 "use auto, opencv-classic, opencv-sb or mrgingham");
@@ -575,7 +591,7 @@ Detection DetectFeatures(const cv::Mat& photo_gray, const PatternFile& pattern, 
   if (detector == "apriltag") {
     DetectTags(photo_gray, gray8, pattern, info, options, out);
   } else if (!DetectBoard(detector, photo_gray, gray8, pattern, info, options, out)) {
-    if (options.detector == "auto" && out.failure_kind == DetectionFailure::kPatternNotFound) {
+    if (options.detector == Detector::kAuto && out.failure_kind == DetectionFailure::kPatternNotFound) {
       // auto: classic is fast but less robust to strong perspective and blur; try SB before giving up.
       const std::string first = out.failure;
       out = Detection();

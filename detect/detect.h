@@ -51,9 +51,15 @@
 
 namespace curvecheck {
 
+// The detectors above; names (auto, mrgingham, opencv-sb, opencv-classic, apriltag) are parsed and printed only
+// at the edges (ParseDetector, DetectorName).
+enum class Detector { kAuto, kMrgingham, kOpenCvSb, kOpenCvClassic, kAprilTag };
+const char* DetectorName(Detector detector);
+// Throws Error(where, "detector '<name>' is not known", the list) for any other name.
+Detector ParseDetector(const std::string& name, const std::string& where);
+
 struct DetectOptions {
-  // auto | mrgingham | opencv-sb | opencv-classic | apriltag (see above).
-  std::string detector = "auto";
+  Detector detector = Detector::kAuto;
   // AprilTag: the detector runs on a copy shrunk by this factor (1 = full resolution). 2 is ~3x faster than 1 at
   // 24 MP; the corners are refined at full resolution afterwards either way. 1..8.
   int apriltag_decimate = 2;

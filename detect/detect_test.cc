@@ -149,7 +149,7 @@ int Flagged(const Detection& d) {
 
 DetectOptions With(const std::string& detector) {
   DetectOptions o;
-  o.detector = detector;
+  o.detector = ParseDetector(detector, "detect options");
   return o;
 }
 

@@ -55,7 +55,7 @@ void RunBenchCapture(const BenchCaptureOptions& a, std::ostream& log) {
   const int ss = scene.optics.supersample;
   log << fmt::format(
       "bench capture: {} ({} x {} px, {}x{} supersampling, blur {}, noise {}), display: {}\n{}\n", a.scene,
-      scene.camera.width, scene.camera.height, ss, ss, scene.optics.blur, scene.sensor.noise ? "on" : "off",
+      scene.camera.width, scene.camera.height, ss, ss, BlurName(scene.optics.blur), scene.sensor.noise ? "on" : "off",
       display_source, machine);
 
   const SyntheticPhoto cold = RenderSyntheticPhoto(scene, display);

@@ -110,7 +110,7 @@ void RunBenchDetect(const BenchDetectOptions& a, const fs::path& dir, std::ostre
     std::vector<Case> cases;
     const auto with = [](const std::string& label, const std::string& detector) {
       Case c{label, DetectOptions()};
-      c.options.detector = detector;
+      c.options.detector = ParseDetector(detector, "bench detect");
       return c;
     };
     if (which == "apriltag") {
@@ -187,7 +187,7 @@ void RunBenchDetect(const BenchDetectOptions& a, const fs::path& dir, std::ostre
       const double rms = n > 0 ? std::sqrt(sum2 / n) : 0;
       const double median = Median(times);
       std::string info = d.failure;
-      if (info.empty() && c.options.detector == "auto") info = "-> " + d.detector;
+      if (info.empty() && c.options.detector == Detector::kAuto) info = "-> " + d.detector;
       for (const std::string& note : d.notes) {
         if (note.starts_with("display pixels"))
           info += (info.empty() ? "" : "; ") + note.substr(0, note.find(':'));

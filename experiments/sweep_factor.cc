@@ -31,7 +31,7 @@ const std::vector<FactorInfo> kFactors = {
      }},
     {"defocus_px", "defocus", 0, 50, "Gaussian PSF sigma in px of the (scaled) camera; 0 = sharp",
      [](double v, SweepPoint& p) {
-       p.scene.optics.blur = v > 0 ? "gaussian" : "none";
+       p.scene.optics.blur = v > 0 ? Blur::kGaussian : Blur::kNone;
        p.scene.optics.blur_px = v;
      }},
     {"noise_x", "noise", 0, 1000,

@@ -70,9 +70,9 @@ TEST_F(SweepFactorTest, GeometryFactorsMoveTheCameraAroundTheCentre) {
 
 TEST_F(SweepFactorTest, SceneFactorsChangeTheirFieldOnly) {
   const SweepPoint defocus = At("defocus", 2);
-  EXPECT_EQ(defocus.scene.optics.blur, "gaussian");
+  EXPECT_EQ(defocus.scene.optics.blur, Blur::kGaussian);
   EXPECT_EQ(defocus.scene.optics.blur_px, 2);
-  EXPECT_EQ(At("defocus", 0).scene.optics.blur, "none");
+  EXPECT_EQ(At("defocus", 0).scene.optics.blur, Blur::kNone);
   EXPECT_TRUE(defocus.scene.camera_position_in_screen.isApprox(base_->camera_position_in_screen));
   EXPECT_FALSE(At("noise", 0).scene.sensor.noise);
   const SweepPoint noisy = At("noise_x", 2);

@@ -65,16 +65,37 @@ void ReadDisplay(const ConfigMap& d, DisplayModel* display) {
   }
 }
 
+}  // namespace
+
+const char* BlurName(Blur blur) {
+  switch (blur) {
+    case Blur::kNone: return "none";
+    case Blur::kGaussian: return "gaussian";
+    case Blur::kDisc: return "disc";
+  }
+  return "none";
+}
+
+namespace {
+
 void ReadOptics(const ConfigMap& o, Optics* optics) {
   o.RejectUnknownKeys({"supersample", "blur", "blur_px", "vignetting", "exposure"});
   if (o.Has("supersample")) optics->supersample = o.PositiveInt("supersample");
-  if (o.Has("blur")) optics->blur = o.String("blur");
+  if (o.Has("blur")) {
+    const std::string blur = o.String("blur");
+    if (blur == "none") {
+      optics->blur = Blur::kNone;
+    } else if (blur == "gaussian") {
+      optics->blur = Blur::kGaussian;
+    } else if (blur == "disc") {
+      optics->blur = Blur::kDisc;
+    } else {
+      o.Fail("blur", "is not none, gaussian or disc", "choose one");
+    }
+  }
   if (o.Has("blur_px")) optics->blur_px = o.Number("blur_px");
   if (o.Has("vignetting")) optics->vignetting = o.Number("vignetting");
   if (o.Has("exposure")) optics->exposure = o.PositiveNumber("exposure");
-  if (optics->blur != "none" && optics->blur != "gaussian" && optics->blur != "disc") {
-    o.Fail("blur", "is not none, gaussian or disc", "choose one");
-  }
   if (optics->supersample > 8) o.Fail("supersample", "is above 8", "use 1..8 rays per pixel per axis");
   if (optics->blur_px < 0) o.Fail("blur_px", fmt::format("is {}, below zero", optics->blur_px), "give 0 or more px");
   if (optics->vignetting < 0 || optics->vignetting > 1) {

@@ -28,9 +28,14 @@ struct DisplayModel {
   double room = 0.03;         // everything else
 };
 
+// The optics' blur kernel (scene key optics.blur: none | gaussian | disc; parsed and printed only by the scene
+// reader and BlurName).
+enum class Blur { kNone, kGaussian, kDisc };
+const char* BlurName(Blur blur);  // "none", "gaussian", "disc"
+
 struct Optics {
   int supersample = 2;         // rays per pixel along each axis
-  std::string blur = "none";   // none | gaussian | disc
+  Blur blur = Blur::kNone;
   double blur_px = 0;          // Gaussian sigma or disc radius, camera px
   double vignetting = 0;       // relative fall-off at the image corner: gain 1 - v (r / r_corner)^2
   double exposure = 1.0;       // multiplies scene radiance (white display = 1 before fill factor)

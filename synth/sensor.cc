@@ -52,9 +52,9 @@ struct SplitMix64 {
 }  // namespace
 
 void BlurRadiance(const Optics& optics, cv::Mat* radiance) {
-  if (optics.blur == "gaussian" && optics.blur_px > 0) {
+  if (optics.blur == Blur::kGaussian && optics.blur_px > 0) {
     cv::GaussianBlur(*radiance, *radiance, cv::Size(0, 0), optics.blur_px, optics.blur_px, cv::BORDER_REPLICATE);
-  } else if (optics.blur == "disc" && optics.blur_px > 0) {
+  } else if (optics.blur == Blur::kDisc && optics.blur_px > 0) {
     const int r = static_cast<int>(std::ceil(optics.blur_px));
     cv::Mat kernel = cv::Mat::zeros(2 * r + 1, 2 * r + 1, CV_32F);
     cv::circle(kernel, cv::Point(r, r), static_cast<int>(std::lround(optics.blur_px)), cv::Scalar(1), cv::FILLED);

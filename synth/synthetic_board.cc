@@ -92,7 +92,7 @@ SyntheticBoardSet MakeSyntheticBoardSet(const SyntheticBoardOptions& o) {
   scene.display.rgb_stripes = false;
   scene.display.fill_factor = 1.0;
   scene.optics.supersample = o.supersample;
-  scene.optics.blur = o.blur_px > 0 ? "gaussian" : "none";
+  scene.optics.blur = o.blur_px > 0 ? Blur::kGaussian : Blur::kNone;
   scene.optics.blur_px = o.blur_px;
   scene.sensor.noise = o.noise;
   const double fx = o.camera.intrinsics[0];

@@ -403,7 +403,7 @@ TEST(SceneReader, OverridesAreAppliedAndChecked) {
   const std::filesystem::path scene = Datasets() / "scenes/default.yaml";
   const SyntheticScene s = LoadScene(scene, {"true_monitor.radius_mm=flat", "optics.blur=disc", "display.bezel_mm=0"});
   EXPECT_EQ(s.truth.curvature_per_mm, 0.0);
-  EXPECT_EQ(s.optics.blur, "disc");
+  EXPECT_EQ(s.optics.blur, Blur::kDisc);
   EXPECT_EQ(s.display.bezel_mm, 0.0);
   EXPECT_EQ(s.optics.blur_px, 0.7);  // from the file
   const std::map<std::string, std::string> refused = {

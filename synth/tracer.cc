@@ -167,8 +167,8 @@ cv::Mat TraceRadiance(const SyntheticScene& s, const Image8& display, const RayG
   const DisplayLight light(s.display, display);
   // The optics' blur as a Gaussian sigma, camera px (a disc of radius r: r / 2).
   double psf_sigma_px = 0;
-  if (s.optics.blur == "gaussian") psf_sigma_px = s.optics.blur_px;
-  if (s.optics.blur == "disc") psf_sigma_px = 0.5 * s.optics.blur_px;
+  if (s.optics.blur == Blur::kGaussian) psf_sigma_px = s.optics.blur_px;
+  if (s.optics.blur == Blur::kDisc) psf_sigma_px = 0.5 * s.optics.blur_px;
   const int width = s.camera.width, height = s.camera.height;
   const int n = s.optics.supersample;
   const int samples_x = width * n;

@@ -99,7 +99,7 @@ TEST(ScreenFitTest, FlatMonitorChoosesFlatAndTheRadiusIsALowerBound) {
   SyntheticScene scene = LoadScene(Scene("default"));
   scene.monitor = LoadMonitor("27in-2560x1440-flat");
   scene.truth.curvature_per_mm = 0;
-  scene.camera_position_in_screen = Eigen::Vector3d(0, 0, 800);  // the flat screen is the plane z = 0
+  scene.screen_from_cam.translation = Eigen::Vector3d(0, 0, 800);  // the flat screen is the plane z = 0
   std::mt19937_64 rng(13);
   const auto photo = Observe(scene, DisplayGrid(scene.monitor, 25, 14), kNoisePx, rng, SceneSurface(scene));
   ASSERT_EQ(photo.ids.size(), 25u * 14u);
@@ -277,7 +277,7 @@ TEST(ScreenFitTest, SeveralPhotosAreFittedJointly) {
   EXPECT_LT(std::abs(*cyl.radius_mm - 1080), 3 * *cyl.radius_sigma_mm);
   ASSERT_EQ(cyl.cameras.size(), 3u);
   for (size_t p = 0; p < 3; ++p) {
-    const Eigen::Vector3d truth = scenes[p].camera_position_in_screen + Eigen::Vector3d(0, 0, 1000);
+    const Eigen::Vector3d truth = scenes[p].screen_from_cam.translation + Eigen::Vector3d(0, 0, 1000);
     for (int a = 0; a < 3; ++a) {
       EXPECT_LT(std::abs(cyl.cameras[p].centre_from_cam.translation[a] - truth[a]), 4 * cyl.cameras[p].position_sigma_mm[a])
           << p << " " << a;
@@ -347,7 +347,7 @@ TEST(ScreenFitTest, NearFlatViewOfAn1800RScreenIsIllConditionedNotANumber) {
   SyntheticScene scene = LoadScene(Scene("default"));
   scene.monitor = LoadMonitor("49in-5120x1440-1800r");
   scene.truth.curvature_per_mm = scene.monitor.curvature_per_mm;
-  scene.camera_position_in_screen = Eigen::Vector3d(0, 0, 4000 - 1800);  // 4 m in front of the centre
+  scene.screen_from_cam.translation = Eigen::Vector3d(0, 0, 4000 - 1800);  // 4 m in front of the centre
   std::vector<Eigen::Vector2d> patch;
   for (int j = 0; j < 9; ++j) {
     for (int i = 0; i < 9; ++i) {
@@ -377,7 +377,7 @@ TEST(ScreenFitTest, RelativeCurvatureSigmaLimitDropsTheRadiusNumber) {
   SyntheticScene scene = LoadScene(Scene("default"));
   scene.monitor = LoadMonitor("49in-5120x1440-1800r");
   scene.truth.curvature_per_mm = scene.monitor.curvature_per_mm;
-  scene.camera_position_in_screen = Eigen::Vector3d(0, 0, 4000 - 1800);
+  scene.screen_from_cam.translation = Eigen::Vector3d(0, 0, 4000 - 1800);
   std::vector<Eigen::Vector2d> patch;
   for (int j = 0; j < 9; ++j) {
     for (int i = 0; i < 9; ++i) {

@@ -54,7 +54,7 @@ inline SurfaceFn AxisLeanSurface(const SyntheticScene& scene, double lean_deg) {
 
 // The camera pose of the scene in the nominal centre frame.
 inline Pose ScenePose(const SyntheticScene& scene) {
-  return Pose(scene.screen_from_cam, scene.camera_position_in_screen - ScreenCentreInScreen(scene.monitor));
+  return Pose(scene.screen_from_cam.rotation, scene.screen_from_cam.translation - ScreenCentreInScreen(scene.monitor));
 }
 
 // Observations of the features at `display_px` (those that project into the image), each detected with
@@ -68,7 +68,7 @@ inline PhotoObservations Observe(const SyntheticScene& scene, const std::vector<
   std::vector<Eigen::Vector3d> points;
   for (const Eigen::Vector2d& px : display_px) {
     const Eigen::Vector3d p = surface(UvFromDisplayPx(scene.monitor, px));
-    points.push_back(scene.screen_from_cam.transpose() * (p - scene.camera_position_in_screen));
+    points.push_back(scene.screen_from_cam.Inverse() * p);
   }
   const std::vector<Eigen::Vector2d> q = ProjectPoints(scene.camera, points);
   for (size_t i = 0; i < display_px.size(); ++i) {

@@ -41,7 +41,8 @@ class VerifyTest : public ::testing::Test {
     std::ofstream(path) << j.dump();
     pattern_ = ReadPatternJson(path);
     camera_ = ReadCameraModel(SourceDir() / "datasets/cameras/default-24mp-opencv8.cameramodel");
-    screen_from_cam_ = ScreenFromCamLookAt(viewpoint_, ScreenCentreInScreen(monitor_), Eigen::Vector3d::UnitY());
+    screen_from_cam_ = ScreenFromCamLookAt(viewpoint_, ScreenCentreInScreen(monitor_), Eigen::Vector3d::UnitY())
+                           .RotationMatrix();
   }
 
   // Where the camera at `camera_in_screen` sees each feature when the rendering puts feature f at display

@@ -36,7 +36,7 @@ TruthComparison CompareWithTruth(const CameraModel& truth, const SyntheticBoardS
           best = j;
         }
       }
-      a.push_back(v.screen_from_cam.transpose() * (set.corners_in_screen[best] - v.camera_position_in_screen));
+      a.push_back(v.screen_from_cam.Inverse() * set.corners_in_screen[best]);
       b.push_back(rot * board[i] + rt.tail<3>());
     }
   }

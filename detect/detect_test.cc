@@ -83,7 +83,7 @@ PatternFile ToPatternFile(const Pattern& p, const Monitor& m, const Eigen::Vecto
 Shot Photograph(const SyntheticScene& scene, const PatternSpec& spec, Method method = Method::kExact) {
   Shot shot;
   shot.scene = scene;
-  const Eigen::Vector3d viewpoint = scene.camera_position_in_screen;
+  const Eigen::Vector3d viewpoint = scene.screen_from_cam.translation;
   const Pattern p = BuildPattern(spec, scene.monitor, viewpoint, TangentPlaneAtCentre(scene.monitor));
   RenderOptions options;
   options.method.method = method;
@@ -344,10 +344,10 @@ TEST(Detect, BlankAndOtherPatternsFailWithAReason) {
   // Tags of other ids.
   PatternSpec other_tags = tags;
   other_tags.first_tag_id = 100;
-  const Pattern other = BuildPattern(other_tags, tag_shot.scene.monitor, tag_shot.scene.camera_position_in_screen,
+  const Pattern other = BuildPattern(other_tags, tag_shot.scene.monitor, tag_shot.scene.screen_from_cam.translation,
                                      TangentPlaneAtCentre(tag_shot.scene.monitor));
   const PatternFile other_file =
-      ToPatternFile(other, tag_shot.scene.monitor, tag_shot.scene.camera_position_in_screen, "exact");
+      ToPatternFile(other, tag_shot.scene.monitor, tag_shot.scene.screen_from_cam.translation, "exact");
   EXPECT_EQ(DetectFeatures(tag_shot.photo, other_file, With("auto")).failure,
             "different pattern: ids not in pattern.json: the photo shows tags 0..35, pattern.json has tags 100..135");
   EXPECT_EQ(DetectFeatures(tag_shot.photo, other_file, With("auto")).failure_kind, DetectionFailure::kDifferentPattern);
@@ -355,10 +355,10 @@ TEST(Detect, BlankAndOtherPatternsFailWithAReason) {
   PatternSpec other_board;
   other_board.cols = 10;
   other_board.rows = 7;
-  const Pattern ob = BuildPattern(other_board, board_shot.scene.monitor, board_shot.scene.camera_position_in_screen,
+  const Pattern ob = BuildPattern(other_board, board_shot.scene.monitor, board_shot.scene.screen_from_cam.translation,
                                   TangentPlaneAtCentre(board_shot.scene.monitor));
   const Detection d = DetectFeatures(
-      board_shot.photo, ToPatternFile(ob, board_shot.scene.monitor, board_shot.scene.camera_position_in_screen, "exact"),
+      board_shot.photo, ToPatternFile(ob, board_shot.scene.monitor, board_shot.scene.screen_from_cam.translation, "exact"),
       With("opencv-classic"));
   EXPECT_EQ(d.failure,
             "pattern not found: the photo shows a checkerboard, but no complete one of 9x6 inner corners "
@@ -385,8 +385,8 @@ TEST(Detect, ScreeningFlagsExactlyThePlantedOutliers) {
   PatternSpec spec;
   spec.kind = PatternKind::kAprilTag;
   const SyntheticScene scene = SmallCameraScene("off-axis");
-  const Pattern p = BuildPattern(spec, scene.monitor, scene.camera_position_in_screen, TangentPlaneAtCentre(scene.monitor));
-  const PatternFile file = ToPatternFile(p, scene.monitor, scene.camera_position_in_screen, "exact");
+  const Pattern p = BuildPattern(spec, scene.monitor, scene.screen_from_cam.translation, TangentPlaneAtCentre(scene.monitor));
+  const PatternFile file = ToPatternFile(p, scene.monitor, scene.screen_from_cam.translation, "exact");
   const nlohmann::json truth = TruthJson(scene, p.features);
   std::mt19937_64 rng(5);
   std::normal_distribution<double> noise(0, 0.03);

@@ -43,7 +43,7 @@ bool RunBenchAnalyze(const BenchAnalyzeOptions& a, const fs::path& out, std::ost
   SyntheticScene scene = FindScene(a.scene, "--scene");
   const std::string scene_source = SceneSource(a.scene);
   const Monitor& m = scene.monitor;
-  const Eigen::Vector3d viewpoint = scene.camera_position_in_screen;
+  const Eigen::Vector3d viewpoint = scene.screen_from_cam.translation;
 
   PatternSpec spec;
   spec.cols = a.cols;

@@ -44,7 +44,7 @@ void RunBenchCapture(const BenchCaptureOptions& a, std::ostream& log) {
   if (a.display.empty()) {
     Renderer renderer;
     display =
-        RenderTrialDisplay(renderer, scene.monitor, scene.camera_position_in_screen, PatternSpec()).image;
+        RenderTrialDisplay(renderer, scene.monitor, scene.screen_from_cam.translation, PatternSpec()).image;
     display_source = fmt::format("default checkerboard rendered (exact) for the camera position on {}",
                                  renderer.device_name());
   } else {

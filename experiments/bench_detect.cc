@@ -103,7 +103,7 @@ void RunBenchDetect(const BenchDetectOptions& a, const fs::path& dir, std::ostre
                      "median ms", "min ms", "found", "mean px", "rms px", "max px", "failure/notes");
   std::vector<Result> results;
   std::vector<std::string> labels;
-  const Eigen::Vector3d viewpoint = scene.camera_position_in_screen;
+  const Eigen::Vector3d viewpoint = scene.screen_from_cam.translation;
   for (const std::string which : {"checkerboard", "square", "apriltag"}) {
     if (a.patterns.find(which) == std::string::npos) continue;
     PatternSpec spec;

@@ -42,11 +42,11 @@ void RunBenchFit(const BenchFitOptions& a, std::ostream& log) {
   std::vector<PhotoObservations> ten;
   for (int i = 0; i < 10; ++i) {
     SyntheticScene s = scene;
-    s.camera_position_in_screen =
-        scene.camera_position_in_screen +
+    s.screen_from_cam.translation =
+        scene.screen_from_cam.translation +
         Eigen::Vector3d(-450 + 100 * i, (i % 2 ? 1 : -1) * 100, -100 + 25 * (i % 5));
     s.screen_from_cam = ScreenFromCamLookAt(
-        s.camera_position_in_screen, Eigen::Vector3d(0, 0, -s.monitor.radius_mm()), Eigen::Vector3d(0, 1, 0));
+        s.screen_from_cam.translation, Eigen::Vector3d(0, 0, -s.monitor.radius_mm()), Eigen::Vector3d(0, 1, 0));
     views.push_back(s);
   }
   int ten_features = 0;

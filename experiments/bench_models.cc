@@ -134,8 +134,7 @@ void RunBenchModels(const BenchModelsOptions& a, const fs::path& dir, std::ostre
     std::vector<Eigen::Vector3d> truth_cam;
     for (const Eigen::Vector2d& px : ref.display_px) {
       uv.push_back(UvFromDisplayPx(nominal, px));
-      truth_cam.push_back(scene.screen_from_cam.transpose() *
-                          (TrueSurfacePointInScreen(scene, uv.back()) - scene.camera_position_in_screen));
+      truth_cam.push_back(scene.screen_from_cam.Inverse() * TrueSurfacePointInScreen(scene, uv.back()));
     }
     FitOptions all_models;
     const ScreenFitResult selection = FitScreen(nominal, scene.camera, {photos[0]}, all_models);

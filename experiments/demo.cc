@@ -19,7 +19,7 @@ bool RunDemo(const std::filesystem::path& out, std::ostream& log) {
   // The embedded scenes and camera models, written beside the outputs so that they document their inputs.
   const fs::path datasets = WriteDatasetFiles(out / "datasets");
   const Monitor& m = scene.monitor;
-  const Eigen::Vector3d viewpoint = scene.camera_position_in_screen;
+  const Eigen::Vector3d viewpoint = scene.screen_from_cam.translation;
   const ViewingGeometry view = DescribeViewing(m, viewpoint);
   log << fmt::format("curvecheck demo: {} ({} x {} px, {:.1f} x {:.1f} mm, nominal R = {:.0f} mm)\n", m.name,
                      m.width_px, m.height_px, m.width_mm, m.height_mm, m.radius_mm())

@@ -28,7 +28,7 @@ TEST(SceneLookup, EveryEmbeddedSceneLoadsAsItsFileDoes) {
     EXPECT_EQ(embedded.camera.lensmodel, file.camera.lensmodel) << name;
     EXPECT_EQ(embedded.camera.intrinsics, file.camera.intrinsics) << name;
     EXPECT_EQ(embedded.camera.width, file.camera.width) << name;
-    EXPECT_TRUE(embedded.camera_position_in_screen.isApprox(file.camera_position_in_screen)) << name;
+    EXPECT_TRUE(embedded.screen_from_cam.translation.isApprox(file.screen_from_cam.translation)) << name;
     EXPECT_EQ(embedded.truth.curvature_per_mm, file.truth.curvature_per_mm) << name;
     EXPECT_EQ(embedded.monitor.name, file.monitor.name) << name;
   }

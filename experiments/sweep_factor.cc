@@ -138,16 +138,16 @@ SweepPoint MakeSweepPoint(const SyntheticScene& base, const PatternSpec& spec,
   p.scene = base;
   p.spec = spec;
   const Eigen::Vector3d centre = ScreenCentreInScreen(base.monitor);
-  p.offset_from_centre_mm = base.camera_position_in_screen - centre;
+  p.offset_from_centre_mm = base.screen_from_cam.translation - centre;
   for (size_t f = 0; f < factors.size(); ++f) FindFactor(factors[f].name).apply(values.at(f), p);
   const Eigen::Vector3d offset =
       Eigen::AngleAxisd(p.yaw_deg * M_PI / 180, Eigen::Vector3d::UnitY()) *
       (Eigen::AngleAxisd(-p.pitch_deg * M_PI / 180, Eigen::Vector3d::UnitX()) * p.offset_from_centre_mm);
   p.viewpoint_in_screen = centre + offset;
   if (p.camera_moved) {
-    p.scene.camera_position_in_screen = p.viewpoint_in_screen + Eigen::Vector3d(p.sideways_mm, 0, 0);
+    p.scene.screen_from_cam.translation = p.viewpoint_in_screen + Eigen::Vector3d(p.sideways_mm, 0, 0);
     p.scene.screen_from_cam =
-        ScreenFromCamLookAt(p.scene.camera_position_in_screen, centre, Eigen::Vector3d::UnitY());
+        ScreenFromCamLookAt(p.scene.screen_from_cam.translation, centre, Eigen::Vector3d::UnitY());
   }
   return p;
 }

@@ -49,23 +49,23 @@ TEST_F(SweepFactorTest, EveryFactorHasAnApplyFunctionAndAUniqueName) {
 
 TEST_F(SweepFactorTest, GeometryFactorsMoveTheCameraAroundTheCentre) {
   const Eigen::Vector3d centre = ScreenCentreInScreen(base_->monitor);
-  const double distance = (base_->camera_position_in_screen - centre).norm();
+  const double distance = (base_->screen_from_cam.translation - centre).norm();
   const SweepPoint yaw = At("yaw", 30);
-  EXPECT_NEAR((yaw.scene.camera_position_in_screen - centre).norm(), distance, 1e-9);
-  EXPECT_GT(yaw.scene.camera_position_in_screen.x(), 100);  // to the right
-  EXPECT_TRUE(yaw.viewpoint_in_screen.isApprox(yaw.scene.camera_position_in_screen));
+  EXPECT_NEAR((yaw.scene.screen_from_cam.translation - centre).norm(), distance, 1e-9);
+  EXPECT_GT(yaw.scene.screen_from_cam.translation.x(), 100);  // to the right
+  EXPECT_TRUE(yaw.viewpoint_in_screen.isApprox(yaw.scene.screen_from_cam.translation));
   // Looking at the centre: camera z points at it.
-  const Eigen::Vector3d z = yaw.scene.screen_from_cam.col(2);
-  EXPECT_TRUE(z.isApprox((centre - yaw.scene.camera_position_in_screen).normalized(), 1e-9));
+  const Eigen::Vector3d z = yaw.scene.screen_from_cam.RotationMatrix().col(2);
+  EXPECT_TRUE(z.isApprox((centre - yaw.scene.screen_from_cam.translation).normalized(), 1e-9));
   const SweepPoint pitch = At("pitch_deg", 20);
-  EXPECT_NEAR((pitch.scene.camera_position_in_screen - centre).norm(), distance, 1e-9);
-  EXPECT_GT(pitch.scene.camera_position_in_screen.y(), 100);  // up
+  EXPECT_NEAR((pitch.scene.screen_from_cam.translation - centre).norm(), distance, 1e-9);
+  EXPECT_GT(pitch.scene.screen_from_cam.translation.y(), 100);  // up
   const SweepPoint far = At("distance", 2000);
-  EXPECT_NEAR((far.scene.camera_position_in_screen - centre).norm(), 2000, 1e-9);
+  EXPECT_NEAR((far.scene.screen_from_cam.translation - centre).norm(), 2000, 1e-9);
   // The viewpoint offset moves the camera, not the viewpoint the pattern is rendered for.
   const SweepPoint offset = At("viewpoint_offset_mm", 300);
-  EXPECT_TRUE(offset.viewpoint_in_screen.isApprox(base_->camera_position_in_screen));
-  EXPECT_NEAR(offset.scene.camera_position_in_screen.x() - offset.viewpoint_in_screen.x(), 300, 1e-9);
+  EXPECT_TRUE(offset.viewpoint_in_screen.isApprox(base_->screen_from_cam.translation));
+  EXPECT_NEAR(offset.scene.screen_from_cam.translation.x() - offset.viewpoint_in_screen.x(), 300, 1e-9);
 }
 
 TEST_F(SweepFactorTest, SceneFactorsChangeTheirFieldOnly) {
@@ -73,7 +73,7 @@ TEST_F(SweepFactorTest, SceneFactorsChangeTheirFieldOnly) {
   EXPECT_EQ(defocus.scene.optics.blur, Blur::kGaussian);
   EXPECT_EQ(defocus.scene.optics.blur_px, 2);
   EXPECT_EQ(At("defocus", 0).scene.optics.blur, Blur::kNone);
-  EXPECT_TRUE(defocus.scene.camera_position_in_screen.isApprox(base_->camera_position_in_screen));
+  EXPECT_TRUE(defocus.scene.screen_from_cam.translation.isApprox(base_->screen_from_cam.translation));
   EXPECT_FALSE(At("noise", 0).scene.sensor.noise);
   const SweepPoint noisy = At("noise_x", 2);
   EXPECT_DOUBLE_EQ(noisy.scene.sensor.full_well_e, base_->sensor.full_well_e / 4);

@@ -155,8 +155,8 @@ void ApplyOverride(const std::string& o, const std::filesystem::path& path, YAML
 
 }  // namespace
 
-Eigen::Matrix3d ScreenFromCamLookAt(const Eigen::Vector3d& position, const Eigen::Vector3d& look_at,
-                                    const Eigen::Vector3d& up) {
+Pose ScreenFromCamLookAt(const Eigen::Vector3d& position, const Eigen::Vector3d& look_at,
+                         const Eigen::Vector3d& up) {
   const Eigen::Vector3d z = (look_at - position).normalized();
   const Eigen::Vector3d x = z.cross(up).normalized();
   if (!x.allFinite() || x.norm() < 0.5) {
@@ -166,7 +166,7 @@ Eigen::Matrix3d ScreenFromCamLookAt(const Eigen::Vector3d& position, const Eigen
   r.col(0) = x;
   r.col(1) = z.cross(x);
   r.col(2) = z;
-  return r;
+  return Pose(r, position);
 }
 
 namespace {
@@ -189,16 +189,16 @@ SyntheticScene ReadScene(const ConfigMap& c, const std::filesystem::path* scene_
   cam.RejectUnknownKeys({"model", "position_mm", "look_at_mm", "up"});
   s.camera_model_path = cam.String("model");
   s.camera = read_camera(s.camera_model_path);
-  s.camera_position_in_screen = Vec3(cam, "position_mm");
+  s.screen_from_cam.translation = Vec3(cam, "position_mm");
   const Eigen::Vector3d look_at = cam.Has("look_at_mm") ? Vec3(cam, "look_at_mm") : ScreenCentreInScreen(s.monitor);
   const Eigen::Vector3d up = cam.Has("up") ? Vec3(cam, "up") : Eigen::Vector3d::UnitY();
-  s.screen_from_cam = ScreenFromCamLookAt(s.camera_position_in_screen, look_at, up);
+  s.screen_from_cam = ScreenFromCamLookAt(s.screen_from_cam.translation, look_at, up);
 
   if (c.Has("true_monitor")) ReadTrueMonitor(c.Map("true_monitor"), s.monitor, &s.truth);
   if (c.Has("display")) ReadDisplay(c.Map("display"), &s.display);
   if (c.Has("optics")) ReadOptics(c.Map("optics"), &s.optics);
   if (c.Has("sensor")) ReadSensor(c.Map("sensor"), &s.sensor);
-  CheckViewpoint(s.monitor, s.camera_position_in_screen, c.source() + " (camera.position_mm)");
+  CheckViewpoint(s.monitor, s.screen_from_cam.translation, c.source() + " (camera.position_mm)");
   return s;
 }
 

@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "core/camera_model.h"
+#include "core/pose.h"
 #include "core/monitor.h"
 #include "synth/true_monitor.h"
 
@@ -55,8 +56,8 @@ struct SyntheticScene {
   TrueMonitor truth;
   CameraModel camera;
   std::string camera_model_path;  // as given in the scene (provenance)
-  Eigen::Vector3d camera_position_in_screen = Eigen::Vector3d::Zero();
-  Eigen::Matrix3d screen_from_cam = Eigen::Matrix3d::Identity();  // columns: camera x, y, z in the screen frame
+  // The camera in the screen frame: translation = the camera centre (mm), rotation = the camera axes x, y, z.
+  Pose screen_from_cam;
   DisplayModel display;
   Optics optics;
   Sensor sensor;
@@ -83,8 +84,8 @@ SyntheticScene LoadScene(const std::filesystem::path& path, const std::vector<st
 // quick previews and tests. Throws Error for models without the fx, fy, cx, cy core (CAHVOR, CAHVORE).
 CameraModel ScaledCamera(const CameraModel& camera, double scale);
 
-// Camera rotation from a viewing direction: camera z toward look_at, x = z cross up, y = z cross x (down).
-Eigen::Matrix3d ScreenFromCamLookAt(const Eigen::Vector3d& position, const Eigen::Vector3d& look_at,
-                                    const Eigen::Vector3d& up);
+// The camera at `position` (screen frame, mm) looking at look_at: camera z toward look_at, x = z cross up,
+// y = z cross x (down). Throws Error if up is parallel to the viewing direction.
+Pose ScreenFromCamLookAt(const Eigen::Vector3d& position, const Eigen::Vector3d& look_at, const Eigen::Vector3d& up);
 
 }  // namespace curvecheck

@@ -112,9 +112,10 @@ SyntheticBoardSet MakeSyntheticBoardSet(const SyntheticBoardOptions& o) {
       const double tilt = o.max_tilt_deg * kRadPerDeg * std::sqrt(unit(rng));
       const double azimuth = 2 * M_PI * unit(rng);
       const Eigen::Vector3d dir(std::sin(tilt) * std::cos(azimuth), std::sin(tilt) * std::sin(azimuth), std::cos(tilt));
-      scene.camera_position_in_screen = distance * dir;
-      Eigen::Matrix3d r = ScreenFromCamLookAt(scene.camera_position_in_screen, Eigen::Vector3d::Zero(),
-                                              Eigen::Vector3d::UnitY());
+      scene.screen_from_cam.translation = distance * dir;
+      Eigen::Matrix3d r = ScreenFromCamLookAt(scene.screen_from_cam.translation, Eigen::Vector3d::Zero(),
+                                              Eigen::Vector3d::UnitY())
+                              .RotationMatrix();
       r = r * Eigen::AngleAxisd(o.max_roll_deg * kRadPerDeg * uni(rng), Eigen::Vector3d::UnitZ()).toRotationMatrix();
       // Turn the camera so that the board centre lands on the target pixel: the ray through the target, v_t,
       // must point at the board, so screen_from_cam' = screen_from_cam * Q with Q v_t = z.
@@ -122,7 +123,7 @@ SyntheticBoardSet MakeSyntheticBoardSet(const SyntheticBoardOptions& o) {
                                    0.5 * (h - 1) + shrink * ty + 0.05 * h * uni(rng));
       const Eigen::Vector3d vt = UnprojectPixels(o.camera, {target})[0].normalized();
       const Eigen::Matrix3d q = Eigen::Quaterniond::FromTwoVectors(vt, Eigen::Vector3d::UnitZ()).toRotationMatrix();
-      scene.screen_from_cam = r * q;
+      scene.screen_from_cam = Pose(Eigen::Matrix3d(r * q), scene.screen_from_cam.translation);
       const nlohmann::json t = TruthJson(scene, outline);
       placed = true;
       for (const auto& f : t["features"]) placed = placed && f["visible"].get<bool>();
@@ -135,7 +136,6 @@ SyntheticBoardSet MakeSyntheticBoardSet(const SyntheticBoardOptions& o) {
       }
       if (placed) {
         SyntheticBoardView v;
-        v.camera_position_in_screen = scene.camera_position_in_screen;
         v.screen_from_cam = scene.screen_from_cam;
         v.tilt_deg = tilt / kRadPerDeg;
         const nlohmann::json tc = TruthJson(scene, corners);

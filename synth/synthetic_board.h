@@ -14,6 +14,7 @@
 #include "pattern/board.h"
 #include "core/camera_model.h"
 #include "core/monitor.h"
+#include "core/pose.h"
 
 namespace curvecheck {
 
@@ -38,8 +39,7 @@ struct SyntheticBoardOptions {
 struct SyntheticBoardView {
   cv::Mat photo;                            // 8-bit gray, the camera's imager size
   std::vector<Eigen::Vector2d> corners_px;  // true image position of each corner, row-major
-  Eigen::Vector3d camera_position_in_screen;
-  Eigen::Matrix3d screen_from_cam;
+  Pose screen_from_cam;  // the camera in the screen frame (translation: its centre, mm)
   double tilt_deg = 0;
 };
 

@@ -102,12 +102,12 @@ TEST(SyntheticCamera, PinholeOnFlatMonitorIsAnExactHomography) {
   s.monitor = MonitorFromDiagonal("27 flat", 2560, 1440, 27, 0);
   s.truth.curvature_per_mm = 0;
   s.camera = PinholeModel(3000, 2000, 3500);
-  s.camera_position_in_screen = {40, -25, 900};
-  s.screen_from_cam = ScreenFromCamLookAt(s.camera_position_in_screen, {0, 0, 0}, Eigen::Vector3d::UnitY());
+  s.screen_from_cam.translation = {40, -25, 900};
+  s.screen_from_cam = ScreenFromCamLookAt(s.screen_from_cam.translation, {0, 0, 0}, Eigen::Vector3d::UnitY());
   PatternSpec spec;
   spec.cols = 12;
   spec.rows = 7;
-  const Pattern p = BuildPattern(spec, s.monitor, s.camera_position_in_screen, TangentPlaneAtCentre(s.monitor));
+  const Pattern p = BuildPattern(spec, s.monitor, s.screen_from_cam.translation, TangentPlaneAtCentre(s.monitor));
   const nlohmann::json truth = TruthJson(s, p.features);
   std::vector<cv::Point2d> display;
   for (const Feature& f : p.features) display.emplace_back(f.display_px->x(), f.display_px->y());
@@ -120,7 +120,7 @@ TEST(SyntheticCamera, ExactRenderSeenFromItsViewpointIsPlanarPerspective) {
   const SyntheticScene s = LoadScene(Datasets() / "scenes/off-axis.yaml");
   PatternSpec spec;
   spec.kind = PatternKind::kBoth;
-  const Pattern p = BuildPattern(spec, s.monitor, s.camera_position_in_screen, TangentPlaneAtCentre(s.monitor));
+  const Pattern p = BuildPattern(spec, s.monitor, s.screen_from_cam.translation, TangentPlaneAtCentre(s.monitor));
   const nlohmann::json truth = TruthJson(s, p.features);
   std::vector<cv::Point2d> plane, normalized;
   std::vector<Eigen::Vector2d> pixels;
@@ -191,11 +191,11 @@ TEST(SyntheticCamera, TruthMatchesCornersInTheRenderedPhoto) {
   PatternSpec spec;
   spec.cols = 10;
   spec.rows = 4;
-  const Pattern p = BuildPattern(spec, s.monitor, s.camera_position_in_screen, TangentPlaneAtCentre(s.monitor));
+  const Pattern p = BuildPattern(spec, s.monitor, s.screen_from_cam.translation, TangentPlaneAtCentre(s.monitor));
   Renderer renderer;
   RenderOptions options;
   options.display_gamma = 1.0;
-  const GrayImage shown = renderer.Render(s.monitor, s.camera_position_in_screen, p, options);
+  const GrayImage shown = renderer.Render(s.monitor, s.screen_from_cam.translation, p, options);
   Image8 display{shown.width, shown.height, 1, shown.pixels};
   s.display.gamma = 1.0;
   const SyntheticPhoto photo = RenderSyntheticPhoto(s, display);
@@ -294,11 +294,11 @@ TEST(SyntheticCamera, LeanedAndBumpedSurfaceInThePhotoMatchesTheTruth) {
   PatternSpec spec;
   spec.cols = 10;
   spec.rows = 4;
-  const Pattern p = BuildPattern(spec, s.monitor, s.camera_position_in_screen, TangentPlaneAtCentre(s.monitor));
+  const Pattern p = BuildPattern(spec, s.monitor, s.screen_from_cam.translation, TangentPlaneAtCentre(s.monitor));
   Renderer renderer;
   RenderOptions options;
   options.display_gamma = 1.0;
-  const GrayImage shown = renderer.Render(s.monitor, s.camera_position_in_screen, p, options);
+  const GrayImage shown = renderer.Render(s.monitor, s.screen_from_cam.translation, p, options);
   const SyntheticPhoto photo = RenderSyntheticPhoto(s, Image8{shown.width, shown.height, 1, shown.pixels});
   EXPECT_GT(photo.timing.refined_rays, photo.timing.rays / 4);
   const nlohmann::json truth = TruthJson(s, p.features);
@@ -343,8 +343,8 @@ TEST(SyntheticCamera, SensorNoiseHasTheModelsMeanAndVariance) {
   s.monitor = MonitorFromDiagonal("27 flat", 2560, 1440, 27, 0);
   s.truth.curvature_per_mm = 0;
   s.camera = PinholeModel(300, 300, 1000);  // 270 mm of the screen at 900 mm
-  s.camera_position_in_screen = {0, 0, 900};
-  s.screen_from_cam = ScreenFromCamLookAt(s.camera_position_in_screen, {0, 0, 0}, Eigen::Vector3d::UnitY());
+  s.screen_from_cam.translation = {0, 0, 900};
+  s.screen_from_cam = ScreenFromCamLookAt(s.screen_from_cam.translation, {0, 0, 0}, Eigen::Vector3d::UnitY());
   s.display.fill_factor = 1;
   s.display.rgb_stripes = false;
   s.display.black = 0;

@@ -49,8 +49,8 @@ TrueGeometry::TrueGeometry(const Monitor& nominal, const TrueMonitor& t) : truth
 SurfaceIntersector::SurfaceIntersector(const SyntheticScene& s, double max_abs_v)
     : geometry_(s.monitor, s.truth), max_abs_v_(max_abs_v) {
   const Eigen::Matrix3d true_from_screen = geometry_.rotation.transpose();
-  upright_from_cam_ = geometry_.upright_from_true * true_from_screen * s.screen_from_cam;
-  o_ = geometry_.upright_from_true * true_from_screen * (s.camera_position_in_screen - geometry_.centre_in_screen);
+  upright_from_cam_ = geometry_.upright_from_true * true_from_screen * s.screen_from_cam.RotationMatrix();
+  o_ = geometry_.upright_from_true * true_from_screen * (s.screen_from_cam.translation - geometry_.centre_in_screen);
   k_ = geometry_.k;
   c_term_ = k_ * (o_.x() * o_.x() + o_.z() * o_.z()) - 2 * o_.z();
   u_from_s_ = 1 / geometry_.half_w;

@@ -21,21 +21,21 @@ SyntheticScene PlacedScene(double radius_mm) {
   s.truth.rotation_deg = {0.5, -1, 0.3};
   s.truth.lean_deg = 2;
   s.camera = PinholeModel(3000, 2000, 2000);
-  s.camera_position_in_screen = {100, 50, 600};
-  s.screen_from_cam = ScreenFromCamLookAt(s.camera_position_in_screen, {0, 0, -1000}, Eigen::Vector3d::UnitY());
+  s.screen_from_cam.translation = {100, 50, 600};
+  s.screen_from_cam = ScreenFromCamLookAt(s.screen_from_cam.translation, {0, 0, -1000}, Eigen::Vector3d::UnitY());
   return s;
 }
 
 // Worst |(u, v) found - (u, v) aimed at| over a grid of the display, rays from the camera to the true points.
 double WorstRoundTrip(const SyntheticScene& s) {
   const SurfaceIntersector surface(s, 1.1);
-  const Eigen::Matrix3d cam_from_screen = s.screen_from_cam.transpose();
+  const Eigen::Matrix3d cam_from_screen = s.screen_from_cam.RotationMatrix().transpose();
   double worst = 0;
   int64_t refined = 0;
   for (double v = -0.95; v <= 0.95; v += 0.19) {
     for (double u = -0.95; u <= 0.95; u += 0.095) {
       const Eigen::Vector3d p = TrueSurfacePointInScreen(s, {u, v});
-      const Eigen::Vector3d d = surface.upright_from_cam() * (cam_from_screen * (p - s.camera_position_in_screen));
+      const Eigen::Vector3d d = surface.upright_from_cam() * (cam_from_screen * (p - s.screen_from_cam.translation));
       double hit_u = 0, hit_v = 0;
       EXPECT_TRUE(surface.Intersect(d, &refined, &hit_u, &hit_v)) << u << " " << v;
       worst = std::max({worst, std::abs(hit_u - u), std::abs(hit_v - v)});
@@ -64,10 +64,10 @@ TEST(SurfaceIntersector, RaysAwayFromTheDisplayMissIt) {
   for (double radius_mm : {1080.0, 0.0}) {
     const SyntheticScene s = PlacedScene(radius_mm);
     const SurfaceIntersector surface(s, 1.1);
-    const Eigen::Matrix3d cam_from_screen = s.screen_from_cam.transpose();
+    const Eigen::Matrix3d cam_from_screen = s.screen_from_cam.RotationMatrix().transpose();
     const auto ray_to = [&](const Eigen::Vector2d& uv) -> Eigen::Vector3d {
       const Eigen::Vector3d p = TrueSurfacePointInScreen(s, uv);
-      return surface.upright_from_cam() * (cam_from_screen * (p - s.camera_position_in_screen));
+      return surface.upright_from_cam() * (cam_from_screen * (p - s.screen_from_cam.translation));
     };
     int64_t refined = 0;
     double u = 0, v = 0;

@@ -20,9 +20,10 @@ nlohmann::json TruthJson(const SyntheticScene& s, const std::vector<Feature>& fe
                        {"lean_deg", t.lean_deg},
                        {"lean_definition", kLeanDefinition},
                        {"bumps", bumps}};
-  const Eigen::Vector3d& c = s.camera_position_in_screen;
+  const Eigen::Vector3d& c = s.screen_from_cam.translation;
   nlohmann::json rot = nlohmann::json::array();
-  for (int r = 0; r < 3; ++r) rot.push_back({s.screen_from_cam(r, 0), s.screen_from_cam(r, 1), s.screen_from_cam(r, 2)});
+  const Eigen::Matrix3d screen_from_cam = s.screen_from_cam.RotationMatrix();
+  for (int r = 0; r < 3; ++r) rot.push_back({screen_from_cam(r, 0), screen_from_cam(r, 1), screen_from_cam(r, 2)});
   j["camera"] = {{"model", s.camera_model_path},
                  {"lensmodel", s.camera.lensmodel},
                  {"intrinsics", s.camera.intrinsics},
@@ -30,7 +31,7 @@ nlohmann::json TruthJson(const SyntheticScene& s, const std::vector<Feature>& fe
                  {"position_mm", {c.x(), c.y(), c.z()}},
                  {"screen_from_cam", rot}};
   nlohmann::json out = nlohmann::json::array();
-  const Eigen::Matrix3d cam_from_screen = s.screen_from_cam.transpose();
+  const Eigen::Matrix3d cam_from_screen = screen_from_cam.transpose();
   for (const Feature& f : features) {
     nlohmann::json e = {{"id", f.id}};
     bool visible = f.visible && f.display_px.has_value();

@@ -18,8 +18,8 @@ TEST(TruthJson, CarriesTheSceneAndProjectsTheTrueSurface) {
   s.truth.bumps = {{0.2, -0.3, 0.1, 0.2, 2.0}};
   s.camera = PinholeModel(3000, 2000, 2000);
   s.camera_model_path = "pinhole.cameramodel";
-  s.camera_position_in_screen = {100, 50, 600};
-  s.screen_from_cam = ScreenFromCamLookAt(s.camera_position_in_screen, {0, 0, -1000}, Eigen::Vector3d::UnitY());
+  s.screen_from_cam.translation = {100, 50, 600};
+  s.screen_from_cam = ScreenFromCamLookAt(s.screen_from_cam.translation, {0, 0, -1000}, Eigen::Vector3d::UnitY());
   Feature on_screen;
   on_screen.id = "c0";
   on_screen.visible = true;
@@ -34,10 +34,10 @@ TEST(TruthJson, CarriesTheSceneAndProjectsTheTrueSurface) {
   EXPECT_EQ(j["true_monitor"]["bumps"][0]["height_mm"].get<double>(), 2.0);
   EXPECT_EQ(j["camera"]["model"], "pinhole.cameramodel");
   EXPECT_EQ(j["camera"]["position_mm"][2].get<double>(), 600.0);
-  EXPECT_EQ(j["camera"]["screen_from_cam"][1][2].get<double>(), s.screen_from_cam(1, 2));
+  EXPECT_EQ(j["camera"]["screen_from_cam"][1][2].get<double>(), s.screen_from_cam.RotationMatrix()(1, 2));
 
   const Eigen::Vector3d p = TrueSurfacePointInScreen(s, UvFromDisplayPx(s.monitor, *on_screen.display_px));
-  const Eigen::Vector3d p_in_cam = s.screen_from_cam.transpose() * (p - s.camera_position_in_screen);
+  const Eigen::Vector3d p_in_cam = s.screen_from_cam.Inverse() * p;
   const Eigen::Vector2d q = ProjectPoint(s.camera, p_in_cam);
   const nlohmann::json& f = j["features"][0];
   EXPECT_EQ(f["point_mm"][0].get<double>(), p.x());

@@ -35,6 +35,18 @@ cv::Point2d ToFullResolution(const cv::Point2f& p, int factor) {
   return {factor * p.x + 0.5 * (factor - 1), factor * p.y + 0.5 * (factor - 1)};
 }
 
+// An OpenCV corner list of the shrunk copy as a grid at full resolution (quality 1: no per-corner measure), or
+// nullopt when it is not the whole board.
+std::optional<CornerGrid> GridAtFullResolution(const std::vector<cv::Point2f>& corners, cv::Size inner, int factor) {
+  if (static_cast<int>(corners.size()) != inner.area()) return std::nullopt;
+  CornerGrid g;
+  g.width = inner.width;
+  g.height = inner.height;
+  for (const cv::Point2f& p : corners) g.px.push_back(ToFullResolution(p, factor));
+  g.quality.assign(g.px.size(), 1.0);
+  return g;
+}
+
 constexpr std::pair<int, int> kNeighbours[] = {{1, 0}, {-1, 0}, {0, 1}, {0, -1}};
 constexpr std::pair<int, int> kQuadCorners[] = {{0, 0}, {1, 0}, {0, 1}, {1, 1}};
 
@@ -75,13 +87,7 @@ std::optional<CornerGrid> RunOpenCvSb(const cv::Mat& gray8, cv::Size inner, bool
       !cv::findChessboardCornersSB(small, inner, corners, flags | cv::CALIB_CB_NORMALIZE_IMAGE)) {
     return std::nullopt;
   }
-  if (static_cast<int>(corners.size()) != inner.area()) return std::nullopt;
-  CornerGrid g;
-  g.width = inner.width;
-  g.height = inner.height;
-  for (const cv::Point2f& p : corners) g.px.push_back(ToFullResolution(p, factor));
-  g.quality.assign(g.px.size(), 1.0);
-  return g;
+  return GridAtFullResolution(corners, inner, factor);
 }
 
 std::optional<CornerGrid> RunOpenCvClassic(const cv::Mat& gray8, cv::Size inner, int max_px) {
@@ -95,13 +101,7 @@ std::optional<CornerGrid> RunOpenCvClassic(const cv::Mat& gray8, cv::Size inner,
       !cv::findChessboardCorners(small, inner, corners, cv::CALIB_CB_NORMALIZE_IMAGE | cv::CALIB_CB_FAST_CHECK)) {
     return std::nullopt;
   }
-  if (static_cast<int>(corners.size()) != inner.area()) return std::nullopt;
-  CornerGrid g;
-  g.width = inner.width;
-  g.height = inner.height;
-  for (const cv::Point2f& p : corners) g.px.push_back(ToFullResolution(p, factor));
-  g.quality.assign(g.px.size(), 1.0);
-  return g;
+  return GridAtFullResolution(corners, inner, factor);
 }
 
 cv::Point2d RefineXCorner(const cv::Mat& image, double sigma_px, cv::Point2d guess, int half) {

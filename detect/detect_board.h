@@ -1,6 +1,7 @@
-// Checkerboard detectors and the board's orientation (internal to analysis/detect; see detect.h for the
-// rules). A board detector returns an unnamed grid of inner corners; ResolveBoardOrientation maps it onto the
-// pattern's inner-corner indices (col, row), row 0 at the top of the pattern.
+// Checkerboard detectors and the board's orientation, internal to detect/: shared by the feature detection
+// (detect.h, which gives the rules) and the calibration chessboards (chessboard.h). A board detector returns an
+// unnamed grid of inner corners; ResolveBoardOrientation maps it onto the pattern's inner-corner indices (col,
+// row), row 0 at the top of the pattern.
 #pragma once
 
 #include <opencv2/core.hpp>

@@ -1,5 +1,5 @@
 // AprilTag 3 (tag36h11) detection and the full-resolution refinement of its corners (internal to
-// analysis/detect; detect.h states the method).
+// detect/detect.cc; detect.h states the method).
 #pragma once
 
 #include <Eigen/Core>

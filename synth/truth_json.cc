@@ -31,7 +31,7 @@ nlohmann::json TruthJson(const SyntheticScene& s, const std::vector<Feature>& fe
                  {"position_mm", {c.x(), c.y(), c.z()}},
                  {"screen_from_cam", rot}};
   nlohmann::json out = nlohmann::json::array();
-  const Eigen::Matrix3d cam_from_screen = screen_from_cam.transpose();
+  const Pose cam_from_screen = s.screen_from_cam.Inverse();
   for (const Feature& f : features) {
     nlohmann::json e = {{"id", f.id}};
     bool visible = f.visible && f.display_px.has_value();
@@ -39,7 +39,7 @@ nlohmann::json TruthJson(const SyntheticScene& s, const std::vector<Feature>& fe
       const Eigen::Vector2d uv = UvFromDisplayPx(s.monitor, *f.display_px);
       Eigen::Vector3d normal;
       const Eigen::Vector3d p = TrueSurfacePointInScreen(s, uv, &normal);
-      const Eigen::Vector3d p_cam = cam_from_screen * (p - c);
+      const Eigen::Vector3d p_cam = cam_from_screen * p;
       e["point_mm"] = {p.x(), p.y(), p.z()};
       visible = visible && p_cam.z() > 0 && normal.dot(c - p) > 0;
       if (p_cam.z() > 0) {

@@ -182,7 +182,11 @@ SyntheticScene ReadScene(const ConfigMap& c, const std::filesystem::path* scene_
   SyntheticScene s;
   const std::string monitor_spec = c.String("monitor");
   const std::filesystem::path monitor_path = scene_dir ? *scene_dir / monitor_spec : std::filesystem::path();
-  s.monitor = LoadMonitor(scene_dir && std::filesystem::exists(monitor_path) ? monitor_path.string() : monitor_spec);
+  // The non-throwing exists: a monitor value that is no path (too long, a NUL byte) is a preset name or an error
+  // of LoadMonitor, not a std::filesystem exception (fuzz_scene found "File name too long" escaping).
+  std::error_code ec;
+  s.monitor =
+      LoadMonitor(scene_dir && std::filesystem::exists(monitor_path, ec) ? monitor_path.string() : monitor_spec);
   s.truth.curvature_per_mm = s.monitor.curvature_per_mm;
 
   const ConfigMap cam = c.Map("camera");

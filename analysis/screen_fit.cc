@@ -576,7 +576,6 @@ void CheckPhotos(const std::vector<PhotoObservations>& photos, const FitOptions&
 
 void FitOptions::Check(const std::string& where) const {
   if (models.empty()) throw Error(where, "no screen models to try", "give at least one, e.g. cylinder");
-  for (const std::string& m : models) ParseScreenModel(m, where);
   const auto positive = [&](double v, const char* name) {
     if (!(v > 0) || !std::isfinite(v)) {
       throw Error(where, fmt::format("{} is {}, but must be a positive number", name, v), "");
@@ -639,7 +638,7 @@ ScreenFitResult FitScreen(const Monitor& nominal, const CameraModel& camera,
 
   std::vector<ScreenModelKind> kinds;
   for (ScreenModelKind k : AllScreenModels()) {
-    if (std::find(options.models.begin(), options.models.end(), ScreenModelName(k)) != options.models.end()) {
+    if (std::find(options.models.begin(), options.models.end(), k) != options.models.end()) {
       kinds.push_back(k);
     }
   }

@@ -18,6 +18,7 @@
 #include <utility>
 #include <vector>
 
+#include "analysis/screen_model.h"
 #include "core/camera_model.h"
 #include "core/monitor.h"
 #include "core/pose.h"
@@ -32,13 +33,9 @@ struct PhotoObservations {
 };
 
 struct FitOptions {
-  // Models to try, by name (ScreenModelName), reported in order of complexity whatever the order here.
-  std::vector<std::string> models = {"flat",
-                                     "cylinder",
-                                     "cylinder+lean",
-                                     "varying-curvature",
-                                     "varying-curvature-quadratic",
-                                     "cylinder+deviation"};
+  // Models to try (names parsed at the edges: ParseScreenModels), reported in order of complexity whatever the
+  // order here. Default: all of them.
+  std::vector<ScreenModelKind> models = AllScreenModels();
   // Expected detection noise per coordinate (px): scales the robust loss. Detectors give 0.02-0.2 px.
   double expected_noise_px = 0.15;
   // Huber loss threshold in units of expected_noise_px: residuals beyond it weigh linearly in the first,

@@ -140,7 +140,7 @@ TEST(ScreenFitAccuracyTest, AxisLeanStatistics) {
   const SyntheticScene scene = LoadScene(Scene("default"));
   const std::vector<Eigen::Vector2d> grid = DisplayGrid(scene.monitor, 31, 9);
   FitOptions options;
-  options.models = {"cylinder+lean"};
+  options.models = ParseScreenModels({"cylinder+lean"}, "test");
   options.heldout_folds = 0;
   constexpr int kTrials = 100;
   std::vector<double> lean, sigma;
@@ -235,7 +235,7 @@ TEST(ScreenFitTest, GrossOutliersAreFlaggedAndDoNotBiasTheRadius) {
   const std::vector<size_t> bad = {5, 77, 140, 201};
   for (size_t i : bad) photo.detected_px[i] += Eigen::Vector2d(4.0, -3.0);
   FitOptions options;
-  options.models = {"flat", "cylinder"};
+  options.models = ParseScreenModels({"flat", "cylinder"}, "test");
   const ScreenFitResult r = FitScreen(scene.monitor, scene.camera, {photo}, options);
   const ModelFit& cyl = r.Chosen();
   EXPECT_EQ(cyl.model, "cylinder");
@@ -268,7 +268,7 @@ TEST(ScreenFitTest, SeveralPhotosAreFittedJointly) {
     photos.push_back(Observe(s, DisplayGrid(s.monitor, 31, 9), kNoisePx, rng, SceneSurface(s), "p"));
   }
   FitOptions options;
-  options.models = {"flat", "cylinder", "cylinder+lean"};
+  options.models = ParseScreenModels({"flat", "cylinder", "cylinder+lean"}, "test");
   const ScreenFitResult r = FitScreen(base.monitor, base.camera, photos, options);
   EXPECT_EQ(r.Chosen().model, "cylinder") << Table(r);
   const ModelFit& cyl = r.Chosen();
@@ -325,7 +325,7 @@ TEST(ScreenFitTest, RadiusUnobservableFromANarrowStripIsReported) {
   std::mt19937_64 rng(21);
   const auto photo = Observe(scene, strip, kNoisePx, rng, SceneSurface(scene));
   FitOptions options;
-  options.models = {"flat", "cylinder"};
+  options.models = ParseScreenModels({"flat", "cylinder"}, "test");
   const ScreenFitResult r = FitScreen(scene.monitor, scene.camera, {photo}, options);
   const ModelFit& cyl = r.candidates[static_cast<size_t>(IndexOf(r, "cylinder"))];
   EXPECT_TRUE(cyl.ill_conditioned);
@@ -358,7 +358,7 @@ TEST(ScreenFitTest, NearFlatViewOfAn1800RScreenIsIllConditionedNotANumber) {
   const auto photo = Observe(scene, patch, kNoisePx, rng, SceneSurface(scene));
   ASSERT_EQ(photo.ids.size(), 81u);
   FitOptions options;
-  options.models = {"flat", "cylinder"};
+  options.models = ParseScreenModels({"flat", "cylinder"}, "test");
   const ScreenFitResult r = FitScreen(scene.monitor, scene.camera, {photo}, options);
   const ModelFit& cyl = r.candidates[static_cast<size_t>(IndexOf(r, "cylinder"))];
   EXPECT_TRUE(cyl.ill_conditioned) << Table(r);
@@ -387,7 +387,7 @@ TEST(ScreenFitTest, RelativeCurvatureSigmaLimitDropsTheRadiusNumber) {
   std::mt19937_64 rng(31);
   const auto photo = Observe(scene, patch, kNoisePx, rng, SceneSurface(scene));
   FitOptions options;
-  options.models = {"flat", "cylinder"};
+  options.models = ParseScreenModels({"flat", "cylinder"}, "test");
   const ScreenFitResult loose = FitScreen(scene.monitor, scene.camera, {photo}, options);
   const ModelFit& a = loose.candidates[static_cast<size_t>(IndexOf(loose, "cylinder"))];
   ASSERT_TRUE(a.radius_mm.has_value()) << Table(loose);
@@ -428,10 +428,12 @@ TEST(ScreenFitTest, RejectsInvalidInputNamingIt) {
   nan.detected_px[3].x() = std::nan("");
   EXPECT_THAT(MessageOf([&] { FitScreen(scene.monitor, scene.camera, {nan}, FitOptions{}); }),
               ::testing::HasSubstr("not finite"));
-  FitOptions bad;
-  bad.models = {"cylinder", "sphere"};
-  EXPECT_THAT(MessageOf([&] { FitScreen(scene.monitor, scene.camera, {photo}, bad); }),
+  EXPECT_THAT(MessageOf([&] { ParseScreenModels({"cylinder", "sphere"}, "fit options"); }),
               ::testing::HasSubstr("'sphere' is not a screen model"));
+  FitOptions bad;
+  bad.models.clear();
+  EXPECT_THAT(MessageOf([&] { FitScreen(scene.monitor, scene.camera, {photo}, bad); }),
+              ::testing::HasSubstr("no screen models to try"));
   bad = FitOptions{};
   bad.heldout_folds = 1;
   EXPECT_THAT(MessageOf([&] { bad.Check("opts"); }), ::testing::HasSubstr("heldout_folds"));
@@ -448,7 +450,7 @@ TEST(ScreenFitAccuracyTest, DefaultSceneSinglePhotoRadiusStatistics) {
   const double r_true = 1 / scene.truth.curvature_per_mm;
   const double crb = RadiusCramerRaoBoundMm(truth_monitor, scene.camera, {testing::ScenePose(scene)}, {grid}, kNoisePx);
   FitOptions options;
-  options.models = {"cylinder"};
+  options.models = ParseScreenModels({"cylinder"}, "test");
   options.heldout_folds = 0;
   constexpr int kTrials = 400;
   std::vector<double> radius, sigma;

@@ -37,6 +37,12 @@ ScreenModelKind ParseScreenModel(const std::string& name, const std::string& whe
   throw Error(where, fmt::format("'{}' is not a screen model", name), "use one of: " + known);
 }
 
+std::vector<ScreenModelKind> ParseScreenModels(const std::vector<std::string>& names, const std::string& where) {
+  std::vector<ScreenModelKind> kinds;
+  for (const std::string& name : names) kinds.push_back(ParseScreenModel(name, where));
+  return kinds;
+}
+
 int CoreParameterCount(ScreenModelKind kind) {
   switch (kind) {
     case ScreenModelKind::kFlat: return 0;

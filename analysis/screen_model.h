@@ -45,6 +45,8 @@ enum class ScreenModelKind {
 const char* ScreenModelName(ScreenModelKind kind);
 // Inverse of ScreenModelName; throws Error naming `where` for an unknown name (listing the known ones).
 ScreenModelKind ParseScreenModel(const std::string& name, const std::string& where);
+// ParseScreenModel of each name, in order.
+std::vector<ScreenModelKind> ParseScreenModels(const std::vector<std::string>& names, const std::string& where);
 // The models in order of complexity (the order FitScreen reports them in).
 std::vector<ScreenModelKind> AllScreenModels();
 // Number of shape parameters other than the deviation field: flat 0, cylinder 1 (k), cylinder+lean 2 (k, lambda),

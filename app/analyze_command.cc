@@ -44,7 +44,7 @@ int RunAnalyze(AnalyzeArgs a) {
                 fmt::format("{} pattern files for {} photos", a.patterns.size(), a.photos.size()),
                 "give one --pattern for all photos, or one per photo in the order of the photos");
   }
-  if (!a.models.empty()) a.options.fit.models = a.models;
+  if (!a.models.empty()) a.options.fit.models = ParseScreenModels(a.models, "analyze options");
   a.options.fit_screen = !a.no_fit;
   a.options.detect.detector = ParseDetector(a.detector, "analyze options");
   a.options.Check("analyze options");

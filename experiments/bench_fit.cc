@@ -59,7 +59,7 @@ void RunBenchFit(const BenchFitOptions& a, std::ostream& log) {
                      "10 photos (it)", "parameters");
   for (ScreenModelKind kind : AllScreenModels()) {
     FitOptions o;
-    o.models = {ScreenModelName(kind)};
+    o.models = {kind};
     o.heldout_folds = 0;
     std::vector<double> t1, t10;
     ModelFit f1, f10;
@@ -91,7 +91,7 @@ void RunBenchFit(const BenchFitOptions& a, std::ostream& log) {
   const double crb =
       RadiusCramerRaoBoundMm(truth, scene.camera, {testing::ScenePose(scene)}, {grid}, a.noise_px);
   FitOptions o;
-  o.models = {"cylinder"};
+  o.models = {ScreenModelKind::kCylinder};
   o.heldout_folds = 0;
   std::vector<double> radius, sigma;
   int covered = 0;

@@ -145,7 +145,7 @@ void RunBenchModels(const BenchModelsOptions& a, const fs::path& dir, std::ostre
       row.features = static_cast<int>(ref.ids.size());
       row.chosen_by_selection = selection.Chosen().model == row.model;
       FitOptions o;
-      o.models = {row.model};
+      o.models = {kind};
       o.heldout_folds = 0;
       std::vector<double> times, radius_err, sigmas, surface_err;
       double surface_max = 0;

@@ -301,7 +301,7 @@ void SweepOptions::Check() const {
                 "write e.g. --shard 2/4");
   }
   AnalyzeOptions analyze;
-  analyze.fit.models = models;
+  analyze.fit.models = ParseScreenModels(models, "--models");
   analyze.Check("--models");
 }
 
@@ -309,7 +309,7 @@ void RunSweep(const SweepOptions& o, const fs::path& out, std::ostream& log) {
   o.Check();
   auto sw = std::make_unique<Sweep>();
   sw->options = o;
-  sw->analyze.fit.models = o.models;
+  sw->analyze.fit.models = ParseScreenModels(o.models, "--models");
   sw->analyze.verify.tolerance_display_px = o.tolerance_display_px;
   sw->base = FindScene(o.scene, "--scene");
   sw->base.camera = ScaledCamera(sw->base.camera, o.camera_scale);

@@ -51,6 +51,10 @@ CameraModel FromMrcal(const mrcal_cameramodel_t& m, const std::string& source) {
 
 }  // namespace
 
+namespace {
+constexpr double kMaxDistortionParameter = 1e4;
+}  // namespace
+
 void CameraModel::Check(const std::string& where) const {
   const mrcal_lensmodel_t lens = LensModel(lensmodel, where);
   const int n = mrcal_lensmodel_num_params(&lens);
@@ -63,6 +67,16 @@ void CameraModel::Check(const std::string& where) const {
   }
   if (!(intrinsics[0] > 0 && intrinsics[1] > 0)) {
     throw Error(where, "focal lengths must be positive", "check fx, fy");
+  }
+  // Distortion parameters of real lenses are of order 1 (OpenCV's rational terms reach tens). Far beyond that,
+  // libmrcal's iterative unprojection runs for minutes without converging (fuzz/fuzz_cameramodel: k2 = 1e34 held
+  // mrcal_unproject for over 2 minutes), so such a model is refused here, before anything projects with it.
+  for (size_t i = 4; i < intrinsics.size(); ++i) {
+    if (std::abs(intrinsics[i]) > kMaxDistortionParameter) {
+      throw Error(where, fmt::format("distortion parameter {} is {:g}, beyond +-{:g}", i - 4, intrinsics[i],
+                                     kMaxDistortionParameter),
+                  "check the model: a real lens has distortion parameters of order 1");
+    }
   }
   if (width < 1 || height < 1) {
     throw Error(where, fmt::format("imager size {}x{} is not positive", width, height), "give the image size in px");

@@ -39,6 +39,17 @@ TEST(CameraModel, ProjectUnprojectRoundTrip) {
 }
 
 // The pinhole model is x/z * f + c; gradients agree with finite differences.
+// Distortion parameters far beyond any real lens are refused by Check (libmrcal's unprojection does not
+// converge on them: fuzz/corpus/fuzz_cameramodel/regression-huge-distortion-slow-unproject); the bound is 1e4.
+TEST(CameraModel, AbsurdDistortionIsRefused) {
+  CameraModel m = MildOpenCv8();
+  m.intrinsics[5] = 1e34;
+  EXPECT_THAT(testing::MessageOf([&] { m.Check("cam.cameramodel"); }),
+              ::testing::HasSubstr("cam.cameramodel: distortion parameter 1 is 1e+34, beyond +-10000"));
+  m.intrinsics[5] = -9999;
+  EXPECT_NO_THROW(m.Check("cam.cameramodel"));
+}
+
 TEST(CameraModel, PinholeAndGradients) {
   const CameraModel pin = PinholeModel(1920, 1080, 1000);
   EXPECT_THAT(ProjectPoint(pin, {0.1, -0.2, 2.0}), EigenNear(Eigen::Vector2d(959.5 + 50, 539.5 - 100), 1e-9));

@@ -22,6 +22,7 @@
 #include "core/error.h"
 #include "core/math_util.h"
 #include "core/screen_geometry.h"
+#include "core/stats.h"
 #include "core/stopwatch.h"
 
 namespace curvecheck {
@@ -157,13 +158,6 @@ std::vector<Eigen::Vector2d> Residuals(const Setup& setup, ScreenModelKind kind,
   return r;
 }
 
-double Median(std::vector<double> v) {
-  if (v.empty()) return kNaN;
-  const size_t mid = v.size() / 2;
-  std::nth_element(v.begin(), v.begin() + static_cast<long>(mid), v.end());
-  return v[mid];
-}
-
 // Robust per-coordinate noise: 1.4826 x the median absolute coordinate residual.
 double MadSigma(const std::vector<Eigen::Vector2d>& r) {
   std::vector<double> a;
@@ -173,7 +167,7 @@ double MadSigma(const std::vector<Eigen::Vector2d>& r) {
     a.push_back(std::abs(x.x()));
     a.push_back(std::abs(x.y()));
   }
-  return 1.4826 * Median(a);
+  return a.empty() ? kNaN : 1.4826 * Median(std::move(a));  // core/stats.h
 }
 
 // PnP against the nominal geometry on undistorted normalized coordinates (RANSAC, then iterative refinement).

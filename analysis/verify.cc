@@ -111,6 +111,15 @@ double Percentile95Length(const std::vector<FeatureCheck>& features) {
 
 }  // namespace
 
+const char* VerdictName(Verdict v) {
+  switch (v) {
+    case Verdict::kPass: return "pass";
+    case Verdict::kFail: return "fail";
+    case Verdict::kInconclusive: return "inconclusive";
+  }
+  return "inconclusive";
+}
+
 void VerifyOptions::Check(const std::string& where) const {
   if (!(tolerance_display_px > 0) || !std::isfinite(tolerance_display_px)) {
     throw Error(where, fmt::format("the tolerance is {} display px; it must be a positive number", tolerance_display_px),
@@ -270,6 +279,7 @@ Verification VerifyCorrection(const PatternFile& pattern, const CameraModel& cam
   out.rms_arcmin = std::sqrt(sum_arcmin / n);
   out.p95_display_px = Percentile95Length(out.features);
   out.pass = out.p95_display_px <= options.tolerance_display_px;
+  out.verdict = out.pass ? Verdict::kPass : Verdict::kFail;
   return out;
 }
 
@@ -307,6 +317,7 @@ Verification CombineVerifications(const std::vector<Verification>& photos, const
   }
   out.p95_display_px = Percentile95Length(all);
   out.pass = all_pass;
+  out.verdict = out.pass ? Verdict::kPass : Verdict::kFail;
   return out;
 }
 

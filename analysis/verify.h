@@ -33,18 +33,38 @@
 namespace curvecheck {
 
 struct VerifyOptions {
-  // Pass when 95% of the features are within this many display px of the planar perspective image (the 95th
-  // percentile of the residuals' lengths). 0.5 display px is half a pixel on the monitor: larger errors show as
-  // misplaced edges. A percentile rather than the RMS, because a correction that is wrong in one region (a
-  // misstated viewpoint shifts the edges, not the centre) must fail even where most features are right; not the
-  // maximum, because one noisy corner must not fail a good rendering.
+  // The tolerance T on the correction error: 95% of the features must be displaced by less than T display px
+  // (the 95th percentile of the correction-error field's length over the features). 0.5 display px is half a
+  // pixel on the monitor: larger errors show as misplaced edges. A percentile rather than the RMS, because a
+  // correction that is wrong in one region must fail even where most features are right; not the maximum,
+  // because one bad corner must not decide.
   double tolerance_display_px = 0.5;
   // Fewest features for a verdict: the homography has 8 degrees of freedom, so at least 4 points fit it
   // exactly; the residuals mean something only with many more.
   int min_features = 8;
+  // The correction-error field: Legendre polynomials in the display position of total degree up to this
+  // (chosen by BIC from 0 up), fitted to the residuals beyond the homography. 6 resolves an error that changes
+  // sign 6 times across the screen; rougher errors are indistinguishable from detection noise at the feature
+  // spacing and raise the noise estimate (and so U) instead.
+  int max_field_degree = 6;
+  // Largest residual scatter (camera px per coordinate, about the field) that is still detection noise. Corner
+  // detectors give 0.02-0.3 px on real photos; beyond this the residuals hold an error the field cannot resolve
+  // (rough at the feature spacing) or the photo is too poor, and a pass cannot be stated.
+  double max_noise_px = 0.5;
+  // Features whose residual about the field exceeds this many robust sigmas are left out of the field fit
+  // (and listed); they keep their residuals.
+  double outlier_sigmas = 5;
+  // Monte Carlo draws of the field's estimation error for the simultaneous 95% band (fixed seed: the same
+  // photo gives the same verdict).
+  int uncertainty_draws = 400;
 
   void Check(const std::string& where) const;
 };
+
+// The three outcomes of the decision rule (ISO 14253-1 with the expanded uncertainty U as guard band;
+// ../shared/design/metrology.md section 2): pass when e + U <= T, fail when e - U > T, otherwise inconclusive.
+enum class Verdict { kPass, kFail, kInconclusive };
+const char* VerdictName(Verdict v);  // "pass", "fail", "inconclusive"
 
 struct FeatureCheck {
   std::string id;
@@ -54,7 +74,14 @@ struct FeatureCheck {
   Eigen::Vector2d expected_px = Eigen::Vector2d::Zero();  // the fitted planar perspective image
   Eigen::Vector2d residual_px = Eigen::Vector2d::Zero();  // detected - expected
   Eigen::Vector2d residual_display_px = Eigen::Vector2d::Zero();
+  // Standard uncertainty of residual_display_px from detection noise (display px, per axis: the camera-px noise
+  // through the local inverse Jacobian).
+  Eigen::Vector2d residual_display_sigma_px = Eigen::Vector2d::Zero();
+  // The correction-error field at this feature (display px) and its standard uncertainty (per axis).
+  Eigen::Vector2d error_display_px = Eigen::Vector2d::Zero();
+  Eigen::Vector2d error_display_sigma_px = Eigen::Vector2d::Zero();
   double residual_arcmin = 0;
+  bool field_outlier = false;  // left out of the field fit (residual far beyond the noise)
 };
 
 // Why no verdict was reached (typed; `Verification::failure` says it for people).
@@ -70,11 +97,29 @@ struct Verification {
   std::vector<FeatureCheck> features;  // in the order given
   // Pattern mm -> normalized camera coordinates: (x/z, y/z, 1) ~ homography * (a, b, 1).
   Eigen::Matrix3d homography = Eigen::Matrix3d::Identity();
+  // Raw residual statistics (correction error and detection noise together).
   double rms_px = 0, max_px = 0;
   double rms_display_px = 0, max_display_px = 0, p95_display_px = 0;
   double rms_arcmin = 0, max_arcmin = 0;
   double tolerance_display_px = 0;
-  bool pass = false;
+
+  // The decision (see Verdict). e: the 95th percentile over the features of the correction-error field's length
+  // (display px); U: its expanded uncertainty (a simultaneous 95% band of the field over the features, so that
+  // [e - U, e + U] holds the true percentile with at least 95% probability); ratio = T / U.
+  Verdict verdict = Verdict::kInconclusive;
+  bool pass = false;  // verdict == kPass
+  double error_p95_display_px = 0;
+  double expanded_uncertainty_display_px = 0;
+  double coverage_factor = 0;  // U over the RMS standard uncertainty of the field at the features
+  double tolerance_ratio = 0;  // T / U
+  double noise_px = 0;         // detection noise about the field, camera px per coordinate
+  double display_px_per_camera_px = 0;  // median over the features (the camera's resolving power on the display)
+  int field_degree = 0;                 // total degree of the chosen field
+  int field_outliers = 0;
+  std::string verdict_reason;           // one line: why this verdict
+  // When inconclusive: what would make it conclusive, with figures ("" otherwise).
+  std::string advice;
+
   // "" when a verdict was reached; otherwise why not ("only 5 usable features; at least 8 are needed").
   std::string failure;
   VerificationFailure failure_kind = VerificationFailure::kNone;  // set together with `failure`
@@ -90,8 +135,9 @@ Verification VerifyCorrection(const PatternFile& pattern, const CameraModel& cam
                               const std::vector<std::string>& ids, const std::vector<Eigen::Vector2d>& detected_px,
                               const VerifyOptions& options = {});
 
-// The verdict over several photos: residual statistics over all their features together; passes only if every
-// photo with a verdict passes and at least one has a verdict.
+// The verdict over several photos: residual statistics over all their features together; fail if any photo
+// with a verdict fails, pass only if every one passes, otherwise inconclusive; e and U of the photo that decides
+// (the largest e + U).
 Verification CombineVerifications(const std::vector<Verification>& photos, const VerifyOptions& options);
 
 }  // namespace curvecheck

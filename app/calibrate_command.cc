@@ -2,7 +2,8 @@
 // detects the board in every photo (in parallel), solves every candidate lens model with mrcal, chooses the
 // simplest adequate one, prints the candidate table and writes the chosen model (a mrcal .cameramodel with its
 // optimization inputs) and cam.calibration.json (the report: per-photo and per-corner residuals, outliers,
-// every candidate's figures, the uncertainty grid).
+// every candidate's figures, the uncertainty grid). A photo whose decoded content repeats an earlier one's is
+// used once (calibrate/photos.h): a note on stderr and in cam.calibration.json names both files.
 #include "app/calibrate_command.h"
 
 #include <fmt/format.h>
@@ -61,16 +62,22 @@ int RunCalibrate(const CalibrateArgs& a) {
   c.Check();
 
   const Stopwatch watch;
-  const std::vector<ChessboardDetection> detections = DetectChessboards(photos, board, d);
+  const CalibrationPhotos gathered = DetectCalibrationPhotos(photos, board, d);
   const double detect_s = watch.Seconds();
   int found = 0;
-  for (const ChessboardDetection& det : detections) {
-    found += det.found ? 1 : 0;
+  for (size_t i = 0; i < gathered.detections.size(); ++i) {
+    const ChessboardDetection& det = gathered.detections[i];
+    found += det.found && gathered.duplicate_of[i] < 0 ? 1 : 0;
     if (!det.found) std::cout << fmt::format("{}: {}; not used\n", det.photo.string(), det.problem);
   }
-  std::cout << fmt::format("detection: board {}x{} ({} mm squares) in {} of {} photos, {:.2f} s wall\n",
-                           board.corners_x, board.corners_y, board.square_mm, found, photos.size(), detect_s);
-  const CalibrationResult r = Calibrate(detections, board, c);
+  // Each photo content counts once (issue 15 item 4): the note names both files, here and in the report.
+  for (const std::string& note : gathered.DuplicateNotes()) std::cerr << "calibrate: note: " << note << "\n";
+  const int duplicates = gathered.Duplicates();
+  std::cout << fmt::format("detection: board {}x{} ({} mm squares) in {} of {} photos{}, {:.2f} s wall\n",
+                           board.corners_x, board.corners_y, board.square_mm, found, photos.size() - duplicates,
+                           duplicates > 0 ? fmt::format(" ({} duplicate photo(s) left out)", duplicates) : "",
+                           detect_s);
+  const CalibrationResult r = Calibrate(gathered, board, c);
   std::cout << CandidateTable(r);
   const CandidateResult& ch = r.Chosen();
   std::cout << fmt::format(

@@ -158,14 +158,33 @@ double CandidateResult::SigmaObservedMax() const {
 
 CalibrationResult Calibrate(const std::vector<ChessboardDetection>& detections, const BoardSpec& board,
                             const CalibrateOptions& options) {
+  CalibrationPhotos photos;
+  photos.detections = detections;
+  return Calibrate(photos, board, options);
+}
+
+CalibrationResult Calibrate(const CalibrationPhotos& photos, const BoardSpec& board, const CalibrateOptions& options) {
   options.Check();
   board.Check(board.source);
+  const std::vector<ChessboardDetection>& detections = photos.detections;
+  const bool gathered = !photos.duplicate_of.empty();
+  if (gathered && (photos.duplicate_of.size() != detections.size() || photos.content.size() != detections.size())) {
+    throw Error("Calibrate", "CalibrationPhotos' vectors differ in length", "internal: use DetectCalibrationPhotos");
+  }
   CalibrationResult r;
   r.board = board;
   r.detections = detections;
+  r.content = photos.content;
+  r.duplicate_of = photos.duplicate_of;
+  r.notes = photos.DuplicateNotes();
+  int duplicates = 0;
   std::vector<const ChessboardDetection*> used;
   for (size_t i = 0; i < detections.size(); ++i) {
     const ChessboardDetection& d = detections[i];
+    if (gathered && photos.duplicate_of[i] >= 0) {  // its content is already counted (its first photo)
+      ++duplicates;
+      continue;
+    }
     if (!d.found) continue;
     if (d.corners_px.size() != static_cast<size_t>(board.corner_count())) {
       throw Error(d.photo.string(), "detection does not match the board", "internal: detect with the same board");
@@ -182,8 +201,10 @@ CalibrationResult Calibrate(const std::vector<ChessboardDetection>& detections, 
     r.used.push_back(static_cast<int>(i));
   }
   if (used.size() < 3) {
-    throw Error("photos", fmt::format("only {} of {} photos show the whole {}x{} board", used.size(),
-                                      detections.size(), board.corners_x, board.corners_y),
+    throw Error("photos", fmt::format("only {} of {} photos show the whole {}x{} board{}", used.size(),
+                                      detections.size(), board.corners_x, board.corners_y,
+                                      duplicates > 0 ? fmt::format(" ({} duplicate(s) counted once)", duplicates)
+                                                     : std::string()),
                 "take 20-40 photos with the whole board in view: close-ups that fill the corners, tilts up to 45 deg");
   }
   r.focal_seed_px = options.focal_px > 0 ? options.focal_px : FocalSeedPx(used, board, r.width, r.height);
@@ -308,12 +329,22 @@ nlohmann::json CalibrationJson(const CalibrationResult& r) {
   j["focal_seed_px"] = r.focal_seed_px;
   j["optimize_s"] = r.optimize_s;
   json photos = json::array();
-  for (const ChessboardDetection& d : r.detections) {
+  for (size_t i = 0; i < r.detections.size(); ++i) {
+    const ChessboardDetection& d = r.detections[i];
     json p = {{"photo", d.photo.string()}, {"found", d.found}, {"detect_ms", d.ms}};
     if (d.found) p["detector"] = d.detector;
     if (!d.problem.empty()) p["problem"] = d.problem;
+    if (i < r.content.size() && r.content[i]) {
+      p["content"] = {{"hash", r.content[i]->Hex()}, {"width", r.content[i]->width},
+                      {"height", r.content[i]->height}};
+    }
+    if (i < r.duplicate_of.size() && r.duplicate_of[i] >= 0) {
+      p["duplicate_of"] = r.detections[static_cast<size_t>(r.duplicate_of[i])].photo.string();
+    }
+    p["used"] = std::find(r.used.begin(), r.used.end(), static_cast<int>(i)) != r.used.end();
     photos.push_back(std::move(p));
   }
+  j["notes"] = r.notes;
   const CandidateResult& ch = r.Chosen();
   for (size_t k = 0; k < r.used.size(); ++k) {
     json& p = photos[static_cast<size_t>(r.used[k])];

@@ -21,12 +21,15 @@
 #include <Eigen/Core>
 #include <filesystem>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <string>
 #include <vector>
 
+#include "calibrate/photos.h"
 #include "pattern/board.h"
 #include "detect/chessboard.h"
 #include "core/camera_model.h"
+#include "core/image_hash.h"
 
 namespace curvecheck {
 
@@ -92,7 +95,12 @@ struct CalibrationResult {
   BoardSpec board;
   int width = 0, height = 0;
   std::vector<ChessboardDetection> detections;  // all photos, in input order
-  std::vector<int> used;              // indices into detections of the photos with a board
+  // Per photo, when gathered by DetectCalibrationPhotos (else empty): the decoded content's hash, and -1 or the
+  // index of the earlier photo with the same content. A duplicate is not used: each content counts once.
+  std::vector<std::optional<ImageContentHash>> content;
+  std::vector<int> duplicate_of;
+  std::vector<std::string> notes;     // one line each: the duplicates (CalibrationPhotos::DuplicateNotes)
+  std::vector<int> used;              // indices into detections of the photos with a board (duplicates left out)
   double focal_seed_px = 0;
   std::vector<CandidateResult> candidates;
   int chosen = -1;
@@ -108,12 +116,16 @@ struct CalibrationResult {
 // its row, not thrown.
 CalibrationResult Calibrate(const std::vector<ChessboardDetection>& detections, const BoardSpec& board,
                             const CalibrateOptions& options);
+// The same for photos gathered by DetectCalibrationPhotos: a photo whose decoded content repeats an earlier one's
+// is left out (each content counts once, the first photo holds it), and the result's `notes` say so, naming both.
+// Calibrating a set plus duplicates therefore gives exactly the set's result.
+CalibrationResult Calibrate(const CalibrationPhotos& photos, const BoardSpec& board, const CalibrateOptions& options);
 
 // The candidate table (one row per model) and the choice, as printed by `curvecheck calibrate`.
 std::string CandidateTable(const CalibrationResult& r);
 
 // The calibration report (format curvecheck.calibration/1): board, detections (per photo: found, detector,
-// time), every candidate's figures, the choice, the chosen model's per-photo RMS, per-corner residuals and
+// time, decoded content hash, `duplicate_of` for a duplicate), the notes (duplicates), every candidate's figures, the choice, the chosen model's per-photo RMS, per-corner residuals and
 // outlier flags, and its uncertainty grid.
 nlohmann::json CalibrationJson(const CalibrationResult& r);
 

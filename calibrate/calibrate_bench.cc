@@ -77,10 +77,10 @@ int Run(int argc, char** argv) {
   CalibrationResult last;
   for (int run = 0; run < runs; ++run) {
     const Stopwatch watch;
-    const std::vector<ChessboardDetection> d = DetectChessboards(photos, board, ChessboardOptions());
+    const CalibrationPhotos d = DetectCalibrationPhotos(photos, board, ChessboardOptions());  // as the command
     detect_s.push_back(watch.Seconds());
     int found = 0;
-    for (const ChessboardDetection& x : d) found += x.found ? 1 : 0;
+    for (const ChessboardDetection& x : d.detections) found += x.found ? 1 : 0;
     last = Calibrate(d, board, CalibrateOptions());
     optimize_s.push_back(last.optimize_s);
     std::cout << fmt::format("run {}: detection {:.2f} s ({} of {} found), optimization {:.2f} s\n", run + 1,

@@ -88,6 +88,62 @@ TEST_F(CalibrateCli, WritesAModelThatMrcalToolsLoad) {
   EXPECT_TRUE(fs::exists(plot));
 }
 
+// The same photo twice counts once (issue 15 item 4): the set plus a copy of one photo under another name,
+// re-encoded (other bytes, the same pixels), and one file given twice, calibrates to exactly the set's result
+// (intrinsics and their uncertainty), and a note names each duplicate and its first photo, on stderr and in
+// the report.
+TEST_F(CalibrateCli, TheSamePhotoTwiceCountsOnce) {
+  BoardSpec board;
+  const std::vector<std::string> set = WriteSyntheticPhotos(dir_, &board);
+  const std::string copy = (dir_ / "copy-of-photo3.png").string();
+  cv::imwrite(copy, cv::imread(set[3], cv::IMREAD_UNCHANGED), {cv::IMWRITE_PNG_COMPRESSION, 9});
+  ASSERT_NE(Slurp(copy), Slurp(set[3]));  // another file, not a byte copy
+  const auto calibrate = [&](std::vector<std::string> photos, const std::string& name) {
+    photos.insert(photos.begin(), {"calibrate", "--board", fmt::format("{}x{}", board.corners_x, board.corners_y),
+                                   "--square-mm", fmt::format("{}", board.square_mm), "--lensmodel",
+                                   "LENSMODEL_OPENCV4", "-o", (dir_ / (name + ".cameramodel")).string()});
+    return Curvecheck(photos);
+  };
+  const CliRun alone = calibrate(set, "alone");
+  ASSERT_EQ(alone.code, 0) << alone.err << alone.out;
+  EXPECT_EQ(alone.err, "");
+  std::vector<std::string> twice = set;
+  twice.insert(twice.begin() + 7, copy);
+  twice.push_back(set[5]);
+  const CliRun with = calibrate(twice, "twice");
+  ASSERT_EQ(with.code, 0) << with.err << with.out;
+  std::cout << with.err << with.out;
+  EXPECT_THAT(with.err, HasSubstr(fmt::format("note: {} has the same decoded content as {} (640x480 8-bit gray",
+                                              copy, set[3])));
+  EXPECT_THAT(with.err, HasSubstr(fmt::format("note: {} has the same decoded content as {}", set[5], set[5])));
+  EXPECT_THAT(with.out, HasSubstr("in 12 of 12 photos (2 duplicate photo(s) left out)"));
+
+  const CameraModel a = ReadCameraModel(dir_ / "alone.cameramodel"), b = ReadCameraModel(dir_ / "twice.cameramodel");
+  ASSERT_EQ(a.intrinsics.size(), b.intrinsics.size());
+  for (size_t i = 0; i < a.intrinsics.size(); ++i) EXPECT_DOUBLE_EQ(a.intrinsics[i], b.intrinsics[i]) << i;
+  const nlohmann::json ra = nlohmann::json::parse(Slurp(dir_ / "alone.calibration.json"));
+  const nlohmann::json rb = nlohmann::json::parse(Slurp(dir_ / "twice.calibration.json"));
+  ASSERT_EQ(ra["uncertainty"]["grid"].size(), rb["uncertainty"]["grid"].size());
+  for (size_t i = 0; i < ra["uncertainty"]["grid"].size(); ++i) {
+    EXPECT_EQ(ra["uncertainty"]["grid"][i]["sigma_px"], rb["uncertainty"]["grid"][i]["sigma_px"]) << i;
+  }
+  for (const char* key : {"rms_px", "sigma_central_median_px", "structure"}) {
+    EXPECT_EQ(ra["candidates"][0][key], rb["candidates"][0][key]) << key;
+  }
+  // The cross-validation too (mrcal_solve.py seeds projection_diff's random start: reproducible runs).
+  EXPECT_EQ(ra["candidates"][0]["crossval"]["ratio_median"], rb["candidates"][0]["crossval"]["ratio_median"]);
+  EXPECT_EQ(ra["notes"].size(), 0u);
+  ASSERT_EQ(rb["notes"].size(), 2u);
+  EXPECT_THAT(rb["notes"][0].get<std::string>(), HasSubstr(copy + " has the same decoded content as " + set[3]));
+  ASSERT_EQ(rb["photos"].size(), 14u);
+  EXPECT_EQ(rb["photos"][7]["duplicate_of"], set[3]);
+  EXPECT_EQ(rb["photos"][7]["used"], false);
+  EXPECT_EQ(rb["photos"][7]["content"]["hash"], rb["photos"][3]["content"]["hash"]);
+  EXPECT_EQ(rb["photos"][13]["duplicate_of"], set[5]);
+  EXPECT_EQ(rb["photos"][3]["used"], true);
+  EXPECT_FALSE(rb["photos"][3].contains("duplicate_of"));
+}
+
 TEST_F(CalibrateCli, BadInputFailsWithOneLine) {
   const std::string png = (dir_ / "blank.png").string();
   cv::imwrite(png, cv::Mat(480, 640, CV_8UC1, cv::Scalar(128)));

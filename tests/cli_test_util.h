@@ -61,6 +61,18 @@ inline void ExpectOneLineFailure(const CliRun& r, const std::vector<std::string>
   for (const auto& p : pieces) EXPECT_THAT(r.err, ::testing::HasSubstr(p));
 }
 
+// Fails the test (fatally) unless `path` is a readable regular file: an input that the project installs itself
+// (a Debian package of scripts/debian-packages.txt) or generates is required, and its absence is a broken set-up,
+// never a skip (ctest counts skipped tests as passed). One line: the file, the problem, the fix.
+inline void RequireInstalledFile(const std::filesystem::path& path, const std::string& debian_package) {
+  std::error_code ec;
+  const bool file = std::filesystem::is_regular_file(path, ec);
+  const bool readable = file && std::ifstream(path).good();
+  ASSERT_TRUE(readable) << path.string() << ": " << (file ? "cannot be read" : "is missing")
+                        << "; it comes with the Debian package " << debian_package
+                        << " (scripts/debian-packages.txt): run ./bootstrap, or apt-get install " << debian_package;
+}
+
 // This test process's folder: <gtest temp dir>/<name>-<pid>, plus "-<running test's name>" when per_test. ctest runs
 // each test in a process of its own, in parallel, so the pid keeps them apart. Only the path; see FreshDir.
 inline std::filesystem::path ProcessDir(const std::string& name, bool per_test = false) {

@@ -1,6 +1,6 @@
-// `curvecheck bench fit`, `bench models` and `bench analyze`: the screen fit and the whole analysis on
-// synthetic truth. Each parses and validates its options and calls its bench in experiments/ (bench_fit.h,
-// bench_models.h, bench_analyze.h).
+// `curvecheck bench fit`, `bench models`, `bench analyze` and `bench verdict`: the screen fit, the whole analysis
+// and the verification's verdict on synthetic truth. Each parses and validates its options and calls its bench in
+// experiments/ (bench_fit.h, bench_models.h, bench_analyze.h, bench_verdict.h).
 
 #include <filesystem>
 #include <iostream>
@@ -12,6 +12,7 @@
 #include "experiments/bench_analyze.h"
 #include "experiments/bench_fit.h"
 #include "experiments/bench_models.h"
+#include "experiments/bench_verdict.h"
 
 namespace curvecheck::app {
 namespace {
@@ -93,12 +94,57 @@ void AddBenchAnalyze(CLI::App& bench, std::function<int()>& run) {
   });
 }
 
+struct BenchVerdictArgs {
+  experiments::BenchVerdictOptions options;
+  std::string views = "on-axis,off-axis";
+  std::string output = "bench-verdict";
+};
+
+void AddBenchVerdict(CLI::App& bench, std::function<int()>& run) {
+  auto a = std::make_shared<BenchVerdictArgs>();
+  experiments::BenchVerdictOptions& o = a->options;
+  CLI::App* cmd = bench.add_subcommand(
+      "verdict",
+      "The verification's verdict (pass / fail / inconclusive) against the truth on seeded synthetic trials: "
+      "correct corrections, a viewpoint misstated by 25 mm and a true 1080R under a 1000R rendering, across "
+      "resolution scales and distances; confusion matrix, false-fail and false-pass rates with Wilson 95% "
+      "intervals");
+  cmd->add_option("--trials", o.trials, "Seeded trials per cell (distance, view, case, scale)")
+      ->capture_default_str();
+  cmd->add_option("--seed", o.seed, "Noise seed of the first trial; trial k uses seed + k")->capture_default_str();
+  cmd->add_option("--scales", o.scales, "Resolution scales of the scene's camera, comma-separated, in (0, 1]")
+      ->delimiter(',')
+      ->capture_default_str();
+  cmd->add_option("--distances", o.distances_mm,
+                  "Camera distances from the screen centre, mm, comma-separated")
+      ->delimiter(',')
+      ->capture_default_str();
+  cmd->add_option("--views", a->views, "on-axis, off-axis (yaw 15 deg, pitch 5 deg) or both, comma-separated")
+      ->capture_default_str();
+  cmd->add_option("--scene", o.scene, "Scene YAML, or the name of an embedded scene (its monitor, lens, optics, "
+                                      "sensor; the camera is placed by the bench)")
+      ->capture_default_str();
+  cmd->add_option("--tolerance", o.tolerance_display_px, "Tolerance T, display px")->capture_default_str();
+  cmd->add_option("-o,--output", a->output, "Output folder (verdict_bench.csv, .json, .txt)")->capture_default_str();
+  cmd->callback([&run, a] {
+    run = [a] {
+      a->options.views = SplitList(a->views);
+      a->options.command_line = CommandLine();
+      a->options.Check();
+      PrepareOutputDir(a->output, "-o");
+      experiments::RunBenchVerdict(a->options, a->output, std::cout);
+      return 0;
+    };
+  });
+}
+
 }  // namespace
 
 void AddBenchAnalysisCommands(CLI::App& bench, std::function<int()>& run) {
   AddBenchFit(bench, run);
   AddBenchModels(bench, run);
   AddBenchAnalyze(bench, run);
+  AddBenchVerdict(bench, run);
 }
 
 }  // namespace curvecheck::app

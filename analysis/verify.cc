@@ -11,7 +11,10 @@
 #include <map>
 #include <optional>
 
+#include "analysis/error_field.h"
 #include "core/error.h"
+#include "core/screen_geometry.h"
+#include "core/stats.h"
 
 namespace curvecheck {
 namespace {
@@ -109,6 +112,72 @@ double Percentile95Length(const std::vector<FeatureCheck>& features) {
   return lengths[rank];
 }
 
+// The decision rule (verify.h, Verdict) on out's e, U and T, with the guards that keep a pass honest, and the
+// advice when the set-up cannot decide (or decides with T / U below 2).
+void Decide(const VerifyOptions& options, double distance_mm, int features, Verification* out) {
+  const double e = out->error_p95_display_px, u = out->expanded_uncertainty_display_px;
+  const double t = out->tolerance_display_px;
+  const double outlier_share = features > 0 ? static_cast<double>(out->field_outliers) / features : 0;
+  std::string guard;
+  if (out->noise_px > options.max_noise_px) {
+    guard = fmt::format("the residual scatter about the field, {:.3f} camera px per coordinate, is beyond detection "
+                        "noise ({:g} px): the residuals hold an error rougher than the field resolves, or the photo is "
+                        "too poor",
+                        out->noise_px, options.max_noise_px);
+  } else if (outlier_share > 0.05) {
+    guard = fmt::format("{} of {} features ({:.0f}%) lie far beyond the noise and the smooth field (a local error or "
+                        "bad detections): more than the 5% the percentile may leave out",
+                        out->field_outliers, features, 100 * outlier_share);
+  }
+  if (e - u > t) {
+    out->verdict = Verdict::kFail;
+    out->verdict_reason = fmt::format(
+        "fail: the correction error's 95th percentile e = {:.3f} display px exceeds the tolerance {:g} by more than "
+        "its expanded uncertainty U = {:.3f}",
+        e, t, u);
+  } else if (e + u <= t && guard.empty()) {
+    out->verdict = Verdict::kPass;
+    out->verdict_reason = fmt::format(
+        "pass: e + U = {:.3f} + {:.3f} display px is within the tolerance {:g}", e, u, t);
+  } else {
+    out->verdict = Verdict::kInconclusive;
+    out->verdict_reason =
+        guard.empty() ? fmt::format("inconclusive: e = {:.3f} display px is within U = {:.3f} of the tolerance {:g}; "
+                                    "this set-up cannot decide at this tolerance",
+                                    e, u, t)
+                      : fmt::format("inconclusive: e + U = {:.3f} + {:.3f} display px is within the tolerance {:g}, "
+                                    "but {}",
+                                    e, u, t, guard);
+  }
+  out->pass = out->verdict == Verdict::kPass;
+
+  // Advice. U is noise through the camera's resolving power: it scales with the display px per camera px, that
+  // is with the viewing distance and inversely with the focal length in px, and as 1 / sqrt(features).
+  const bool weak = out->tolerance_ratio < 2;
+  if (out->verdict == Verdict::kInconclusive && !guard.empty()) {
+    out->advice = "sharpen the focus, expose without clipping, shoot at base ISO and without digital zoom; if the "
+                  "scatter stays, the correction has an error rough at the feature spacing: a denser pattern "
+                  "resolves it";
+    return;
+  }
+  if (out->verdict != Verdict::kInconclusive && !weak) return;
+  const double target = out->verdict == Verdict::kInconclusive ? 0.8 * std::abs(t - e) : 0.5 * t;
+  if (!(target > 0.02 * t)) {
+    out->advice = fmt::format("e = {:.3f} display px is too close to the tolerance {:g} for any set-up to decide", e, t);
+    return;
+  }
+  const double factor = u / target;
+  if (!(factor > 1)) return;
+  out->advice = fmt::format(
+      "U = {:.3f} display px (T/U = {:.2f}) must fall to {:.3f}{}: the camera sees {:.2f} display px per camera px "
+      "from {:.2f} m. Render for and photograph from a viewpoint about {:.2f} m away, or use {:.1f}x the focal length "
+      "in px (a longer lens, or more sensor pixels across the same view), or a pattern with about {:.0f} features "
+      "(now {})",
+      u, out->tolerance_ratio, target, out->verdict == Verdict::kInconclusive ? " to decide" : " for T/U >= 2",
+      out->display_px_per_camera_px, distance_mm / 1000, distance_mm / factor / 1000, factor,
+      std::ceil(features * factor * factor), features);
+}
+
 }  // namespace
 
 const char* VerdictName(Verdict v) {
@@ -124,6 +193,12 @@ void VerifyOptions::Check(const std::string& where) const {
   if (!(tolerance_display_px > 0) || !std::isfinite(tolerance_display_px)) {
     throw Error(where, fmt::format("the tolerance is {} display px; it must be a positive number", tolerance_display_px),
                 "give e.g. 0.5");
+  }
+  if (max_field_degree < 0 || max_field_degree > 30) {
+    throw Error(where, fmt::format("max_field_degree is {}; give 0 to 30", max_field_degree));
+  }
+  if (!(max_noise_px > 0) || !(outlier_sigmas > 0) || uncertainty_draws < 100) {
+    throw Error(where, "max_noise_px and outlier_sigmas must be positive, uncertainty_draws at least 100");
   }
   if (min_features < 5) {
     throw Error(where, fmt::format("min_features is {}; the homography needs at least 5 features to leave a residual",
@@ -238,6 +313,9 @@ Verification VerifyCorrection(const PatternFile& pattern, const CameraModel& cam
   out.homography = h_centred * t;
 
   double sum_px = 0, sum_display = 0, sum_arcmin = 0;
+  ErrorFieldInput field_in;
+  std::vector<int> field_feature;  // feature index of each field input
+  std::vector<Eigen::Matrix<double, 2, 8>> nuisance_rows;
   for (int i = 0; i < n; ++i) {
     FeatureCheck& c = out.features[i];
     const Eigen::Vector3d p = h_centred * Eigen::Vector3d(m[i].x(), m[i].y(), 1);
@@ -264,6 +342,14 @@ Verification VerifyCorrection(const PatternFile& pattern, const CameraModel& cam
     const Eigen::Matrix2d j = dq_dab * dab_dd;
     if (ok && std::abs(j.determinant()) > 1e-12) {
       c.residual_display_px = j.inverse() * c.residual_px;
+      field_in.display_px.push_back(c.display_px);
+      field_in.jacobian.push_back(j);
+      field_in.residual_px.push_back(c.residual_px);
+      field_feature.push_back(i);
+      // The homography's directions at this feature: d q / d h8 (the residual's Jacobian, up to its sign).
+      Eigen::Matrix<double, 2, 8> rows;
+      for (int index = 0; index < 8; ++index) rows.col(index) = dq_dp[0].col(index / 3) * (index % 3 == 2 ? 1.0 : m[i](index % 3));
+      nuisance_rows.push_back(rows);
     } else {
       c.residual_display_px = Eigen::Vector2d::Constant(std::numeric_limits<double>::quiet_NaN());
     }
@@ -278,8 +364,44 @@ Verification VerifyCorrection(const PatternFile& pattern, const CameraModel& cam
   out.rms_display_px = std::sqrt(sum_display / n);
   out.rms_arcmin = std::sqrt(sum_arcmin / n);
   out.p95_display_px = Percentile95Length(out.features);
-  out.pass = out.p95_display_px <= options.tolerance_display_px;
-  out.verdict = out.pass ? Verdict::kPass : Verdict::kFail;
+
+  const int nf = static_cast<int>(field_in.display_px.size());
+  if (nf < options.min_features) {
+    out.failure_kind = VerificationFailure::kDegenerate;
+    out.failure = fmt::format("only {} of {} features have a display-px residual (the correction mapping is undefined "
+                              "at the others); at least {} are needed for a verdict",
+                              nf, n, options.min_features);
+    return out;
+  }
+  field_in.nuisance.resize(2 * nf, 8);
+  for (int k = 0; k < nf; ++k) field_in.nuisance.middleRows(2 * k, 2) = nuisance_rows[static_cast<size_t>(k)];
+  ErrorFieldOptions field_options;
+  field_options.max_degree = options.max_field_degree;
+  field_options.outlier_sigmas = options.outlier_sigmas;
+  field_options.draws = options.uncertainty_draws;
+  const ErrorField field = EstimateErrorField(field_in, field_options);
+  std::vector<double> display_per_camera;
+  for (int k = 0; k < nf; ++k) {
+    FeatureCheck& c = out.features[static_cast<size_t>(field_feature[static_cast<size_t>(k)])];
+    const Eigen::Matrix2d j_inv = field_in.jacobian[static_cast<size_t>(k)].inverse();
+    c.residual_display_sigma_px = field.noise_px * (j_inv * j_inv.transpose()).diagonal().cwiseSqrt();
+    c.error_display_px = field.value[static_cast<size_t>(k)];
+    c.error_display_sigma_px = field.covariance[static_cast<size_t>(k)].diagonal().cwiseMax(0).cwiseSqrt();
+    c.field_outlier = field.outlier[static_cast<size_t>(k)];
+    display_per_camera.push_back(std::sqrt(std::abs(j_inv.determinant())));
+  }
+  out.noise_px = field.noise_px;
+  out.field_degree = std::max(field.degree_u, field.degree_v);
+  out.field_outliers = static_cast<int>(std::count(field.outlier.begin(), field.outlier.end(), true));
+  out.display_px_per_camera_px = Median(display_per_camera);
+  std::vector<double> lengths;
+  for (const Eigen::Vector2d& f : field.value) lengths.push_back(f.norm());
+  out.error_p95_display_px = Percentile(lengths, 95);
+  out.expanded_uncertainty_display_px = field.band95_display_px;
+  out.coverage_factor = field.rms_sigma_display_px > 0 ? field.band95_display_px / field.rms_sigma_display_px : 0;
+  out.tolerance_ratio = out.tolerance_display_px / std::max(out.expanded_uncertainty_display_px, 1e-12);
+  const double distance_mm = (pattern.viewpoint_in_screen - ScreenCentreInScreen(pattern.monitor)).norm();
+  Decide(options, distance_mm, nf, &out);
   return out;
 }
 
@@ -287,12 +409,13 @@ Verification CombineVerifications(const std::vector<Verification>& photos, const
   Verification out;
   out.tolerance_display_px = options.tolerance_display_px;
   double sum_px = 0, sum_display = 0, sum_arcmin = 0;
-  int n = 0, verdicts = 0;
-  bool all_pass = true;
+  int n = 0, verdicts = 0, fails = 0, passes = 0;
+  const Verification* decides = nullptr;
   for (const Verification& v : photos) {
     if (!v.failure.empty()) continue;
     ++verdicts;
-    all_pass = all_pass && v.pass;
+    fails += v.verdict == Verdict::kFail ? 1 : 0;
+    passes += v.verdict == Verdict::kPass ? 1 : 0;
     for (const FeatureCheck& c : v.features) {
       sum_px += c.residual_px.squaredNorm();
       sum_display += c.residual_display_px.squaredNorm();
@@ -308,6 +431,18 @@ Verification CombineVerifications(const std::vector<Verification>& photos, const
     out.failure = "no photo gave a verdict";
     return out;
   }
+  // The deciding photo: among failures the clearest (largest e - U); otherwise the one nearest to failing
+  // (largest e + U).
+  for (const Verification& v : photos) {
+    if (!v.failure.empty()) continue;
+    const double key = fails > 0 ? v.error_p95_display_px - v.expanded_uncertainty_display_px
+                                 : v.error_p95_display_px + v.expanded_uncertainty_display_px;
+    if (fails > 0 && v.verdict != Verdict::kFail) continue;
+    if (!decides || key > (fails > 0 ? decides->error_p95_display_px - decides->expanded_uncertainty_display_px
+                                     : decides->error_p95_display_px + decides->expanded_uncertainty_display_px)) {
+      decides = &v;
+    }
+  }
   out.rms_px = std::sqrt(sum_px / n);
   out.rms_display_px = std::sqrt(sum_display / n);
   out.rms_arcmin = std::sqrt(sum_arcmin / n);
@@ -316,8 +451,20 @@ Verification CombineVerifications(const std::vector<Verification>& photos, const
     if (v.failure.empty()) all.insert(all.end(), v.features.begin(), v.features.end());
   }
   out.p95_display_px = Percentile95Length(all);
-  out.pass = all_pass;
-  out.verdict = out.pass ? Verdict::kPass : Verdict::kFail;
+  out.verdict = fails > 0 ? Verdict::kFail : passes == verdicts ? Verdict::kPass : Verdict::kInconclusive;
+  out.pass = out.verdict == Verdict::kPass;
+  out.error_p95_display_px = decides->error_p95_display_px;
+  out.expanded_uncertainty_display_px = decides->expanded_uncertainty_display_px;
+  out.coverage_factor = decides->coverage_factor;
+  out.tolerance_ratio = decides->tolerance_ratio;
+  out.noise_px = decides->noise_px;
+  out.display_px_per_camera_px = decides->display_px_per_camera_px;
+  out.field_degree = decides->field_degree;
+  out.field_outliers = decides->field_outliers;
+  out.advice = decides->advice;
+  out.verdict_reason = verdicts == 1 ? decides->verdict_reason
+                                     : fmt::format("{} ({} of {} photos pass, {} fail; this one decides)",
+                                                   decides->verdict_reason, passes, verdicts, fails);
   return out;
 }
 

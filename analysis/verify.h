@@ -42,11 +42,12 @@ struct VerifyOptions {
   // Fewest features for a verdict: the homography has 8 degrees of freedom, so at least 4 points fit it
   // exactly; the residuals mean something only with many more.
   int min_features = 8;
-  // The correction-error field: Legendre polynomials in the display position of total degree up to this
-  // (chosen by BIC from 0 up), fitted to the residuals beyond the homography. 6 resolves an error that changes
-  // sign 6 times across the screen; rougher errors are indistinguishable from detection noise at the feature
-  // spacing and raise the noise estimate (and so U) instead.
-  int max_field_degree = 6;
+  // The correction-error field (analysis/error_field.h): tensor Legendre polynomials in the display position,
+  // up to this degree across the width (the height's degree scaled by the features' aspect), the degree chosen
+  // by AIC, fitted to the residuals beyond the homography. 16 resolves an error that changes sign about 16
+  // times across the screen; rougher errors are indistinguishable from detection noise at the feature spacing
+  // and raise the noise estimate (and so U) instead.
+  int max_field_degree = 16;
   // Largest residual scatter (camera px per coordinate, about the field) that is still detection noise. Corner
   // detectors give 0.02-0.3 px on real photos; beyond this the residuals hold an error the field cannot resolve
   // (rough at the feature spacing) or the photo is too poor, and a pass cannot be stated.

@@ -1,0 +1,155 @@
+// The correction-error field against known fields and seeded noise: its noise estimate, its degree choice, its
+// outlier handling, and the coverage of its simultaneous 95% band over seeded trials (with the binomial
+// uncertainty of the count).
+#include "analysis/error_field.h"
+
+#include <gtest/gtest.h>
+
+#include <Eigen/Dense>
+#include <cmath>
+#include <functional>
+#include <iostream>
+#include <random>
+
+#include "core/test_util.h"
+
+namespace curvecheck {
+namespace {
+
+using Field = std::function<Eigen::Vector2d(const Eigen::Vector2d&)>;  // of the normalized position
+
+// A grid of cols x rows features over a 5120 x 1440 display, camera px per display px varying across the
+// screen (0.6 at the edges to 0.8 in the middle, with a little shear) as on a curved screen seen from 1.5 m.
+struct Scene {
+  int cols = 24, rows = 7;
+  bool with_nuisance = false;
+
+  ErrorFieldInput Make(const Field& truth, double noise_px, uint64_t seed) const {
+    std::mt19937_64 rng(seed);
+    std::normal_distribution<double> normal(0, noise_px);
+    ErrorFieldInput in;
+    for (int j = 0; j < rows; ++j) {
+      for (int i = 0; i < cols; ++i) {
+        const Eigen::Vector2d d(200 + 4720.0 * i / (cols - 1), 100 + 1240.0 * j / (rows - 1));
+        const Eigen::Vector2d x((d.x() - 2560) / 2360, (d.y() - 720) / 620);
+        Eigen::Matrix2d jac;
+        jac << 0.8 - 0.2 * x.x() * x.x(), 0.02 * x.x(), 0.01 * x.y(), 0.78;
+        in.display_px.push_back(d);
+        in.jacobian.push_back(jac);
+        in.residual_px.push_back(jac * truth(x) + Eigen::Vector2d(normal(rng), normal(rng)));
+      }
+    }
+    if (with_nuisance) {
+      // An affine map of the camera image (6 directions), as a pose change would absorb: remove it from the
+      // residuals as the verification's homography fit does.
+      const int n = static_cast<int>(in.display_px.size());
+      in.nuisance.resize(2 * n, 6);
+      Eigen::VectorXd r(2 * n);
+      for (int k = 0; k < n; ++k) {
+        const Eigen::Vector2d q = in.display_px[static_cast<size_t>(k)] / 1000;
+        in.nuisance.row(2 * k) << 1, 0, q.x(), q.y(), 0, 0;
+        in.nuisance.row(2 * k + 1) << 0, 1, 0, 0, q.x(), q.y();
+        r.segment<2>(2 * k) = in.residual_px[static_cast<size_t>(k)];
+      }
+      const Eigen::MatrixXd q = in.nuisance.householderQr().householderQ() * Eigen::MatrixXd::Identity(2 * n, 6);
+      r -= q * (q.transpose() * r);
+      for (int k = 0; k < n; ++k) in.residual_px[static_cast<size_t>(k)] = r.segment<2>(2 * k);
+    }
+    return in;
+  }
+};
+
+Eigen::Vector2d Zero(const Eigen::Vector2d&) { return Eigen::Vector2d::Zero(); }
+Eigen::Vector2d Smooth(const Eigen::Vector2d& x) {
+  return {0.4 * x.x() * x.x() * x.x() - 0.2 * x.y(), 0.3 * x.x() * x.y() + 0.1 * std::cos(2 * x.x())};
+}
+
+double MaxDifference(const std::vector<Eigen::Vector2d>& a, const std::vector<Eigen::Vector2d>& b) {
+  double m = 0;
+  for (size_t i = 0; i < a.size(); ++i) m = std::max(m, (a[i] - b[i]).norm());
+  return m;
+}
+
+TEST(ErrorField, NoiseAloneIsMeasuredAsNoiseAndTheFieldStaysWithinItsBand) {
+  const Scene scene;
+  for (double noise : {0.03, 0.1, 0.4}) {
+    const ErrorField f = EstimateErrorField(scene.Make(Zero, noise, 3));
+    EXPECT_NEAR(f.noise_px, noise, 0.1 * noise) << noise;
+    EXPECT_LE(f.degree_u, 2) << "noise alone chose degree " << f.degree_u;
+    EXPECT_EQ(std::count(f.outlier.begin(), f.outlier.end(), true), 0);
+    // The band scales with the noise: 0.4 / 0.78 display px per coordinate, spread over the few parameters.
+    EXPECT_GT(f.band95_display_px, 0.05 * noise / 0.78);
+    EXPECT_LT(f.band95_display_px, 2.0 * noise / 0.78);
+    EXPECT_LE(MaxDifference(f.value, std::vector<Eigen::Vector2d>(f.value.size(), Eigen::Vector2d::Zero())),
+              f.band95_display_px);
+  }
+}
+
+TEST(ErrorField, ASmoothFieldIsRecoveredAtItsDegreeAndTheNoiseIsNotInflated) {
+  const Scene scene;
+  const ErrorFieldInput in = scene.Make(Smooth, 0.1, 5);
+  const ErrorField f = EstimateErrorField(in);
+  EXPECT_GE(f.degree_u, 3);
+  EXPECT_NEAR(f.noise_px, 0.1, 0.012);
+  std::vector<Eigen::Vector2d> truth;
+  for (const Eigen::Vector2d& d : in.display_px) truth.push_back(Smooth({(d.x() - 2560) / 2360, (d.y() - 720) / 620}));
+  EXPECT_LE(MaxDifference(f.value, truth), f.band95_display_px);
+  EXPECT_LT(MaxDifference(f.value, truth), 0.15);
+}
+
+TEST(ErrorField, PlantedOutliersAreLeftOutAndDoNotMoveTheField) {
+  const Scene scene;
+  ErrorFieldInput in = scene.Make(Smooth, 0.1, 9);
+  const ErrorField clean = EstimateErrorField(in);
+  for (size_t k : {size_t{10}, size_t{50}, size_t{100}}) in.residual_px[k] += Eigen::Vector2d(3.0, -2.0);
+  const ErrorField f = EstimateErrorField(in);
+  EXPECT_TRUE(f.outlier[10] && f.outlier[50] && f.outlier[100]);
+  EXPECT_EQ(std::count(f.outlier.begin(), f.outlier.end(), true), 3);
+  EXPECT_LT(MaxDifference(f.value, clean.value), 0.5 * clean.band95_display_px);
+}
+
+// Coverage: over seeded trials, the band must hold max_i |f_hat_i - f_i| in about 95% of them. 120 trials:
+// the binomial sd at 95% is 2.0%, so [88%, 99.5%] is a 3.5 sigma acceptance region below and the ceiling above.
+void ExpectCoverage(const Scene& scene, const Field& truth_field, double noise) {
+  // The target: what the estimator gives without noise (with nuisance directions, the part of the field they
+  // cannot absorb).
+  const ErrorField target = EstimateErrorField(scene.Make(truth_field, 0, 1));
+  int covered = 0;
+  const int trials = 120;
+  for (int t = 0; t < trials; ++t) {
+    ErrorFieldOptions o;
+    o.draws = 200;
+    o.seed = 1000 + static_cast<uint64_t>(t);
+    const ErrorField f = EstimateErrorField(scene.Make(truth_field, noise, 100 + static_cast<uint64_t>(t)), o);
+    covered += MaxDifference(f.value, target.value) <= f.band95_display_px ? 1 : 0;
+  }
+  const double rate = static_cast<double>(covered) / trials;
+  ::testing::Test::RecordProperty("coverage", std::to_string(rate));
+  std::cout << "band coverage " << covered << " of " << trials << "\n";
+  EXPECT_GE(rate, 0.88) << covered << " of " << trials;
+  EXPECT_LE(rate, 0.995) << covered << " of " << trials;
+}
+
+TEST(ErrorField, TheBandCoversTheFieldIn95PercentOfTrials) {
+  ExpectCoverage(Scene{}, Smooth, 0.15);
+}
+
+TEST(ErrorField, TheBandCoversWhatTheNuisanceDirectionsLeaveOfTheField) {
+  Scene scene;
+  scene.with_nuisance = true;
+  ExpectCoverage(scene, Smooth, 0.15);
+}
+
+TEST(ErrorField, TooFewFeaturesOrMismatchedSizesAreErrors) {
+  ErrorFieldInput in = Scene{}.Make(Zero, 0.1, 1);
+  in.jacobian.pop_back();
+  EXPECT_THAT(testing::MessageOf([&] { EstimateErrorField(in); }), ::testing::HasSubstr("do not match"));
+  ErrorFieldInput few;
+  few.display_px = {{0, 0}, {1, 1}, {2, 0}};
+  few.jacobian.assign(3, Eigen::Matrix2d::Identity());
+  few.residual_px.assign(3, Eigen::Vector2d::Zero());
+  EXPECT_THAT(testing::MessageOf([&] { EstimateErrorField(few); }), ::testing::HasSubstr("at least 4"));
+}
+
+}  // namespace
+}  // namespace curvecheck

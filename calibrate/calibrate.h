@@ -97,7 +97,7 @@ struct CalibrationResult {
   std::vector<ChessboardDetection> detections;  // all photos, in input order
   // Per photo, when gathered by DetectCalibrationPhotos (else empty): the decoded content's hash, and -1 or the
   // index of the earlier photo with the same content. A duplicate is not used: each content counts once.
-  std::vector<std::optional<ImageContentHash>> content;
+  std::vector<std::optional<ContentHash>> content;
   std::vector<int> duplicate_of;
   std::vector<std::string> notes;     // one line each: the duplicates (CalibrationPhotos::DuplicateNotes)
   std::vector<int> used;              // indices into detections of the photos with a board (duplicates left out)

@@ -19,7 +19,7 @@ namespace curvecheck {
 
 struct CalibrationPhotos {
   std::vector<ChessboardDetection> detections;         // every photo, in input order
-  std::vector<std::optional<ImageContentHash>> content;  // of the decoded gray image; none when unreadable
+  std::vector<std::optional<ContentHash>> content;  // of the decoded gray image; none when unreadable
   std::vector<int> duplicate_of;  // -1, or the index of the first photo with the same content
 
   int Duplicates() const;

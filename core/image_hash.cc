@@ -52,9 +52,9 @@ struct Lanes {
 
 }  // namespace
 
-std::string ImageContentHash::Hex() const { return fmt::format("{:016x}{:016x}", hi, lo); }
+std::string ContentHash::Hex() const { return fmt::format("{:016x}{:016x}", hi, lo); }
 
-std::string ImageContentHash::Describe() const {
+std::string ContentHash::Describe() const {
   const int depth = CV_MAT_DEPTH(type), channels = CV_MAT_CN(type);
   const int bits = depth == CV_8U || depth == CV_8S ? 8 : depth == CV_16U || depth == CV_16S || depth == CV_16F ? 16
                    : depth == CV_64F                ? 64
@@ -63,8 +63,8 @@ std::string ImageContentHash::Describe() const {
   return fmt::format("{}x{} {}-bit {}, content {}", width, height, bits, layout, Hex().substr(0, 16));
 }
 
-ImageContentHash HashImageContent(const cv::Mat& image) {
-  ImageContentHash h;
+ContentHash HashImageContent(const cv::Mat& image) {
+  ContentHash h;
   h.width = image.cols;
   h.height = image.rows;
   h.type = image.type();

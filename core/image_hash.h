@@ -20,12 +20,12 @@
 
 namespace curvecheck {
 
-struct ImageContentHash {
+struct ContentHash {
   uint64_t hi = 0, lo = 0;
   int width = 0, height = 0;
   int type = 0;  // OpenCV type (depth and channels), e.g. CV_8UC1
 
-  bool operator==(const ImageContentHash& other) const = default;
+  bool operator==(const ContentHash& other) const = default;
   // 32 lowercase hex digits (hi then lo).
   std::string Hex() const;
   // "640x480 8-bit gray, content 0123456789abcdef..." (the hash's first 16 hex digits): for notes and reports.
@@ -33,6 +33,6 @@ struct ImageContentHash {
 };
 
 // The hash of `image`'s content (see above). An empty image hashes to its own value (size 0x0).
-ImageContentHash HashImageContent(const cv::Mat& image);
+ContentHash HashImageContent(const cv::Mat& image);
 
 }  // namespace curvecheck

@@ -34,7 +34,7 @@ TEST(ImageHash, LosslessReEncodingsOfTheSameImageHaveTheSameContent) {
   const std::string small = Encode(img, ".png", {cv::IMWRITE_PNG_COMPRESSION, 9});
   const std::string tiff = Encode(img, ".tiff");
   ASSERT_NE(fast, small);
-  const ImageContentHash a = HashImageContent(DecodeImage(fast, "fast.png"));
+  const ContentHash a = HashImageContent(DecodeImage(fast, "fast.png"));
   EXPECT_EQ(a, HashImageContent(DecodeImage(small, "small.png")));
   EXPECT_EQ(a, HashImageContent(DecodeImage(tiff, "img.tiff")));
   EXPECT_EQ(a, HashImageContent(img));
@@ -56,14 +56,14 @@ TEST(ImageHash, ARegionOfInterestHashesAsItsCopy) {
 // One pixel one code value off, the same bytes in another shape, or another pixel type: other content.
 TEST(ImageHash, AnyPixelSizeOrTypeDifferenceGivesAnotherHash) {
   const cv::Mat img = Noise(30, 40, CV_8UC1, 3);
-  const ImageContentHash a = HashImageContent(img);
+  const ContentHash a = HashImageContent(img);
   cv::Mat one = img.clone();
   one.at<uint8_t>(29, 39) ^= 1;
   EXPECT_NE(a, HashImageContent(one));
   one = img.clone();
   one.at<uint8_t>(0, 0) ^= 0x80;
   EXPECT_NE(a, HashImageContent(one));
-  const ImageContentHash reshaped = HashImageContent(img.reshape(1, 40));  // 40 x 30, same bytes
+  const ContentHash reshaped = HashImageContent(img.reshape(1, 40));  // 40 x 30, same bytes
   EXPECT_NE(a, reshaped);
   EXPECT_NE(a.Hex(), reshaped.Hex());
   cv::Mat two_channels(30, 20, CV_8UC2, img.data);  // same bytes, 2 channels

@@ -21,6 +21,7 @@ constexpr OutcomeInfo kOutcomes[] = {
     {TrialOutcome::kTooFewFeatures, "too_few_features", 'T'},
     {TrialOutcome::kRejected, "rejected", 'X'},
     {TrialOutcome::kVerificationFailed, "verification_failed", 'V'},
+    {TrialOutcome::kVerificationInconclusive, "verification_inconclusive", 'U'},
     {TrialOutcome::kFitFailed, "fit_failed", 'F'},
     {TrialOutcome::kFitIllConditioned, "fit_ill_conditioned", 'I'},
     {TrialOutcome::kError, "error", 'E'},
@@ -77,6 +78,7 @@ TrialOutcome OutcomeOfRejection(const PhotoAnalysis& photo) {
                  : TrialOutcome::kRejected;
     case PhotoRejection::kUnreadable:
     case PhotoRejection::kWrongSize:
+    case PhotoRejection::kDuplicate:
       return TrialOutcome::kRejected;
   }
   return TrialOutcome::kRejected;

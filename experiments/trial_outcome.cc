@@ -68,6 +68,10 @@ TrialOutcome OutcomeOfRejection(const PhotoAnalysis& photo) {
           return TrialOutcome::kAmbiguousOrientation;
         case DetectionFailure::kDifferentPattern:
           return TrialOutcome::kAmbiguousIds;
+        case DetectionFailure::kMirrored:
+          // The synthetic camera never mirrors: in a trial this is the orientation rule naming a board mirrored
+          // (e.g. a 16 x 5 board photographed upside down, detect.h), an orientation outcome.
+          return TrialOutcome::kAmbiguousOrientation;
         case DetectionFailure::kNone:
           break;
       }

@@ -14,6 +14,7 @@
 #include "core/file_io.h"
 #include "core/stopwatch.h"
 #include "core/monitor_json.h"
+#include "core/screen_geometry.h"
 
 namespace curvecheck {
 namespace {
@@ -41,6 +42,25 @@ nlohmann::json VerificationJson(const Verification& v) {
                       {"tolerance_display_px", v.tolerance_display_px},
                       {"pass", v.pass},
                       {"features", v.features.size()}};
+  if (v.failure.empty()) {
+    j["verdict"] = VerdictName(v.verdict);
+    j["decision_rule"] =
+        "pass when e + U <= T, fail when e - U > T, otherwise inconclusive (ISO 14253-1 guard band); e: 95th "
+        "percentile over the features of the correction-error field's length (the smooth part of the residuals), "
+        "U: its expanded uncertainty (simultaneous 95% band), T: the tolerance";
+    j["error_p95_display_px"] = Num(v.error_p95_display_px);
+    j["expanded_uncertainty_display_px"] = Num(v.expanded_uncertainty_display_px);
+    j["coverage_factor"] = Num(v.coverage_factor);
+    j["tolerance_ratio"] = Num(v.tolerance_ratio);
+    j["noise_px"] = Num(v.noise_px);
+    j["display_px_per_camera_px"] = Num(v.display_px_per_camera_px);
+    j["field_degree"] = v.field_degree;
+    j["field_outliers"] = v.field_outliers;
+    j["reason"] = v.verdict_reason;
+    if (!v.advice.empty()) j["advice"] = v.advice;
+  } else {
+    j["verdict"] = nullptr;
+  }
   if (!v.failure.empty()) j["failure"] = v.failure;
   return j;
 }
@@ -83,6 +103,18 @@ std::string PhotoNameFor(const std::filesystem::path& p, std::set<std::string>& 
   return candidate;
 }
 
+// FNV-1a over the image's size, type and pixels, row by row (a view may not be continuous).
+uint64_t ImageContentHash(const cv::Mat& image) {
+  uint64_t h = 1469598103934665603ull;
+  const auto mix = [&](const unsigned char* p, size_t n) {
+    for (size_t k = 0; k < n; ++k) h = (h ^ p[k]) * 1099511628211ull;
+  };
+  const int header[3] = {image.cols, image.rows, image.type()};
+  mix(reinterpret_cast<const unsigned char*>(header), sizeof header);
+  for (int y = 0; y < image.rows; ++y) mix(image.ptr<unsigned char>(y), image.cols * image.elemSize());
+  return h;
+}
+
 }  // namespace
 
 void AnalyzeOptions::Check(const std::string& where) const {
@@ -98,6 +130,29 @@ int AnalysisResult::UsedPhotos() const {
 }
 
 namespace {
+
+// A camera far from the viewpoint its pattern.json states: the verification judges the rendering as seen from
+// the camera, so a photo from elsewhere does not test the correction for the stated viewpoint; 700 mm off is
+// the wrong pattern.json, not a hand-held camera. Compared in the screen's centre frame (the fit's, and the
+// nominal screen centre for the stated viewpoint); the limit is 10% of the viewing distance, at least 100 mm.
+void AddPlausibilityWarnings(AnalysisResult& r) {
+  const ModelFit& chosen = r.fit->Chosen();
+  const Eigen::Vector3d centre = ScreenCentreInScreen(r.monitor);
+  for (const PhotoAnalysis& p : r.photos) {
+    if (p.fit_index < 0 || static_cast<size_t>(p.fit_index) >= chosen.cameras.size()) continue;
+    const PatternFile& pattern = r.patterns[static_cast<size_t>(&p - r.photos.data())];
+    const Eigen::Vector3d stated = pattern.viewpoint_in_screen - centre;
+    const Eigen::Vector3d fitted = chosen.cameras[static_cast<size_t>(p.fit_index)].centre_from_cam.translation;
+    const double off = (fitted - stated).norm(), limit = std::max(100.0, 0.1 * stated.norm());
+    if (off > limit) {
+      r.fit->warnings.push_back(fmt::format(
+          "{}: the camera was {:.0f} mm from the viewpoint its pattern.json states ({:.0f} mm from the screen "
+          "centre; limit {:.0f} mm): the verification of this photo does not test the correction for the stated "
+          "viewpoint. Is {} the pattern.json of this photo?",
+          p.name, off, stated.norm(), limit, p.input.pattern.string()));
+    }
+  }
+}
 
 // The analysis with photos from `load` (which throws Error for a bad photo).
 AnalysisResult AnalyzeWith(const CameraModel& camera, const std::filesystem::path& camera_path,
@@ -134,6 +189,7 @@ AnalysisResult AnalyzeWith(const CameraModel& camera, const std::filesystem::pat
 
   std::set<std::string> names;
   std::vector<PhotoObservations> observations;
+  std::map<uint64_t, size_t> content;  // hash of the decoded image -> first photo with it
   for (size_t i = 0; i < inputs.size(); ++i) {
     PhotoAnalysis pa;
     pa.input = inputs[i];
@@ -154,6 +210,16 @@ AnalysisResult AnalyzeWith(const CameraModel& camera, const std::filesystem::pat
                                 "calibrated for this camera at this resolution",
                                 inputs[i].photo.string(), gray.cols, gray.rows, camera_path.string(), r.camera.width,
                                 r.camera.height);
+    }
+    if (pa.rejected.empty()) {
+      // The same content twice (the same file given twice, or a copy) would count its features twice and shrink
+      // every sigma by sqrt(2): used once.
+      const auto [first, inserted] = content.emplace(ImageContentHash(gray), i);
+      if (!inserted) {
+        pa.rejection = PhotoRejection::kDuplicate;
+        pa.rejected = fmt::format("{}: the same image content as {}; it is used once", inputs[i].photo.string(),
+                                  inputs[first->second].photo.string());
+      }
     }
     if (pa.rejected.empty()) {
       pa.detection = DetectFeatures(gray, pattern, options.detect);
@@ -220,6 +286,7 @@ AnalysisResult AnalyzeWith(const CameraModel& camera, const std::filesystem::pat
     }
     r.fit_ms = fit_watch.Ms();
   }
+  if (r.fit) AddPlausibilityWarnings(r);
   r.total_ms = total_watch.Ms();
   return r;
 }
@@ -345,6 +412,12 @@ nlohmann::json ResultJson(const AnalysisResult& r, const std::string& command_li
         e["expected_px"] = Vec(c->second->expected_px);
         e["residual_px"] = Vec(c->second->residual_px);
         e["residual_display_px"] = {Num(c->second->residual_display_px.x()), Num(c->second->residual_display_px.y())};
+        e["residual_display_sigma_px"] = {Num(c->second->residual_display_sigma_px.x()),
+                                          Num(c->second->residual_display_sigma_px.y())};
+        e["error_display_px"] = {Num(c->second->error_display_px.x()), Num(c->second->error_display_px.y())};
+        e["error_display_sigma_px"] = {Num(c->second->error_display_sigma_px.x()),
+                                       Num(c->second->error_display_sigma_px.y())};
+        if (c->second->field_outlier) e["field_outlier"] = true;
         e["residual_arcmin"] = c->second->residual_arcmin;
       }
       const auto fr = fit_residual.find({p.fit_index, d.id});
@@ -461,16 +534,29 @@ std::vector<std::filesystem::path> WriteOverlays(const AnalysisResult& r, const 
   return written;
 }
 
+namespace {
+std::string ToUpper(std::string text) {
+  for (char& c : text) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
+  return text;
+}
+}  // namespace
+
 std::string SummaryText(const AnalysisResult& r) {
   std::ostringstream s;
   const Verification& v = r.verification;
   if (r.UsedPhotos() == 0) {
     s << "verification: no usable photo\n";
   } else {
-    s << fmt::format("verification: {} (95% of features within {:.3f} display px; tolerance {:g}); RMS {:.3f} camera "
-                     "px, {:.3f} display px, {:.3f} arcmin over {} photo(s)\n",
-                     v.pass ? "PASS" : "FAIL", v.p95_display_px, v.tolerance_display_px, v.rms_px, v.rms_display_px,
-                     v.rms_arcmin, r.UsedPhotos());
+    s << fmt::format("verification: {} (e = {:.3f} display px, the 95th percentile of the correction error; U = "
+                     "{:.3f} (95%); tolerance T = {:g}; T/U = {:.1f})\n",
+                     v.failure.empty() ? ToUpper(VerdictName(v.verdict)) : std::string("NO VERDICT"),
+                     v.error_p95_display_px, v.expanded_uncertainty_display_px, v.tolerance_display_px,
+                     v.tolerance_ratio);
+    if (!v.verdict_reason.empty()) s << "  " << v.verdict_reason << "\n";
+    if (!v.advice.empty()) s << "  to decide: " << v.advice << "\n";
+    s << fmt::format("  residuals: 95% within {:.3f} display px (noise and error together); RMS {:.3f} camera px, "
+                     "{:.3f} display px, {:.3f} arcmin; noise {:.3f} camera px per coordinate; over {} photo(s)\n",
+                     v.p95_display_px, v.rms_px, v.rms_display_px, v.rms_arcmin, v.noise_px, r.UsedPhotos());
   }
   if (r.fit) {
     const ModelFit& f = r.fit->Chosen();

@@ -47,6 +47,7 @@ enum class PhotoRejection {
   kWrongSize,     // its size is not the camera model's
   kDetection,     // the pattern was not detected (see detection.failure_kind)
   kVerification,  // no verdict from its features (see verification.failure_kind)
+  kDuplicate,     // the same image content as an earlier photo: used once
 };
 
 // Why there is no screen fit (typed; AnalysisResult::fit_failure says it for people).

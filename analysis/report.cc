@@ -44,6 +44,7 @@ tr.chosen { background: #fff4d6; font-weight: bold; }
 .verdict { font-size: 1.6em; font-weight: bold; padding: 0.1em 0.5em; border-radius: 0.2em; }
 .pass { background: #d9f2d9; color: #135e13; }
 .fail { background: #f8d7d7; color: #8b1a1a; }
+.inconclusive { background: #fff1c2; color: #6b5200; }
 .big { font-size: 1.4em; font-weight: bold; }
 #warnings { border: 2px solid #d08000; background: #fff3dc; padding: 0.5em 1em; margin: 1em 0; }
 #warnings h2 { border: none; margin: 0.2em 0; color: #8a5300; }
@@ -71,8 +72,19 @@ struct Warnings {
   void Add(std::string html) { items.push_back(std::move(html)); }
 };
 
-std::string StatusCell(bool pass) {
-  return pass ? "<span class=\"pass\">PASS</span>" : "<span class=\"fail\">FAIL</span>";
+// "pass", "fail" or "inconclusive" of a verification object (older result.json: from "pass").
+std::string VerdictOf(const json& v) {
+  if (v.contains("verdict") && v["verdict"].is_string()) return v["verdict"].get<std::string>();
+  return v.value("pass", false) ? "pass" : "fail";
+}
+
+std::string Upper(std::string text) {
+  for (char& ch : text) ch = static_cast<char>(std::toupper(static_cast<unsigned char>(ch)));
+  return text;
+}
+
+std::string VerdictCell(const std::string& verdict) {
+  return fmt::format("<span class=\"{}\">{}</span>", verdict, Upper(verdict));
 }
 
 std::string ModelsTable(const json& fit, Warnings& warnings) {
@@ -251,9 +263,22 @@ std::string ReportHtml(const json& r, const ReportAssets& assets, const ReportOp
   const std::optional<double> radius = has_fit ? Opt(fit["radius_mm"]) : std::nullopt;
   const std::optional<double> sigma = has_fit ? Opt(fit["radius_sigma_mm"]) : std::nullopt;
   const int dec = DecimalsFor(sigma);
-  s << "<h2>Summary</h2>\n<p>Verification: <span id=\"verdict\" class=\"verdict " << (pass ? "pass" : "fail")
-    << "\" data-pass=\"" << (pass ? "true" : "false") << "\">" << (pass ? "PASS" : "FAIL") << "</span></p>\n";
-  s << "<p>95% of the features are within " << ValueSpan("p95-display-px", Opt(v["p95_display_px"]), 3)
+  // The three-state verdict (result.json before it had one: pass or fail from "pass").
+  const std::string verdict = VerdictOf(v);
+  s << "<h2>Summary</h2>\n<p>Verification: <span id=\"verdict\" class=\"verdict " << verdict << "\" data-pass=\""
+    << (pass ? "true" : "false") << "\" data-verdict=\"" << verdict << "\">" << Upper(verdict) << "</span></p>\n";
+  if (v.contains("error_p95_display_px")) {
+    s << "<p>Correction error (the smooth part of the residuals, separated from detection noise): 95% of the "
+         "features are displaced by at most e = "
+      << ValueSpan("error-p95-display-px", Opt(v["error_p95_display_px"]), 3) << " display px, expanded uncertainty U = "
+      << ValueSpan("expanded-uncertainty-display-px", Opt(v["expanded_uncertainty_display_px"]), 3)
+      << " display px (95%), test-uncertainty ratio T/U = "
+      << ValueSpan("tolerance-ratio", Opt(v["tolerance_ratio"]), 1) << ". Decision rule: pass when e + U &#8804; T, "
+      << "fail when e &#8722; U &gt; T, otherwise inconclusive. " << Html(Str(v.value("reason", json(""))))
+      << ".</p>\n";
+    if (v.contains("advice")) s << "<p id=\"advice\"><b>To decide:</b> " << Html(Str(v["advice"])) << ".</p>\n";
+  }
+  s << "<p>Raw residuals (error and noise together): 95% of the features are within " << ValueSpan("p95-display-px", Opt(v["p95_display_px"]), 3)
     << " display px of an exact planar perspective image of the pattern (tolerance "
     << ValueSpan("tolerance-display-px", Opt(v["tolerance_display_px"]), 3) << " display px). RMS "
     << ValueSpan("rms-display-px", Opt(v["rms_display_px"]), 3) << " display px, " << Fixed(Opt(v["rms_px"]), 3)
@@ -345,7 +370,7 @@ std::string ReportHtml(const json& r, const ReportAssets& assets, const ReportOp
         ver ? fmt::format("{}", (*ver)["features"].get<long>()) : "&#8212;",
         Fixed(ver ? Opt((*ver)["rms_px"]) : std::nullopt, 3), Fixed(ver ? Opt((*ver)["rms_display_px"]) : std::nullopt, 3),
         Fixed(ver ? Opt((*ver)["p95_display_px"]) : std::nullopt, 3),
-        ver ? StatusCell((*ver)["pass"].get<bool>()) : "&#8212;",
+        ver ? VerdictCell(VerdictOf(*ver)) : "&#8212;",
         cam != cameras.end() ? Vec3((*cam->second)["position_mm"], 1) : "&#8212;",
         cam != cameras.end() ? Vec3((*cam->second)["stated_viewpoint_mm"], 1) : "&#8212;");
   }

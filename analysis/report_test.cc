@@ -65,7 +65,7 @@ TEST(Report, KeyFiguresCarryTheDocumentsNumbers) {
   EXPECT_EQ(DataValue(html, "chosen-model"), "cylinder");
   EXPECT_EQ(DataValue(html, "feature-count"), "12");
   EXPECT_EQ(DataValue(html, "tolerance-display-px"), "0.5");
-  EXPECT_THAT(html, HasSubstr("id=\"verdict\" class=\"verdict fail\" data-pass=\"false\">FAIL<"));
+  EXPECT_THAT(html, HasSubstr("id=\"verdict\" class=\"verdict fail\" data-pass=\"false\" data-verdict=\"fail\">FAIL<"));
   // The radius as read: 1071.6477 +- 1.462 mm -> one decimal.
   EXPECT_THAT(html, HasSubstr(">1071.6</span> &#177; <span id=\"radius-sigma-mm\" class=\"value\" data-value=\""));
   // The model table: every candidate, the chosen one marked.

@@ -142,6 +142,19 @@ void CheckVerification(const Checker& c, const json& v, const std::string& at) {
   c.Bool(c.Member(v, at, "pass"), Key(at, "pass"));
   c.Int(c.Member(v, at, "features"), Key(at, "features"), 0, 1L << 40);
   c.IfPresent(v, at, "failure", [&](const json& x, const std::string& k) { c.String(x, k); });
+  // The three-state verdict and its figures (absent in result.json written before them).
+  c.IfPresent(v, at, "verdict", [&](const json& x, const std::string& k) {
+    if (x.is_null()) return;
+    c.String(x, k);
+    if (x != "pass" && x != "fail" && x != "inconclusive") c.Fail(k, "is not pass, fail or inconclusive");
+  });
+  for (const char* key : {"error_p95_display_px", "expanded_uncertainty_display_px", "coverage_factor",
+                          "tolerance_ratio", "noise_px", "display_px_per_camera_px"}) {
+    c.IfPresent(v, at, key, [&](const json& x, const std::string& k) { c.NumberOrNull(x, k); });
+  }
+  for (const char* key : {"reason", "advice", "decision_rule"}) {
+    c.IfPresent(v, at, key, [&](const json& x, const std::string& k) { c.String(x, k); });
+  }
 }
 
 void CheckModelFit(const Checker& c, const json& f, const std::string& at) {

@@ -451,6 +451,7 @@ Verification CombineVerifications(const std::vector<Verification>& photos, const
     if (v.failure.empty()) all.insert(all.end(), v.features.begin(), v.features.end());
   }
   out.p95_display_px = Percentile95Length(all);
+  out.features = std::move(all);
   out.verdict = fails > 0 ? Verdict::kFail : passes == verdicts ? Verdict::kPass : Verdict::kInconclusive;
   out.pass = out.verdict == Verdict::kPass;
   out.error_p95_display_px = decides->error_p95_display_px;

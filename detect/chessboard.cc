@@ -61,6 +61,29 @@ bool DetectMrgingham(const cv::Mat& gray, const BoardSpec& b, ChessboardDetectio
   return true;
 }
 
+// The handedness test (chessboard.h): "" or the "mirrored: ..." problem of a found board.
+std::string MirroredProblem(const cv::Mat& gray, const BoardSpec& b, const std::vector<Eigen::Vector2d>& corners_px) {
+  CornerGrid grid;
+  grid.width = b.corners_x;
+  grid.height = b.corners_y;
+  for (const Eigen::Vector2d& p : corners_px) grid.px.emplace_back(p.x(), p.y());
+  grid.quality.assign(grid.px.size(), 1.0);
+  // The upright limit is moot: only a naming whose handedness the colours decide is used.
+  const detect_internal::BoardOrientation o =
+      detect_internal::ResolveBoardOrientation(grid, gray, b.corners_x + 1, b.corners_y + 1, 45);
+  if (!o.failure.empty() || !o.handedness_from_colours || !o.mirrored) return "";
+  // Board plane as the pattern's: column to the right, row up (row 0 at the top).
+  std::vector<Eigen::Vector2d> plane;
+  for (int k : o.corner_index) plane.emplace_back(k % b.corners_x, -(k / b.corners_x));
+  const double handedness = detect_internal::AffineHandedness(plane, corners_px);
+  if (!(handedness > kMirroredHandedness)) return "";
+  return fmt::format("mirrored: the board's square colours fit only a mirrored view of it (handedness {:+.2f}): the "
+                     "photo is mirrored (a webcam or phone mirror setting, or flipped in software); turn mirroring "
+                     "off or flip the photo back (this assumes the board's top-left square is black; "
+                     "a {}x{} board with a white one is the mirror image of that)",
+                     handedness, b.corners_x, b.corners_y);
+}
+
 }  // namespace
 
 const char* ChessboardDetectorName(ChessboardDetector detector) {
@@ -110,6 +133,12 @@ ChessboardDetection DetectChessboard(const cv::Mat& gray8, const BoardSpec& boar
   if (!d.found) {
     d.corners_px.clear();
     d.problem = fmt::format("no complete {}x{} board found", board.corners_x, board.corners_y);
+  } else if (options.refuse_mirrored) {
+    d.problem = MirroredProblem(gray8, board, d.corners_px);
+    if (!d.problem.empty()) {
+      d.found = false;
+      d.corners_px.clear();
+    }
   }
   return d;
 }

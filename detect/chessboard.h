@@ -12,8 +12,21 @@
 //   mrgingham  the mrgingham library (square NxN boards only), with its own sub-pixel refinement (RunMrgingham).
 // Output corners are row-major (corners_x per row), in mrcal's pixel convention (pixel centres at integers).
 // The starting corner may differ between photos (a board rotated by 180 deg, or 90 deg for square boards, or
-// seen mirrored): for a planar grid of equal spacing each of these is a proper pose of the same board, so mrcal
-// needs no canonical order.
+// named in mirrored order): for a planar grid of equal spacing each of these is a proper pose of the same board,
+// so mrcal needs no canonical order.
+//
+// Mirrored photos (issue 15; detect.h, "Handedness"). A mirrored photo (a webcam or phone "mirror" setting) is a
+// photo of a camera whose principal point and distortion are mirrored too: it would bias the calibration, and a
+// model calibrated from mirrored photos fits no unmirrored photo. A photo is refused ("mirrored: ...") when the
+// board's square colours fit only mirrored views of it: the board is named by its colours
+// (ResolveBoardOrientation, top-left square black, as `curvecheck render` and OpenCV's pattern generator draw
+// it) and the affine map from the board (column right, row up) to the image has a positive determinant. That is
+// decisive for boards of an even number of squares both ways (odd x odd inner corners, e.g. 9x7): in either
+// mirror their colours match no turn of the board. Calibration photos may show the board at any roll (a printed
+// board is held either way up), so the upright rule of detect.h is not used here: for other boards (e.g. 9x6
+// inner corners = 10 x 7 squares, whose mirror image has the colours of the board turned by 180 deg) a mirrored
+// photo cannot be told from a turned one and is not refused. A board whose top-left square is white is the mirror
+// image of one whose top-left is black (even x even squares): set refuse_mirrored = false for it.
 #pragma once
 
 #include <Eigen/Core>
@@ -41,6 +54,8 @@ struct ChessboardOptions {
   // (capped to [2, 30] px): large enough to gather edge gradients, small enough to stay inside one square.
   double subpix_window_fraction = 0.35;
   int threads = 0;  // photos in parallel; 0 = all cores
+  // Refuse photos whose board colours fit only a mirrored view (above). Assumes the top-left square is black.
+  bool refuse_mirrored = true;
   void Check() const;
 };
 
@@ -50,7 +65,7 @@ struct ChessboardDetection {
   bool found = false;
   std::vector<Eigen::Vector2d> corners_px;  // row-major, BoardSpec::corner_count() of them when found
   std::string detector;                     // which detector found it ("opencv-classic", "opencv-sb", "mrgingham")
-  std::string problem;                      // why not found (unreadable photo, no board)
+  std::string problem;                      // why not found (unreadable photo, no board, "mirrored: ...")
   double ms = 0;                            // wall time for this photo, including decoding
 };
 

@@ -135,6 +135,25 @@ Eigen::Vector2d Apply(const Eigen::Matrix3d& h, const Eigen::Vector2d& p) { retu
 
 void AddFlag(DetectedFeature& f, const std::string& flag) { f.flag += (f.flag.empty() ? "" : "; ") + flag; }
 
+// The kMirrored failure (detect.h); `detail` ("" or " (...)") says how it was seen.
+void FailMirrored(Detection& out, const std::string& detail) {
+  out.failure_kind = DetectionFailure::kMirrored;
+  out.failure = "mirrored: the detected features map to the pattern with a reflection: the photo is mirrored (a "
+                "webcam or phone mirror setting, or flipped in software); turn mirroring off or flip the photo "
+                "back" +
+                detail;
+}
+
+// PatternHandedness on pattern.json's coordinates; NaN if too few features.
+double Handedness(const std::vector<DetectedFeature>& features, const PatternInfo& info) {
+  std::vector<Eigen::Vector2d> plane, px;
+  for (const DetectedFeature& f : features) {
+    plane.push_back(info.pattern_mm.at(f.id));
+    px.push_back(f.px);
+  }
+  return detect_internal::AffineHandedness(plane, px);
+}
+
 // Screening (detect.h): local homographies of each feature's neighbours in pattern coordinates.
 void ScreenOutliers(std::vector<DetectedFeature>& features, const PatternInfo& info, const DetectOptions& o,
                     std::vector<std::string>& notes) {
@@ -280,8 +299,9 @@ void DiagnoseBoardFailure(const cv::Mat& gray8, const PatternInfo& info, const s
 }
 
 // One board detector, oriented and named; false with `failure` set if it found nothing usable.
+// `unmirrored_alternative`: ResolveBoardOrientation's, for the text of a mirrored naming.
 bool DetectBoard(const std::string& detector, const cv::Mat& photo, const cv::Mat& gray8, const PatternFile& pattern,
-                 const PatternInfo& info, const DetectOptions& o, Detection& out) {
+                 const PatternInfo& info, const DetectOptions& o, Detection& out, std::string& unmirrored_alternative) {
   const cv::Size inner(info.cols - 1, info.rows - 1);
   std::optional<CornerGrid> grid;
   cv::Mat coarse_input = gray8;
@@ -309,6 +329,7 @@ bool DetectBoard(const std::string& detector, const cv::Mat& photo, const cv::Ma
     return false;
   }
   out.notes.push_back(orient.note);
+  unmirrored_alternative = orient.unmirrored_alternative;
   if (detector == "opencv-classic") {
     std::vector<std::pair<std::string, Eigen::Vector2d>> coarse;
     for (size_t d = 0; d < grid->px.size(); ++d) {
@@ -393,10 +414,39 @@ void BoardCornersFromTags(const cv::Mat& photo, double sigma_px, const std::vect
   }
 }
 
+// No tag of the pattern decodes in the photo. A mirrored tag never does (detect.h, handedness): look for them in
+// the photo flipped left to right; if they are there, their corners mapped back to the photo name the pattern
+// with a reflection, and the detection fails with kMirrored. False if no tag of the pattern decodes there either.
+bool MirroredTags(const cv::Mat& gray8, const PatternInfo& info, const DetectOptions& o, Detection& out) {
+  cv::Mat flipped;
+  cv::flip(gray8, flipped, 1);
+  std::set<int> ids;
+  std::vector<Eigen::Vector2d> plane, px;
+  for (const DetectedTag& t :
+       detect_internal::RunAprilTag(flipped, o.apriltag_decimate, o.apriltag_max_hamming, o.apriltag_threads)) {
+    if (!info.tag_ids.count(t.id) || !ids.insert(t.id).second) continue;
+    for (int k = 0; k < 4; ++k) {
+      const Eigen::Vector2d& p = t.px[static_cast<size_t>(k)];
+      plane.push_back(info.pattern_mm.at(fmt::format("t{}.{}", t.id, k)));
+      px.emplace_back(gray8.cols - 1 - p.x(), p.y());
+    }
+  }
+  const double handedness = detect_internal::AffineHandedness(plane, px);
+  if (!(handedness > kMirroredHandedness)) return false;
+  FailMirrored(out, fmt::format(" (no tag of pattern.json decodes in the photo; {} of them ({}) decode in it flipped "
+                                "left to right, handedness {:+.2f})",
+                                ids.size(), TagIdRanges(ids), handedness));
+  return true;
+}
+
 void DetectTags(const cv::Mat& photo, const cv::Mat& gray8, const PatternFile& pattern, const PatternInfo& info,
                 const DetectOptions& o, Detection& out) {
   std::vector<DetectedTag> found =
       detect_internal::RunAprilTag(gray8, o.apriltag_decimate, o.apriltag_max_hamming, o.apriltag_threads);
+  const bool any_of_pattern = std::any_of(found.begin(), found.end(), [&](const DetectedTag& t) {
+    return info.tag_ids.count(t.id) > 0;
+  });
+  if (!any_of_pattern && MirroredTags(gray8, info, o, out)) return;
   if (found.empty()) {
     out.failure = "pattern not found: no tag36h11 tag in the photo";
     out.failure_kind = DetectionFailure::kPatternNotFound;
@@ -479,6 +529,16 @@ std::vector<std::string> ScreenFeatures(std::vector<DetectedFeature>& features, 
   return notes;
 }
 
+double PatternHandedness(const std::vector<DetectedFeature>& features, const PatternFile& pattern) {
+  const PatternInfo info = ReadPatternInfo(pattern);
+  for (const DetectedFeature& f : features) {
+    if (!info.pattern_mm.count(f.id)) {
+      throw Error("features", fmt::format("id '{}' is not in pattern.json", f.id), "give features of this pattern");
+    }
+  }
+  return Handedness(features, info);
+}
+
 const char* DetectorName(Detector detector) {
   switch (detector) {
     case Detector::kAuto: return "auto";
@@ -553,6 +613,7 @@ const char* DetectionFailureName(DetectionFailure failure) {
     case DetectionFailure::kPatternNotFound: return "pattern_not_found";
     case DetectionFailure::kAmbiguousOrientation: return "ambiguous_orientation";
     case DetectionFailure::kDifferentPattern: return "different_pattern";
+    case DetectionFailure::kMirrored: return "mirrored";
   }
   return "";
 }
@@ -588,18 +649,33 @@ Detection DetectFeatures(const cv::Mat& photo_gray, const PatternFile& pattern, 
   Detection out;
   out.detector = detector;
   const cv::Mat gray8 = To8Bit(photo_gray);
+  std::string unmirrored_alternative;
   if (detector == "apriltag") {
     DetectTags(photo_gray, gray8, pattern, info, options, out);
-  } else if (!DetectBoard(detector, photo_gray, gray8, pattern, info, options, out)) {
+  } else if (!DetectBoard(detector, photo_gray, gray8, pattern, info, options, out, unmirrored_alternative)) {
     if (options.detector == Detector::kAuto && out.failure_kind == DetectionFailure::kPatternNotFound) {
       // auto: classic is fast but less robust to strong perspective and blur; try SB before giving up.
       const std::string first = out.failure;
       out = Detection();
       out.detector = "opencv-sb";
       out.notes.push_back(fmt::format("opencv-classic failed ({}); used opencv-sb", first));
-      DetectBoard("opencv-sb", photo_gray, gray8, pattern, info, options, out);
+      DetectBoard("opencv-sb", photo_gray, gray8, pattern, info, options, out, unmirrored_alternative);
     }
     if (out.failure_kind == DetectionFailure::kPatternNotFound) DiagnoseBoardFailure(gray8, info, out.detector, out);
+  }
+  if (out.failure.empty()) {
+    // Handedness (detect.h): a photo of the front of the pattern has a negative determinant.
+    const double handedness = Handedness(out.features, info);
+    if (handedness > kMirroredHandedness) {
+      FailMirrored(out, fmt::format(" (handedness {:+.2f}{})", handedness,
+                                    unmirrored_alternative.empty()
+                                        ? ""
+                                        : "; the square colours also fit " + unmirrored_alternative +
+                                              ": if the camera was turned, take the photo upright"));
+    } else if (!(handedness < -kMirroredHandedness)) {
+      out.notes.push_back(fmt::format("handedness not decided ({:+.2f}: too few features, or a grazing view)",
+                                      handedness));
+    }
   }
   if (out.failure.empty()) {
     ScreenOutliers(out.features, info, options, out.notes);

@@ -23,13 +23,30 @@
 //                   to opencv-sb only if classic fails, and says so in the notes); apriltag and both -> apriltag.
 //
 // Orientation of checkerboards (the grid a board detector returns has no ids). Candidates are the symmetries
-// of the board that keep its size and its handedness (a photo of the front of a screen is never mirrored):
-// identity and 180 deg, plus 90 and 270 deg for square boards. Rule: (1) the square colours decide where the
-// board's parity makes them decisive (the top-left square is black; a 180 deg turn changes the colours iff
-// cols + rows is odd, a 90 deg turn iff the board has an even number of squares per side); (2) among the
-// candidates the colours leave, the photo is assumed roughly upright: the board's up direction, averaged over
-// the board, within `upright_max_deg` (default 40) of the image's up. If no candidate or more than one remains,
-// the result is failure "ambiguous orientation" rather than a guess.
+// of the board that keep its size: identity and 180 deg, plus 90 and 270 deg for square boards, and the same
+// seen through a mirror. Rule: (1) the square colours decide where the board's parity makes them decisive (the
+// top-left square is black; a 180 deg turn changes the colours iff cols + rows is odd, a 90 deg turn iff the
+// board has an even number of squares per side, a left-right mirror iff cols is even, an up-down one iff rows
+// is even); (2) among the candidates the colours leave, the photo is assumed roughly upright: the board's up
+// direction, averaged over the board, within `upright_max_deg` (default 40) of the image's up, and unmirrored
+// where an unmirrored and a mirrored candidate are both upright (a board that is its own mirror image, e.g.
+// 15 x 5: a mirrored photo of it cannot be told from a true one). A mirrored candidate is chosen where the
+// colours leave no unmirrored one (16 x 6 seen in a mirror), or where the only upright candidate is mirrored:
+// the default 16 x 5 board photographed upright through a mirror has the colours of the board turned by
+// 180 deg, and is named mirrored (so a true photo of it taken upside down is refused as mirrored too, with
+// that alternative in the text). If no candidate or more than one remains, the result is failure "ambiguous
+// orientation" rather than a guess.
+//
+// Handedness (issue 15). A camera sees only the front of a screen, so the map pattern plane -> image has one
+// orientation: with the pattern's a to the right and b up, and the image's x to the right and y down, an
+// upright photo maps (a, b) to about (s a, -s b), and every photo of the front, at any roll, tilt, perspective or
+// lens distortion, has det(d image / d pattern) < 0. After the ids are assigned, an affine map is fitted to
+// the features (pattern_mm -> px, least squares; PatternHandedness); if its determinant is positive the
+// features map to the pattern with a reflection and the detection fails with kMirrored (a webcam or phone
+// "mirror" setting, or a photo flipped in software). Tags: a mirrored tag36h11 tag does not decode (every code
+// mirrored is at least 4 bits from every code in any rotation, and at most 2 are corrected), so when no tag of
+// the pattern decodes, the detector runs again on the photo flipped left to right; tags of the pattern there
+// mean the photo is mirrored (the same test on their corners mapped back).
 //
 // Screening. Every feature is predicted from its neighbours (the nearest `screen_neighbours` features in
 // pattern coordinates, excluding the same tag's corners) by a homography fitted to them; a feature whose
@@ -109,10 +126,12 @@ struct DetectedFeature {
 enum class DetectionFailure {
   kNone,
   kPatternNotFound,       // no board or tags of the pattern (also a board that is not pattern.json's)
-  kAmbiguousOrientation,  // a board is seen, but which corner is which cannot be decided (or it is mirrored)
+  kAmbiguousOrientation,  // a board is seen, but which corner is which cannot be decided
   kDifferentPattern,      // tags whose ids are not in pattern.json, or tags where pattern.json has a plain board
+  kMirrored,              // the features map to the pattern with a reflection: a mirrored photo (handedness above)
 };
-// "pattern_not_found", "ambiguous_orientation", "different_pattern" ("" for kNone): for tables and JSON.
+// "pattern_not_found", "ambiguous_orientation", "different_pattern", "mirrored" ("" for kNone): for tables and
+// JSON.
 const char* DetectionFailureName(DetectionFailure failure);
 
 struct Detection {
@@ -121,7 +140,8 @@ struct Detection {
   // "" on success; else "<category>: <details>" with the category one of "pattern not found" (also when a
   // board is seen but not the one of pattern.json), "ambiguous orientation", "different pattern" (tags whose
   // ids are not in pattern.json: "different pattern: ids not in pattern.json: ..."; tags where pattern.json has
-  // a plain board). Features are empty on failure.
+  // a plain board), "mirrored" ("mirrored: the detected features map to the pattern with a reflection: the photo
+  // is mirrored (...); turn mirroring off or flip the photo back ..."). Features are empty on failure.
   std::string failure;
   DetectionFailure failure_kind = DetectionFailure::kNone;  // set together with `failure`
   std::vector<std::string> notes;  // e.g. "orientation from the square colours", "12 of 144 corners not found"
@@ -141,6 +161,14 @@ cv::Mat DecodePhotoGray(std::string_view bytes, const std::string& source);
 // options, an unsupported image type, or a detector that cannot detect this pattern kind (apriltag on a plain
 // checkerboard, a board detector on an apriltag grid, mrgingham on a board that is not N x N corners).
 Detection DetectFeatures(const cv::Mat& photo_gray, const PatternFile& pattern, const DetectOptions& options);
+
+// The handedness test of DetectFeatures (above): the determinant of the linear part A of the affine map fitted
+// by least squares to the features' pattern_mm -> px, as det(A) / s1(A)^2 (s1 its larger singular value), in
+// [-1, 1]. Negative for a photo of the front of the pattern (about -cos(tilt) at any roll), positive for
+// a mirrored one; NaN for fewer than 3 features or collinear ones. DetectFeatures refuses a detection above
+// +kMirroredHandedness. Throws Error for an id that is not in the pattern.
+constexpr double kMirroredHandedness = 0.05;
+double PatternHandedness(const std::vector<DetectedFeature>& features, const PatternFile& pattern);
 
 // The outlier screening of DetectFeatures (above) on any features of `pattern` (e.g. merged from several
 // detections): appends "outlier: ..." to the flags of inconsistent features; returns notes (features that

@@ -3,6 +3,8 @@
 #include <fmt/format.h>
 #include <mrgingham/mrgingham.hh>
 
+#include <Eigen/Dense>
+
 #include <algorithm>
 #include <cmath>
 #include <cstdlib>
@@ -55,7 +57,24 @@ struct Candidate {
   std::vector<int> board_of_detected;  // per detected point: col + row * nc
   double colour = 0;                   // correlation of the observed with the predicted square colours, -1..1
   double up_deg = 0;                   // angle between the board's up and the image's up
+  bool mirrored = false;               // the naming needs a reflection (pattern right x down < 0 in the image)
 };
+
+// "0, 180": the candidates' angles from upright, rounded, each once.
+std::string UpAngles(const std::vector<const Candidate*>& candidates) {
+  std::vector<long> deg;
+  for (const Candidate* c : candidates) deg.push_back(std::lround(c->up_deg));
+  std::sort(deg.begin(), deg.end());
+  deg.erase(std::unique(deg.begin(), deg.end()), deg.end());
+  std::string out;
+  for (long d : deg) out += fmt::format("{}{}", out.empty() ? "" : ", ", d);
+  return out;
+}
+
+const Candidate* MostUpright(const std::vector<const Candidate*>& candidates) {
+  return *std::min_element(candidates.begin(), candidates.end(),
+                           [](const Candidate* a, const Candidate* b) { return a->up_deg < b->up_deg; });
+}
 
 }  // namespace
 
@@ -212,11 +231,12 @@ BoardOrientation ResolveBoardOrientation(const CornerGrid& grid, const cv::Mat& 
     for (int row = 0; row + 1 < nr; ++row) {
       for (int col = 0; col < nc; ++col) down += p(col, row + 1) - p(col, row);
     }
-    // Pattern right and down are image x and y for an unmirrored view: right x down > 0.
+    // Pattern right and down are image x and y for an unmirrored view: right x down > 0; < 0 mirrored.
     const double handed = right.x * down.y - right.y * down.x;
-    if (nc >= 2 && nr >= 2 && handed <= 0) continue;
+    if (nc >= 2 && nr >= 2 && handed == 0) continue;  // a degenerate grid
+    c.mirrored = nc >= 2 && nr >= 2 && handed < 0;
     cv::Point2d up(0, 0);
-    if (nc >= 2) up += cv::Point2d(right.y, -right.x) / cv::norm(right);
+    if (nc >= 2) up += cv::Point2d(right.y, -right.x) / cv::norm(right) * (c.mirrored ? -1 : 1);
     if (nr >= 2) up -= down / cv::norm(down);
     c.up_deg = std::acos(std::clamp(-up.y / cv::norm(up), -1.0, 1.0)) * 180 / std::numbers::pi;
     double agree = 0;
@@ -235,44 +255,87 @@ BoardOrientation ResolveBoardOrientation(const CornerGrid& grid, const cv::Mat& 
     kept.push_back(std::move(c));
   }
   if (kept.empty()) {
-    out.failure = "ambiguous orientation: the detected grid is mirrored (a photo of the screen cannot be)";
+    out.failure = "ambiguous orientation: the detected grid is degenerate (its rows and columns are parallel)";
     return out;
   }
-  std::vector<const Candidate*> by_colour;
+  // The square colours first, then the upright rule; a mirrored naming only where no unmirrored one is as good
+  // (detect.h).
+  std::vector<const Candidate*> proper, mirrored;
   for (const Candidate& c : kept) {
-    if (quads.empty() || c.colour > 0.5) by_colour.push_back(&c);
+    if (quads.empty() || c.colour > 0.5) (c.mirrored ? mirrored : proper).push_back(&c);
   }
-  if (by_colour.empty()) {
+  if (proper.empty() && mirrored.empty()) {
     out.failure = "ambiguous orientation: the square colours match no orientation of the pattern (an inverted or "
                   "washed-out photo?)";
     return out;
   }
+  out.handedness_from_colours = proper.empty() || mirrored.empty();
+  std::vector<const Candidate*> upright_proper, upright_mirrored;
+  for (const Candidate* c : proper) {
+    if (c->up_deg <= upright_max_deg) upright_proper.push_back(c);
+  }
+  for (const Candidate* c : mirrored) {
+    if (c->up_deg <= upright_max_deg) upright_mirrored.push_back(c);
+  }
   const Candidate* chosen = nullptr;
-  if (by_colour.size() == 1) {
-    chosen = by_colour.front();
+  if (proper.empty()) {
+    chosen = MostUpright(mirrored);
+    out.note = fmt::format("board orientation from the square colours: they fit mirrored views only (board up "
+                           "{:.0f} deg from image up)",
+                           chosen->up_deg);
+  } else if (upright_proper.size() == 1) {
+    chosen = upright_proper.front();
+    out.note = proper.size() == 1
+                   ? fmt::format("board orientation from the square colours (board up {:.0f} deg from image up)",
+                                 chosen->up_deg)
+                   : fmt::format("board orientation from the upright rule (board up {:.0f} deg from image up; the "
+                                 "square colours leave {} orientations)",
+                                 chosen->up_deg, proper.size());
+  } else if (upright_proper.empty() && !upright_mirrored.empty()) {
+    // E.g. a 16 x 5 board photographed upright through a mirror: its colours are those of the board turned by
+    // 180 deg. Upright and mirrored, or turned and unmirrored: the upright rule takes the former.
+    chosen = MostUpright(upright_mirrored);
+    out.note = fmt::format("board orientation from the upright rule: the square colours fit a mirrored view with "
+                           "the board up {:.0f} deg from image up, or an unmirrored one at {} deg",
+                           chosen->up_deg, UpAngles(proper));
+    out.unmirrored_alternative = fmt::format("an unmirrored photo with the board turned by {} deg", UpAngles(proper));
+  } else if (upright_proper.empty() && proper.size() == 1) {
+    chosen = proper.front();
     out.note = fmt::format("board orientation from the square colours (board up {:.0f} deg from image up)",
                            chosen->up_deg);
   } else {
-    std::vector<const Candidate*> upright;
-    std::string angles;
-    for (const Candidate* c : by_colour) {
-      angles += fmt::format("{}{:.0f}", angles.empty() ? "" : ", ", c->up_deg);
-      if (c->up_deg <= upright_max_deg) upright.push_back(c);
-    }
-    if (upright.size() != 1) {
-      out.failure = fmt::format(
-          "ambiguous orientation: the square colours leave {} orientations (board up at {} deg from image up) and "
-          "{} of them within {:.0f} deg of upright; hold the camera upright (|roll| < {:.0f} deg)",
-          by_colour.size(), angles, upright.size(), upright_max_deg, upright_max_deg);
-      return out;
-    }
-    chosen = upright.front();
-    out.note = fmt::format("board orientation from the upright rule (board up {:.0f} deg from image up; the square "
-                           "colours leave {} orientations)",
-                           chosen->up_deg, by_colour.size());
+    out.failure = fmt::format(
+        "ambiguous orientation: the square colours leave {} orientations (board up at {} deg from image up) and "
+        "{} of them within {:.0f} deg of upright; hold the camera upright (|roll| < {:.0f} deg)",
+        proper.size(), UpAngles(proper), upright_proper.size(), upright_max_deg, upright_max_deg);
+    return out;
   }
+  out.mirrored = chosen->mirrored;
   out.corner_index = chosen->board_of_detected;
   return out;
+}
+
+double AffineHandedness(const std::vector<Eigen::Vector2d>& plane, const std::vector<Eigen::Vector2d>& image) {
+  const size_t n = plane.size();
+  if (n < 3 || image.size() != n) return std::nan("");
+  Eigen::Vector2d mp = Eigen::Vector2d::Zero(), mi = Eigen::Vector2d::Zero();
+  for (size_t k = 0; k < n; ++k) {
+    mp += plane[k] / static_cast<double>(n);
+    mi += image[k] / static_cast<double>(n);
+  }
+  // image - mi = A (plane - mp): A = (sum q p^T) (sum p p^T)^-1.
+  Eigen::Matrix2d pp = Eigen::Matrix2d::Zero(), qp = Eigen::Matrix2d::Zero();
+  for (size_t k = 0; k < n; ++k) {
+    const Eigen::Vector2d p = plane[k] - mp, q = image[k] - mi;
+    pp += p * p.transpose();
+    qp += q * p.transpose();
+  }
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> spread(pp);
+  if (!(spread.eigenvalues()(0) > 1e-12 * spread.eigenvalues()(1))) return std::nan("");  // collinear
+  const Eigen::Matrix2d a = qp * pp.inverse();
+  const double s1 = Eigen::JacobiSVD<Eigen::Matrix2d>(a).singularValues()(0);
+  if (!(s1 > 0) || !a.allFinite()) return std::nan("");
+  return a.determinant() / (s1 * s1);
 }
 
 std::optional<cv::Size> FindAnyBoardSize(const cv::Mat& gray8) {

@@ -4,6 +4,7 @@
 // row), row 0 at the top of the pattern.
 #pragma once
 
+#include <Eigen/Core>
 #include <opencv2/core.hpp>
 #include <optional>
 #include <string>
@@ -42,10 +43,27 @@ struct BoardOrientation {
   std::vector<int> corner_index;  // per grid point: k = row * (cols - 1) + col of the pattern
   std::string failure;            // "" or "ambiguous orientation: ..."
   std::string note;               // how it was decided
+  // The naming needs a reflection (pattern right x down < 0 in the image): a mirrored view of the board.
+  bool mirrored = false;
+  // The square colours fit orientations of one handedness only (all unmirrored or all mirrored), so `mirrored`
+  // does not rest on the upright rule.
+  bool handedness_from_colours = false;
+  // When a mirrored naming was chosen by the upright rule over unmirrored ones that the colours also fit: what
+  // those are ("an unmirrored photo turned by 180 deg"); "" otherwise.
+  std::string unmirrored_alternative;
 };
 // `cols` x `rows` squares, the top-left square black. `image` (8-bit) is sampled for the square colours.
+// Candidates are all the symmetries of the board that keep its size, mirrored ones included (detect.h gives the
+// rule); the caller decides what a mirrored naming means (DetectFeatures refuses it).
 BoardOrientation ResolveBoardOrientation(const CornerGrid& grid, const cv::Mat& image, int cols, int rows,
                                          double upright_max_deg);
+
+// Handedness of the map from a plane to the image: the linear part A of the affine map fitted by least squares
+// to the pairs plane[i] -> image[i], as det(A) / s1(A)^2 = +-s2/s1 (s1 >= s2 its singular values): in [-1, 1],
+// scale-free, near 0 only for a grazing view. Its sign is the orientation of the map (lens distortion and
+// perspective keep it; a mirror flips it). NaN for fewer than 3 pairs, sizes that differ, or collinear plane
+// points.
+double AffineHandedness(const std::vector<Eigen::Vector2d>& plane, const std::vector<Eigen::Vector2d>& image);
 
 // Whether the photo shows some checkerboard: findChessboardCornersSB with CALIB_CB_LARGER from 3 x 3 inner corners
 // on a copy of at most 1600 px; the size it returns (its meta array) is a lower bound, often part of the board

@@ -1,5 +1,6 @@
 // The orientation rule of checkerboards (detect.h) on drawn boards with known corner names: square colours where
 // the board's parity decides, the upright rule where it does not, refusal where neither does.
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -65,17 +66,104 @@ DrawnBoard Draw(int cols, int rows, double square, double roll_deg, bool scrambl
   return b;
 }
 
-// 16 x 5 squares: cols + rows odd, so the colours tell 0 from 180 deg at any roll.
+// The same board seen in a mirror (the image flipped left to right, the corners with it): the names stay those
+// of the physical corners, so a correct orientation names it mirrored.
+DrawnBoard Mirror(DrawnBoard b) {
+  cv::flip(b.image, b.image, 1);
+  for (cv::Point2d& p : b.grid.px) p.x = b.image.cols - 1 - p.x;
+  return b;
+}
+
+// 16 x 5 squares: cols + rows odd, so the colours tell 0 from 180 deg at any roll; the only other orientation
+// they leave is mirrored (the board's mirror image has the colours of the board turned by 180 deg), and it is
+// taken only where it is upright and the unmirrored one is not (MirroredViews).
 TEST(BoardOrientation, ColoursDecideANonSquareBoardWithOddParityAtAnyRoll) {
-  for (double roll : {0.0, 30.0, 89.0, 135.0, 180.0, -100.0}) {
+  for (double roll : {0.0, 30.0, 89.0, 135.0, -139.0, -100.0}) {
     for (bool scramble : {false, true}) {
       const DrawnBoard b = Draw(16, 5, 45, roll, scramble);
       const BoardOrientation o = ResolveBoardOrientation(b.grid, b.image, 16, 5, 40);
       ASSERT_EQ(o.failure, "") << roll;
       EXPECT_EQ(o.corner_index, b.true_index) << "roll " << roll << " scramble " << scramble;
       EXPECT_NE(o.note.find("square colours"), std::string::npos) << o.note;
+      EXPECT_FALSE(o.mirrored) << roll;
     }
   }
+}
+
+// Mirrored views are named mirrored where the colours (or, between a mirrored and an unmirrored candidate, the
+// upright rule) say so; a board that is its own mirror image is named unmirrored.
+TEST(BoardOrientation, MirroredViews) {
+  // 16 x 6 (even x even): no turn of the board has the colours of its mirror image, at any roll. (Which of the
+  // two mirrored namings the colours leave: the more upright one, so at 180 deg the board is named upright.)
+  for (double roll : {0.0, 90.0, 180.0, -60.0}) {
+    const DrawnBoard b = Mirror(Draw(16, 6, 45, roll, true));
+    const BoardOrientation o = ResolveBoardOrientation(b.grid, b.image, 16, 6, 40);
+    ASSERT_EQ(o.failure, "") << roll;
+    EXPECT_TRUE(o.mirrored) << roll;
+    EXPECT_TRUE(o.handedness_from_colours) << roll;
+    if (roll == 0 || roll == -60) {
+      EXPECT_EQ(o.corner_index, b.true_index) << roll;
+    }
+    EXPECT_NE(o.note.find("mirrored views only"), std::string::npos) << o.note;
+  }
+  // 16 x 5 upright in a mirror: the colours leave it and the board turned by 180 deg; the upright rule names it.
+  for (double roll : {0.0, 25.0, -35.0}) {
+    const DrawnBoard b = Mirror(Draw(16, 5, 45, roll, true));
+    const BoardOrientation o = ResolveBoardOrientation(b.grid, b.image, 16, 5, 40);
+    ASSERT_EQ(o.failure, "") << roll;
+    EXPECT_TRUE(o.mirrored) << roll;
+    EXPECT_FALSE(o.handedness_from_colours) << roll;
+    EXPECT_EQ(o.corner_index, b.true_index) << roll;
+    EXPECT_EQ(o.unmirrored_alternative, fmt::format("an unmirrored photo with the board turned by {:.0f} deg",
+                                                    180 - std::abs(roll)));
+  }
+  // ... so the same board photographed upside down, unmirrored, reads as mirrored and upright (the two cannot
+  // be told apart: the upright rule's assumption).
+  const DrawnBoard turned = Draw(16, 5, 45, 180, false);
+  const BoardOrientation t = ResolveBoardOrientation(turned.grid, turned.image, 16, 5, 40);
+  ASSERT_EQ(t.failure, "");
+  EXPECT_TRUE(t.mirrored);
+  for (size_t i = 0; i < t.corner_index.size(); ++i) {  // named as the board upright, flipped top to bottom
+    const int k = turned.true_index[i];
+    EXPECT_EQ(t.corner_index[i], (3 - k / 15) * 15 + k % 15);
+  }
+  // 10 x 10 upright in a mirror: the colours fit its mirror image upright, or unmirrored and turned by 90 deg.
+  const DrawnBoard square = Mirror(Draw(10, 10, 60, 10, true));
+  const BoardOrientation q = ResolveBoardOrientation(square.grid, square.image, 10, 10, 40);
+  ASSERT_EQ(q.failure, "");
+  EXPECT_TRUE(q.mirrored);
+  EXPECT_EQ(q.corner_index, square.true_index);
+  // 15 x 5 and 11 x 11 (odd x odd) are their own mirror images: named unmirrored, mirrored or not.
+  for (int cols : {15, 11}) {
+    const int rows = cols == 15 ? 5 : 11;
+    for (bool mirror : {false, true}) {
+      const DrawnBoard b = mirror ? Mirror(Draw(cols, rows, 45, 5, true)) : Draw(cols, rows, 45, 5, true);
+      const BoardOrientation o = ResolveBoardOrientation(b.grid, b.image, cols, rows, 40);
+      ASSERT_EQ(o.failure, "") << cols << " " << mirror;
+      EXPECT_FALSE(o.mirrored) << cols << " " << mirror;
+      if (!mirror) {
+        EXPECT_EQ(o.corner_index, b.true_index) << cols;
+      }
+    }
+  }
+}
+
+TEST(BoardOrientation, AffineHandedness) {
+  // An upright view: pattern a right, b up -> image x right, y down; det < 0. Mirrored: > 0.
+  std::vector<Eigen::Vector2d> plane, upright, mirrored, tilted;
+  for (int i = 0; i < 4; ++i) {
+    for (int j = 0; j < 3; ++j) {
+      plane.emplace_back(10.0 * i, 10.0 * j);
+      upright.emplace_back(100 + 5.0 * i, 200 - 5.0 * j);
+      mirrored.emplace_back(-upright.back().x(), upright.back().y());
+      tilted.emplace_back(100 + 2.5 * i, 200 - 5.0 * j);  // foreshortened to half across
+    }
+  }
+  EXPECT_NEAR(AffineHandedness(plane, upright), -1, 1e-12);
+  EXPECT_NEAR(AffineHandedness(plane, mirrored), 1, 1e-12);
+  EXPECT_NEAR(AffineHandedness(plane, tilted), -0.5, 1e-12);
+  EXPECT_TRUE(std::isnan(AffineHandedness({plane[0], plane[1]}, {upright[0], upright[1]})));
+  EXPECT_TRUE(std::isnan(AffineHandedness({{0, 0}, {1, 1}, {2, 2}}, {{0, 0}, {1, 0}, {0, 1}})));  // collinear
 }
 
 // 16 x 6 squares: a 180 deg turn keeps the colours, so the upright rule decides, and refuses past 40 deg.
@@ -114,9 +202,13 @@ TEST(BoardOrientation, SquareBoards) {
     const DrawnBoard b = Draw(n, n, 60, 45, false);
     EXPECT_TRUE(ResolveBoardOrientation(b.grid, b.image, n, n, 40).failure.starts_with("ambiguous orientation")) << n;
   }
-  // 10 x 10 at 90 deg: the colours leave 90 and 270 deg, both 90 deg from upright.
+  // 10 x 10 at 90 deg: the colours leave 90 and 270 deg, both 90 deg from upright, and the board's mirror
+  // images across its diagonals, one of them upright: named mirrored (MirroredViews; DetectFeatures refuses it).
   const DrawnBoard b = Draw(10, 10, 60, 90, false);
-  EXPECT_TRUE(ResolveBoardOrientation(b.grid, b.image, 10, 10, 40).failure.starts_with("ambiguous orientation"));
+  const BoardOrientation turned = ResolveBoardOrientation(b.grid, b.image, 10, 10, 40);
+  ASSERT_EQ(turned.failure, "");
+  EXPECT_TRUE(turned.mirrored);
+  EXPECT_EQ(turned.unmirrored_alternative, "an unmirrored photo with the board turned by 90 deg");
   // 11 x 11 at 90 deg looks exactly like an upright 11 x 11 board: named as upright (the rule's assumption).
   const DrawnBoard odd = Draw(11, 11, 60, 90, false);
   const BoardOrientation o = ResolveBoardOrientation(odd.grid, odd.image, 11, 11, 40);
@@ -129,10 +221,14 @@ TEST(BoardOrientation, InvertedColoursAreRefused) {
   DrawnBoard b = Draw(16, 5, 45, 0, false);
   b.image = 250 - b.image;
   const BoardOrientation o = ResolveBoardOrientation(b.grid, b.image, 16, 5, 40);
-  // 16 x 5 inverted looks like the board turned by 180 deg; the colours then name it so: the names are
-  // consistent with the colours, which is all a photo can tell.
+  // 16 x 5 inverted has the colours of the board turned by 180 deg, and of its mirror image: named as the
+  // upright one of the two, mirrored (the names are consistent with the colours, which is all a photo can tell;
+  // DetectFeatures refuses it as mirrored).
   ASSERT_EQ(o.failure, "");
-  for (size_t i = 0; i < o.corner_index.size(); ++i) EXPECT_EQ(o.corner_index[i], 59 - b.true_index[i]);
+  EXPECT_TRUE(o.mirrored);
+  for (size_t i = 0; i < o.corner_index.size(); ++i) {
+    EXPECT_EQ(o.corner_index[i], b.true_index[i] / 15 * 15 + 14 - b.true_index[i] % 15);
+  }
   // A grid whose rows run right to left (index order only; the view is not mirrored) is named correctly.
   CornerGrid reversed = b.grid;
   std::vector<int> truth = b.true_index;

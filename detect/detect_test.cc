@@ -19,6 +19,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <random>
+#include <regex>
 
 #include "synth/synthetic_camera.h"
 #include "core/correction.h"
@@ -269,20 +270,115 @@ TEST(Detect, PartialViewWithTags) {
   EXPECT_THAT(d.notes, ::testing::Contains(::testing::HasSubstr("of 144 features of the pattern detected")));
 }
 
-// Orientation from a photo turned upside down: the 16 x 5 board's colours name the corners right anyway.
-TEST(Detect, UpsideDownPhotoOfAColourDecisiveBoard) {
+// The number after "handedness " in a failure text (NaN if there is none).
+double HandednessIn(const std::string& text) {
+  std::smatch m;
+  if (!std::regex_search(text, m, std::regex("handedness ([-+][0-9.]+)"))) return std::nan("");
+  return std::stod(m[1].str());
+}
+
+// Orientation from a photo turned by 90 deg: the 16 x 5 board's colours name the corners right anyway. Turned
+// upside down, the same colours also fit the board upright seen in a mirror, and the upright rule takes that:
+// refused as mirrored, the text naming the alternative (detect.h: the two cannot be told apart).
+TEST(Detect, TurnedPhotosOfAColourDecisiveBoard) {
   const Shot shot = Photograph(SmallCameraScene("default"), PatternSpec());
   cv::Mat turned;
-  cv::rotate(shot.photo, turned, cv::ROTATE_180);
+  cv::rotate(shot.photo, turned, cv::ROTATE_90_CLOCKWISE);
   const Detection d = DetectFeatures(turned, shot.pattern, With("opencv-classic"));
   ASSERT_EQ(d.failure, "");
   ASSERT_EQ(d.features.size(), 60u);
   double worst = 0;
   for (const DetectedFeature& f : d.features) {
-    const Eigen::Vector2d t = shot.truth.at(f.id);
-    worst = std::max(worst, (f.px - Eigen::Vector2d(turned.cols - 1 - t.x(), turned.rows - 1 - t.y())).norm());
+    const Eigen::Vector2d t = shot.truth.at(f.id);  // (x, y) -> (rows - 1 - y, x)
+    worst = std::max(worst, (f.px - Eigen::Vector2d(shot.photo.rows - 1 - t.y(), t.x())).norm());
   }
   EXPECT_LT(worst, 0.3);
+  EXPECT_LT(PatternHandedness(d.features, shot.pattern), -0.5);
+  cv::rotate(shot.photo, turned, cv::ROTATE_180);
+  const Detection upside_down = DetectFeatures(turned, shot.pattern, With("opencv-classic"));
+  EXPECT_EQ(upside_down.failure_kind, DetectionFailure::kMirrored);
+  EXPECT_THAT(upside_down.failure, ::testing::HasSubstr("the square colours also fit an unmirrored photo with the "
+                                                        "board turned by 180 deg: if the camera was turned, take "
+                                                        "the photo upright"));
+}
+
+// Handedness (issue 15): the sign of a true photo, from the synthetic camera's truth and from the detections,
+// and the same photos mirrored (cv::flip left to right, and top to bottom) refused with kMirrored. Checkerboards:
+// 16 x 5 (the default) in a left-right mirror has the colours of the board turned by 180 deg and is named
+// mirrored by the upright rule; 16 x 6 (even x even) has no turn with the colours of its mirror image, so both
+// flips are refused on the colours alone. 16 x 5 flipped top to bottom is its own mirror image: a true-looking
+// photo of the board, which no detector can refuse (asserted, so that a change to that is seen).
+TEST(Detect, MirroredCheckerboardPhotosAreRefused) {
+  for (int rows : {5, 6}) {
+    PatternSpec spec;
+    spec.rows = rows;
+    const Shot shot = Photograph(SmallCameraScene("default"), spec);
+    // The truth: pattern a right, b up; image x right, y down; det < 0 (about -cos(tilt)).
+    std::vector<DetectedFeature> truth, truth_flipped;
+    for (const auto& [id, px] : shot.truth) {
+      truth.push_back(DetectedFeature{id, px, 1, ""});
+      truth_flipped.push_back(DetectedFeature{id, Eigen::Vector2d(shot.photo.cols - 1 - px.x(), px.y()), 1, ""});
+    }
+    const double h_truth = PatternHandedness(truth, shot.pattern);
+    std::cout << "16 x " << rows << ": handedness of the truth " << h_truth << ", flipped "
+              << PatternHandedness(truth_flipped, shot.pattern) << "\n";
+    EXPECT_LT(h_truth, -0.8);
+    EXPECT_NEAR(PatternHandedness(truth_flipped, shot.pattern), -h_truth, 1e-9);
+
+    const Detection d = DetectFeatures(shot.photo, shot.pattern, With("auto"));
+    ASSERT_EQ(d.failure, "") << rows;
+    ASSERT_EQ(d.features.size(), shot.truth.size());
+    EXPECT_NEAR(PatternHandedness(d.features, shot.pattern), h_truth, 0.01);
+
+    for (int flip : {1, 0}) {
+      cv::Mat mirrored;
+      cv::flip(shot.photo, mirrored, flip);
+      const Detection m = DetectFeatures(mirrored, shot.pattern, With("auto"));
+      std::cout << "16 x " << rows << " flipped (" << flip << "): " << (m.failure.empty() ? "accepted" : m.failure)
+                << "\n";
+      if (rows == 5 && flip == 0) {
+        EXPECT_EQ(m.failure_kind, DetectionFailure::kNone);
+        EXPECT_LT(PatternHandedness(m.features, shot.pattern), -0.8);
+        continue;
+      }
+      EXPECT_EQ(m.failure_kind, DetectionFailure::kMirrored) << rows << " " << flip;
+      EXPECT_THAT(m.failure, ::testing::StartsWith("mirrored: the detected features map to the pattern with a "
+                                                   "reflection: the photo is mirrored"));
+      EXPECT_THAT(m.failure, ::testing::HasSubstr("turn mirroring off or flip the photo back"));
+      EXPECT_NEAR(HandednessIn(m.failure), -h_truth, 0.02) << m.failure;
+      EXPECT_TRUE(m.features.empty());
+      EXPECT_STREQ(DetectionFailureName(m.failure_kind), "mirrored");
+    }
+  }
+}
+
+// Tags: a mirrored tag36h11 tag does not decode, so the tags are looked for in the photo flipped back; the
+// apriltag grid and kind "both", flipped either way, are refused with kMirrored.
+TEST(Detect, MirroredTagPhotosAreRefused) {
+  for (PatternKind kind : {PatternKind::kAprilTag, PatternKind::kBoth}) {
+    PatternSpec spec;
+    spec.kind = kind;
+    spec.cols = 12;
+    spec.rows = 4;
+    const Shot shot = Photograph(SmallCameraScene("default"), spec);
+    const Detection d = DetectFeatures(shot.photo, shot.pattern, With("auto"));
+    ASSERT_EQ(d.failure, "") << PatternKindName(kind);
+    const double h = PatternHandedness(d.features, shot.pattern);
+    EXPECT_LT(h, -0.8) << PatternKindName(kind);
+    for (int flip : {1, 0}) {
+      cv::Mat mirrored;
+      cv::flip(shot.photo, mirrored, flip);
+      const Detection m = DetectFeatures(mirrored, shot.pattern, With("auto"));
+      std::cout << PatternKindName(kind) << " flipped (" << flip << "): " << m.failure << "\n";
+      EXPECT_EQ(m.failure_kind, DetectionFailure::kMirrored) << PatternKindName(kind) << " " << flip;
+      EXPECT_THAT(m.failure, ::testing::StartsWith("mirrored: the detected features map to the pattern with a "
+                                                   "reflection"));
+      EXPECT_THAT(m.failure, ::testing::HasSubstr(fmt::format(
+                                 "no tag of pattern.json decodes in the photo; {} of them", kind == PatternKind::kAprilTag ? 36 : 24)));
+      EXPECT_NEAR(HandednessIn(m.failure), -h, 0.02) << m.failure;
+      EXPECT_TRUE(m.features.empty());
+    }
+  }
 }
 
 // The uncorrected method on the 1000R monitor: rows visibly curved in the photo, still detected in full and not

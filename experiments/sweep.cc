@@ -90,7 +90,7 @@ struct PointResult {
   }
 };
 
-void Classify(const TrialAnalysis& t, double true_radius, double tolerance_display_px, PointResult& p) {
+void Classify(const TrialAnalysis& t, double true_radius, double /*tolerance_display_px: applied by the analysis*/, PointResult& p) {
   const AnalysisResult& r = t.analysis;
   const PhotoAnalysis& photo = r.photos.front();
   p.photo_ms = t.photo_ms;
@@ -104,9 +104,10 @@ void Classify(const TrialAnalysis& t, double true_radius, double tolerance_displ
     p.verification_pass = r.verification.pass;
     p.p95 = r.verification.p95_display_px;
     p.rms = r.verification.rms_display_px;
-    if (!p.verification_pass) {
-      p.Fail(TrialOutcome::kVerificationFailed,
-             fmt::format("p95 {:.3f} display px > {:g}", p.p95, tolerance_display_px));
+    if (r.verification.verdict == Verdict::kFail) {
+      p.Fail(TrialOutcome::kVerificationFailed, r.verification.verdict_reason);
+    } else if (r.verification.verdict == Verdict::kInconclusive) {
+      p.Fail(TrialOutcome::kVerificationInconclusive, r.verification.verdict_reason);
     }
   }
   if (!r.fit) {

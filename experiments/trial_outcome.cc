@@ -21,6 +21,7 @@ constexpr OutcomeInfo kOutcomes[] = {
     {TrialOutcome::kTooFewFeatures, "too_few_features", 'T'},
     {TrialOutcome::kRejected, "rejected", 'X'},
     {TrialOutcome::kVerificationFailed, "verification_failed", 'V'},
+    {TrialOutcome::kVerificationInconclusive, "verification_inconclusive", 'U'},
     {TrialOutcome::kFitFailed, "fit_failed", 'F'},
     {TrialOutcome::kFitIllConditioned, "fit_ill_conditioned", 'I'},
     {TrialOutcome::kError, "error", 'E'},
@@ -67,6 +68,10 @@ TrialOutcome OutcomeOfRejection(const PhotoAnalysis& photo) {
           return TrialOutcome::kAmbiguousOrientation;
         case DetectionFailure::kDifferentPattern:
           return TrialOutcome::kAmbiguousIds;
+        case DetectionFailure::kMirrored:
+          // The synthetic camera never mirrors: in a trial this is the orientation rule naming a board mirrored
+          // (e.g. a 16 x 5 board photographed upside down, detect.h), an orientation outcome.
+          return TrialOutcome::kAmbiguousOrientation;
         case DetectionFailure::kNone:
           break;
       }
@@ -77,6 +82,7 @@ TrialOutcome OutcomeOfRejection(const PhotoAnalysis& photo) {
                  : TrialOutcome::kRejected;
     case PhotoRejection::kUnreadable:
     case PhotoRejection::kWrongSize:
+    case PhotoRejection::kDuplicate:
       return TrialOutcome::kRejected;
   }
   return TrialOutcome::kRejected;

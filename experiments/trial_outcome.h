@@ -20,7 +20,8 @@ enum class TrialOutcome {
   kAmbiguousIds,          // ambiguous_ids: tags/ids that are not in pattern.json
   kTooFewFeatures,        // too_few_features: too few features for a verdict or a fit
   kRejected,              // rejected: the photo was rejected for another reason
-  kVerificationFailed,    // verification_failed: fewer than 95% of features within the tolerance (display px)
+  kVerificationFailed,    // verification_failed: the verdict is fail (e - U beyond the tolerance, display px)
+  kVerificationInconclusive,  // verification_inconclusive: e within U of the tolerance, or a pass the guards refused
   kFitFailed,             // fit_failed: the screen fit threw or did not converge
   kFitIllConditioned,     // fit_ill_conditioned: the cylinder fit ran but the radius is not observable
   kError,                 // error: anything else
@@ -29,7 +30,7 @@ enum class TrialOutcome {
 // The category's name in sweep.csv: "" for kOk, else e.g. "not_found" (the comments above).
 const char* TrialOutcomeName(TrialOutcome outcome);
 // One letter for maps: render_refused R, not_found N, ambiguous_* A, too_few_features T, rejected X,
-// verification_failed V, fit_failed F, fit_ill_conditioned I, error E; '.' for kOk.
+// verification_failed V, verification_inconclusive U, fit_failed F, fit_ill_conditioned I, error E; '.' for kOk.
 char TrialOutcomeLetter(TrialOutcome outcome);
 // The category of a name read back from sweep.csv: "" and "ok" give kOk, an unknown name kError.
 TrialOutcome ParseTrialOutcome(const std::string& name);

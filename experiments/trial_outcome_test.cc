@@ -42,6 +42,8 @@ TEST(TrialOutcome, RejectionsMapFromTheTypedKinds) {
   EXPECT_EQ(OutcomeOfRejection(p), TrialOutcome::kAmbiguousOrientation);
   p.detection.failure_kind = DetectionFailure::kDifferentPattern;
   EXPECT_EQ(OutcomeOfRejection(p), TrialOutcome::kAmbiguousIds);
+  p.detection.failure_kind = DetectionFailure::kMirrored;
+  EXPECT_EQ(OutcomeOfRejection(p), TrialOutcome::kAmbiguousOrientation);
   p = Rejected(PhotoRejection::kVerification);
   p.verification.failure_kind = VerificationFailure::kTooFewFeatures;
   EXPECT_EQ(OutcomeOfRejection(p), TrialOutcome::kTooFewFeatures);

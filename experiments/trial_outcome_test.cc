@@ -17,9 +17,9 @@ TEST(TrialOutcome, NamesAndLettersAreSweepCsvs) {
   }
   EXPECT_EQ(names,
             (std::vector<std::string>{"render_refused", "not_found", "ambiguous_orientation", "ambiguous_ids",
-                                      "too_few_features", "rejected", "verification_failed", "fit_failed",
+                                      "too_few_features", "rejected", "verification_failed", "verification_inconclusive", "fit_failed",
                                       "fit_ill_conditioned", "error"}));
-  EXPECT_EQ(letters, "RNAATXVFIE");
+  EXPECT_EQ(letters, "RNAATXVUFIE");
   EXPECT_STREQ(TrialOutcomeName(TrialOutcome::kOk), "");
   EXPECT_EQ(TrialOutcomeLetter(TrialOutcome::kOk), '.');
   EXPECT_EQ(ParseTrialOutcome("ok"), TrialOutcome::kOk);

@@ -18,9 +18,9 @@
 namespace curvecheck {
 
 struct CalibrationPhotos {
-  std::vector<ChessboardDetection> detections;         // every photo, in input order
+  std::vector<ChessboardDetection> detections;      // every photo, in input order
   std::vector<std::optional<ContentHash>> content;  // of the decoded gray image; none when unreadable
-  std::vector<int> duplicate_of;  // -1, or the index of the first photo with the same content
+  std::vector<int> duplicate_of;                    // -1, or the index of the first photo with the same content
 
   int Duplicates() const;
   // One note per duplicate: "<photo> has the same decoded content as <first> (<size, hash>): used once".

@@ -286,10 +286,20 @@ std::string Join(const std::vector<std::string>& cells) {
 struct Tally {
   VerdictCounts correct, wrong_offset, wrong_radius, within;
   std::vector<double> wrong_true_p95, u, trial_ms;
+  // Trials with e, U and the true error: whether [e - U, e + U] holds the true error (U is a 95% expanded
+  // uncertainty: it should, 90-98% of the time; metrology.md section 1). Correct ones apart: their truth is
+  // exactly 0, while a wrong one's true p95 and the verification's e are estimates of one error by two routes
+  // (display-px Jacobians of the true geometry against those of the rendering), which can differ by a few %.
+  int covered_correct = 0, with_e_correct = 0, covered_other = 0, with_e_other = 0;
 
   void Add(const Trial& t) {
     trial_ms.push_back(t.trial_ms);
     if (std::isfinite(t.u)) u.push_back(t.u);
+    if (std::isfinite(t.e) && std::isfinite(t.u) && std::isfinite(t.true_p95)) {
+      const bool covered = std::abs(t.e - t.true_p95) <= t.u;
+      (t.truth == Truth::kCorrect ? covered_correct : covered_other) += covered ? 1 : 0;
+      ++(t.truth == Truth::kCorrect ? with_e_correct : with_e_other);
+    }
     switch (t.truth) {
       case Truth::kCorrect: correct.Add(t.verdict); break;
       case Truth::kWrong:
@@ -322,6 +332,8 @@ struct Tally {
             {"false_pass_on_wrong", rate(w.pass, w.Verdicts())},
             {"inconclusive_on_correct", rate(correct.inconclusive, correct.Verdicts())},
             {"inconclusive_on_wrong", rate(w.inconclusive, w.Verdicts())},
+            {"e_pm_U_holds_true_error_correct", rate(covered_correct, with_e_correct)},
+            {"e_pm_U_holds_true_error_perturbed", rate(covered_other, with_e_other)},
             {"median_U_display_px", u.empty() ? json(nullptr) : json(Median(u))},
             {"median_trial_ms", Median(trial_ms)}};
   }
@@ -344,6 +356,8 @@ std::string MatrixText(const Tally& t, const BenchVerdictOptions& o) {
   s += fmt::format("false-pass rate on wrong:   {}   (target <= 5%)\n", RateText(w.pass, w.Verdicts()));
   s += fmt::format("inconclusive: correct {}, wrong {}\n", RateText(t.correct.inconclusive, t.correct.Verdicts()),
                    RateText(w.inconclusive, w.Verdicts()));
+  s += fmt::format("e +- U holds the true error (95% expanded uncertainty: expect 90-98%): correct {}, perturbed {}\n",
+                   RateText(t.covered_correct, t.with_e_correct), RateText(t.covered_other, t.with_e_other));
   return s;
 }
 
@@ -464,13 +478,13 @@ void RunBenchVerdict(const BenchVerdictOptions& o, const fs::path& out, std::ost
     ms_per_scale[t.scale].push_back(t.trial_ms);
   }
   std::string summary = "\nconfusion matrix, all trials:\n" + MatrixText(all, o);
-  summary += fmt::format("\n{:>5} {:>8}  {:<32} {:>5}  {:<32} {:>5} {:>11} {:>9}\n", "scale", "dist mm",
+  summary += fmt::format("\n{:>5} {:>8}  {:<32} {:>5}  {:<32} {:>5} {:>11} {:>9} {:>9}\n", "scale", "dist mm",
                          "false fail on correct [95%]", "inc", "false pass on wrong [95%]", "inc",
-                         "wrong e_true", "median U");
+                         "wrong e_true", "median U", "covered");
   json per_cell = json::array();
   for (const auto& [key, t] : cells) {
     const VerdictCounts w = t.Wrong();
-    summary += fmt::format("{:>5g} {:>8g}  {:<32} {:>5}  {:<32} {:>5} {:>11} {:>9}\n", key.first, key.second,
+    summary += fmt::format("{:>5g} {:>8g}  {:<32} {:>5}  {:<32} {:>5} {:>11} {:>9} {:>9}\n", key.first, key.second,
                            RateText(t.correct.fail, t.correct.Verdicts()), t.correct.inconclusive,
                            RateText(w.pass, w.Verdicts()), w.inconclusive,
                            t.wrong_true_p95.empty() ? std::string("-")
@@ -479,14 +493,16 @@ void RunBenchVerdict(const BenchVerdictOptions& o, const fs::path& out, std::ost
                                                                                     t.wrong_true_p95.end()),
                                                                   *std::max_element(t.wrong_true_p95.begin(),
                                                                                     t.wrong_true_p95.end())),
-                           t.u.empty() ? std::string("-") : fmt::format("{:.3f}", Median(t.u)));
+                           t.u.empty() ? std::string("-") : fmt::format("{:.3f}", Median(t.u)),
+                           fmt::format("{}/{}", t.covered_correct + t.covered_other,
+                                       t.with_e_correct + t.with_e_other));
     json c = t.ToJson();
     c["scale"] = key.first;
     c["distance_mm"] = key.second;
     per_cell.push_back(std::move(c));
   }
   summary += "(inc: inconclusive; wrong e_true: range of the wrong trials' true error p95, display px; U: the "
-             "verification's expanded uncertainty, display px)\n";
+             "verification's expanded uncertainty, display px; covered: trials whose e +- U holds the true error)\n";
   std::string per_scale;
   for (const auto& [scale, ms] : ms_per_scale) {
     per_scale += fmt::format("{}{:g}: {:.2f} s", per_scale.empty() ? "" : ", ", scale, Median(ms) / 1000);

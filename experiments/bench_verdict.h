@@ -22,7 +22,7 @@
 //
 // Output: the confusion matrix (truth x verdict pass / fail / inconclusive / none), the false-fail rate on
 // correct corrections and the false-pass rate on wrong ones, each with its Wilson 95% interval, per scale and
-// distance and overall; the machine and the command; verdict_bench.csv (one row per trial), verdict_bench.json
+// distance and overall; how often e +- U holds the true error (the coverage of the expanded uncertainty); the machine and the command; verdict_bench.csv (one row per trial), verdict_bench.json
 // (options, counts and rates, the trials) and verdict_bench.txt (the summary) in the output folder.
 #pragma once
 

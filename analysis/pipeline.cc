@@ -12,6 +12,7 @@
 
 #include "core/error.h"
 #include "core/file_io.h"
+#include "core/image_hash.h"
 #include "core/stopwatch.h"
 #include "core/monitor_json.h"
 #include "core/screen_geometry.h"
@@ -51,6 +52,13 @@ nlohmann::json VerificationJson(const Verification& v) {
     j["error_p95_display_px"] = Num(v.error_p95_display_px);
     j["expanded_uncertainty_display_px"] = Num(v.expanded_uncertainty_display_px);
     j["coverage_factor"] = Num(v.coverage_factor);
+    j["uncertainty_budget"] = {
+        {"field_band_display_px", Num(v.field_band_display_px)},
+        {"detector_systematic_display_px", Num(v.systematic_display_px)},
+        {"note", "U = sqrt(field_band^2 + detector_systematic^2); field_band: simultaneous 95% band of the "
+                 "correction-error field from the measured scatter (random); detector_systematic: 2 x VerifyOptions::detector_systematic_px "
+                 "(0.05 camera px by default: the detector's bias, pixel-locking and small squares) through the "
+                 "display px per camera px"}};
     j["tolerance_ratio"] = Num(v.tolerance_ratio);
     j["noise_px"] = Num(v.noise_px);
     j["display_px_per_camera_px"] = Num(v.display_px_per_camera_px);
@@ -101,18 +109,6 @@ std::string PhotoNameFor(const std::filesystem::path& p, std::set<std::string>& 
   for (int k = 2; taken.count(candidate); ++k) candidate = fmt::format("{}-{}", name, k);
   taken.insert(candidate);
   return candidate;
-}
-
-// FNV-1a over the image's size, type and pixels, row by row (a view may not be continuous).
-uint64_t ImageContentHash(const cv::Mat& image) {
-  uint64_t h = 1469598103934665603ull;
-  const auto mix = [&](const unsigned char* p, size_t n) {
-    for (size_t k = 0; k < n; ++k) h = (h ^ p[k]) * 1099511628211ull;
-  };
-  const int header[3] = {image.cols, image.rows, image.type()};
-  mix(reinterpret_cast<const unsigned char*>(header), sizeof header);
-  for (int y = 0; y < image.rows; ++y) mix(image.ptr<unsigned char>(y), image.cols * image.elemSize());
-  return h;
 }
 
 }  // namespace
@@ -189,7 +185,7 @@ AnalysisResult AnalyzeWith(const CameraModel& camera, const std::filesystem::pat
 
   std::set<std::string> names;
   std::vector<PhotoObservations> observations;
-  std::map<uint64_t, size_t> content;  // hash of the decoded image -> first photo with it
+  std::map<std::string, size_t> content;  // hash of the decoded image (core/image_hash.h) -> first photo with it
   for (size_t i = 0; i < inputs.size(); ++i) {
     PhotoAnalysis pa;
     pa.input = inputs[i];
@@ -214,7 +210,7 @@ AnalysisResult AnalyzeWith(const CameraModel& camera, const std::filesystem::pat
     if (pa.rejected.empty()) {
       // The same content twice (the same file given twice, or a copy) would count its features twice and shrink
       // every sigma by sqrt(2): used once.
-      const auto [first, inserted] = content.emplace(ImageContentHash(gray), i);
+      const auto [first, inserted] = content.emplace(HashImageContent(gray).Hex(), i);
       if (!inserted) {
         pa.rejection = PhotoRejection::kDuplicate;
         pa.rejected = fmt::format("{}: the same image content as {}; it is used once", inputs[i].photo.string(),

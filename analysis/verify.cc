@@ -197,6 +197,9 @@ void VerifyOptions::Check(const std::string& where) const {
   if (max_field_degree < 0 || max_field_degree > 30) {
     throw Error(where, fmt::format("max_field_degree is {}; give 0 to 30", max_field_degree));
   }
+  if (!(detector_systematic_px >= 0) || !std::isfinite(detector_systematic_px)) {
+    throw Error(where, fmt::format("detector_systematic_px is {}; give 0 or more camera px", detector_systematic_px));
+  }
   if (!(max_noise_px > 0) || !(outlier_sigmas > 0) || uncertainty_draws < 100) {
     throw Error(where, "max_noise_px and outlier_sigmas must be positive, uncertainty_draws at least 100");
   }
@@ -397,7 +400,9 @@ Verification VerifyCorrection(const PatternFile& pattern, const CameraModel& cam
   std::vector<double> lengths;
   for (const Eigen::Vector2d& f : field.value) lengths.push_back(f.norm());
   out.error_p95_display_px = Percentile(lengths, 95);
-  out.expanded_uncertainty_display_px = field.band95_display_px;
+  out.field_band_display_px = field.band95_display_px;
+  out.systematic_display_px = 2 * options.detector_systematic_px * out.display_px_per_camera_px;
+  out.expanded_uncertainty_display_px = std::hypot(out.field_band_display_px, out.systematic_display_px);
   out.coverage_factor = field.rms_sigma_display_px > 0 ? field.band95_display_px / field.rms_sigma_display_px : 0;
   out.tolerance_ratio = out.tolerance_display_px / std::max(out.expanded_uncertainty_display_px, 1e-12);
   const double distance_mm = (pattern.viewpoint_in_screen - ScreenCentreInScreen(pattern.monitor)).norm();
@@ -457,6 +462,8 @@ Verification CombineVerifications(const std::vector<Verification>& photos, const
   out.error_p95_display_px = decides->error_p95_display_px;
   out.expanded_uncertainty_display_px = decides->expanded_uncertainty_display_px;
   out.coverage_factor = decides->coverage_factor;
+  out.field_band_display_px = decides->field_band_display_px;
+  out.systematic_display_px = decides->systematic_display_px;
   out.tolerance_ratio = decides->tolerance_ratio;
   out.noise_px = decides->noise_px;
   out.display_px_per_camera_px = decides->display_px_per_camera_px;

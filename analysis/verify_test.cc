@@ -100,7 +100,12 @@ TEST_F(VerifyTest, NoiseShowsAsItsOwnRmsAndPasses) {
   EXPECT_NEAR(v.noise_px, 0.1, 0.012);
   EXPECT_NEAR(v.display_px_per_camera_px, 1 / 0.78, 0.1);
   EXPECT_LT(v.error_p95_display_px, 0.1);
-  EXPECT_LT(v.expanded_uncertainty_display_px, 0.15);
+  EXPECT_LT(v.expanded_uncertainty_display_px, 0.16);
+  // U's budget: the field's band and the detector's systematic term, 2 x 0.05 camera px through 1.28 display px
+  // per camera px, in quadrature.
+  EXPECT_NEAR(v.systematic_display_px, 2 * 0.05 * v.display_px_per_camera_px, 1e-12);
+  EXPECT_NEAR(v.expanded_uncertainty_display_px, std::hypot(v.field_band_display_px, v.systematic_display_px), 1e-12);
+  EXPECT_GT(v.field_band_display_px, 0);
   EXPECT_GT(v.tolerance_ratio, 3);
   EXPECT_EQ(v.verdict, Verdict::kPass) << v.verdict_reason;
   EXPECT_TRUE(v.pass);
@@ -202,6 +207,7 @@ TEST_F(VerifyTest, TheNinetyFifthPercentileIsJudgedNotTheLargestError) {
   std::vector<Eigen::Vector2d> px;
   Photograph(misstated, 0.03, &ids, &px, 6);
   VerifyOptions o;
+  o.detector_systematic_px = 0;  // the field's band alone: the rule's figure is what is tested here
   const Verification base = VerifyCorrection(pattern_, camera_, ids, px, o);
   double largest = 0;
   for (const FeatureCheck& c : base.features) largest = std::max(largest, c.error_display_px.norm());

@@ -361,7 +361,7 @@ nlohmann::json ResultJson(const AnalysisResult& r, const std::string& command_li
       cameras.push_back({{"photo", p.name},
                          {"position_mm", Vec(c.position_in_screen_mm)},
                          {"position_in_centre_mm", Vec(c.centre_from_cam.translation)},
-                         {"position_sigma_mm", Vec(c.position_sigma_mm)},
+                         {"position_sigma_mm", Vec(c.position_in_centre_sigma_mm)},
                          {"stated_viewpoint_mm", Vec(r.patterns[static_cast<size_t>(&p - r.photos.data())].viewpoint_in_screen)}});
     }
     nlohmann::json f = ModelFitJson(chosen);

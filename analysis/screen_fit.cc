@@ -224,6 +224,9 @@ struct ModelWork {
   double basis_curvature_per_mm = 0;  // what `basis` was built around
   std::vector<Eigen::Vector2d> robust_residuals;
   Eigen::MatrixXd dev_covariance;  // of the deviation coefficients, scaled by the noise
+  // Per photo: the covariance of the camera position (centre frame) with the curvature k (the mean curvature for
+  // varying curvature), scaled by the noise; NaN where it could not be computed.
+  std::vector<Eigen::Vector3d> position_curvature_cov;
   bool robust_ok = false;
   int robust_iterations = 0;
 };
@@ -232,7 +235,10 @@ void Covariances(const Setup& setup, ModelWork& w, BuiltProblem& b, ModelFit* fi
   State& st = w.state;
   std::vector<std::pair<const double*, const double*>> pairs;
   for (PoseBlock& pose : st.poses) {
-    if (b.problem->HasParameterBlock(pose.data())) pairs.emplace_back(pose.data(), pose.data());
+    if (!b.problem->HasParameterBlock(pose.data())) continue;
+    pairs.emplace_back(pose.data(), pose.data());
+    // The pose-shape cross block: the screen-frame camera position (z - R) needs cov(position, curvature).
+    if (!st.core.empty()) pairs.emplace_back(pose.data(), st.core.data());
   }
   if (!st.core.empty()) pairs.emplace_back(st.core.data(), st.core.data());
   if (!st.dev.empty()) pairs.emplace_back(st.dev.data(), st.dev.data());
@@ -258,20 +264,35 @@ void Covariances(const Setup& setup, ModelWork& w, BuiltProblem& b, ModelFit* fi
     }
   }
   const double var = fit->noise_px * fit->noise_px;
+  const int nc = static_cast<int>(st.core.size());
+  // Curvature: k (or the mean of k(s) over the width, k0 + k2/3, for varying curvature).
+  Eigen::VectorXd grad = Eigen::VectorXd::Zero(nc);
+  switch (w.kind) {
+    case ScreenModelKind::kFlat: break;
+    case ScreenModelKind::kVaryingCurvatureQuadratic: grad[2] = 1.0 / 3.0; [[fallthrough]];
+    default: grad[0] = 1; break;
+  }
   fit->cameras.assign(static_cast<size_t>(setup.photos), CameraEstimate{});
+  w.position_curvature_cov.assign(static_cast<size_t>(setup.photos), Eigen::Vector3d::Constant(kNaN));
   for (int p = 0; p < setup.photos; ++p) {
     CameraEstimate& cam = fit->cameras[static_cast<size_t>(p)];
     const PoseBlock& pose = st.poses[static_cast<size_t>(p)];
     cam.centre_from_cam = Pose(Eigen::Quaterniond(pose[3], pose[0], pose[1], pose[2]),
                                Eigen::Vector3d(pose[4], pose[5], pose[6]));
-    cam.position_sigma_mm.setConstant(kNaN);
+    cam.position_in_centre_sigma_mm.setConstant(kNaN);
     if (!b.problem->HasParameterBlock(pose.data())) continue;
     Eigen::Matrix<double, 6, 6, Eigen::RowMajor> c6;
     if (covariance->GetCovarianceBlockInTangentSpace(pose.data(), pose.data(), c6.data())) {
-      cam.position_sigma_mm = (var * c6.bottomRightCorner<3, 3>().diagonal()).cwiseSqrt();
+      cam.position_in_centre_sigma_mm = (var * c6.bottomRightCorner<3, 3>().diagonal()).cwiseSqrt();
+    }
+    if (nc > 0) {
+      // Tangent space of the pose: rotation (3), then the position (3); the core block is Euclidean.
+      Eigen::Matrix<double, 6, Eigen::Dynamic, Eigen::RowMajor> cross(6, nc);
+      if (covariance->GetCovarianceBlockInTangentSpace(pose.data(), st.core.data(), cross.data())) {
+        w.position_curvature_cov[static_cast<size_t>(p)] = var * cross.bottomRows<3>() * grad;
+      }
     }
   }
-  const int nc = static_cast<int>(st.core.size());
   Eigen::MatrixXd core_cov = Eigen::MatrixXd::Zero(nc, nc);
   if (nc > 0) {
     Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> c(nc, nc);
@@ -281,13 +302,6 @@ void Covariances(const Setup& setup, ModelWork& w, BuiltProblem& b, ModelFit* fi
     const int nd = static_cast<int>(st.dev.size());
     Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> c(nd, nd);
     if (covariance->GetCovarianceBlock(st.dev.data(), st.dev.data(), c.data())) w.dev_covariance = var * c;
-  }
-  // Curvature: k (or the mean of k(s) over the width, k0 + k2/3, for varying curvature).
-  Eigen::VectorXd grad = Eigen::VectorXd::Zero(nc);
-  switch (w.kind) {
-    case ScreenModelKind::kFlat: break;
-    case ScreenModelKind::kVaryingCurvatureQuadratic: grad[2] = 1.0 / 3.0; [[fallthrough]];
-    default: grad[0] = 1; break;
   }
   if (nc > 0) {
     fit->curvature_per_mm = grad.dot(Eigen::Map<const Eigen::VectorXd>(st.core.data(), nc));
@@ -305,7 +319,7 @@ void Covariances(const Setup& setup, ModelWork& w, BuiltProblem& b, ModelFit* fi
 }
 
 // Radius, its interval and the screen-frame camera positions from the curvature and its sigma.
-void RadiusFromCurvature(const Setup& setup, ModelFit* fit) {
+void RadiusFromCurvature(const Setup& setup, const ModelWork& w, ModelFit* fit) {
   const double k = fit->curvature_per_mm, sk = fit->curvature_sigma_per_mm;
   const bool curved_model = fit->model != "flat";
   const double lo = k - kZ95 * sk, hi = k + kZ95 * sk;
@@ -336,9 +350,44 @@ void RadiusFromCurvature(const Setup& setup, ModelFit* fit) {
           lo * 1000, hi * 1000, 1 / k_nominal);
     }
   }
-  for (CameraEstimate& cam : fit->cameras) {
+  for (size_t p = 0; p < fit->cameras.size(); ++p) {
+    CameraEstimate& cam = fit->cameras[p];
     cam.position_in_screen_mm = cam.centre_from_cam.translation;
-    if (fit->radius_mm) cam.position_in_screen_mm.z() -= *fit->radius_mm;
+    cam.position_in_screen_sigma_mm = cam.position_in_centre_sigma_mm;
+    if (!fit->radius_mm) continue;
+    // z_screen = c_z - R with R = 1/k: dR/dk = -1/k^2, so var = var(c_z) + var(k)/k^4 + 2 cov(c_z, k)/k^2.
+    cam.position_in_screen_mm.z() -= *fit->radius_mm;
+    const double k2 = k * k, cov_zk = w.position_curvature_cov[p].z();
+    const double sz = cam.position_in_centre_sigma_mm.z();
+    cam.position_in_screen_sigma_mm.z() =
+        std::sqrt(std::max(0.0, sz * sz + sk * sk / (k2 * k2) + 2 * cov_zk / k2));
+  }
+}
+
+// The detection noise the candidates are tested against, and the residual noise a model may reach.
+double DetectionSigma(const FitOptions& o) {
+  return o.detection_noise_px > 0 ? o.detection_noise_px : o.expected_noise_px;
+}
+double AdequacyLimit(const FitOptions& o) {
+  const double sigma = DetectionSigma(o);
+  return std::max(o.adequacy_noise_ratio * sigma, sigma + o.noise_floor_px);
+}
+
+// The goodness-of-fit test of one candidate (FitOptions::adequacy_p_value) over its inliers' residual sum.
+void Adequacy(const FitOptions& o, double rss, int n, ModelFit* fit) {
+  const double sigma = DetectionSigma(o);
+  fit->dof = n - fit->parameters;
+  fit->chi2 = rss / (sigma * sigma);
+  fit->chi2_p_value = ChiSquareUpperTail(fit->chi2, fit->dof);  // NaN without degrees of freedom: not testable
+  fit->noise_ratio = fit->noise_px / sigma;
+  const double limit = AdequacyLimit(o);
+  fit->adequate = !(fit->chi2_p_value < o.adequacy_p_value && fit->noise_px > limit);
+  if (!fit->adequate) {
+    fit->adequacy_note = fmt::format(
+        "residual noise {:.3f} px per coordinate (RMS {:.3f} px), {:.2f} times the detection noise {:.3f} px "
+        "(limit {:.3f} px); chi2/dof = {:.4g}/{} = {:.3g}, p = {:.2g}",
+        fit->noise_px, fit->rms_px, fit->noise_ratio, sigma, limit, fit->chi2, fit->dof, fit->chi2 / fit->dof,
+        fit->chi2_p_value);
   }
 }
 
@@ -384,7 +433,8 @@ void FitFinal(const Setup& setup, ModelWork& w, const std::vector<bool>& inlier,
   fit->shape.insert(fit->shape.end(), w.state.dev.begin(), w.state.dev.end());
   fit->deviation_basis_curvature_per_mm = w.basis ? w.basis_curvature_per_mm : 0;
   Covariances(setup, w, b, fit);
-  RadiusFromCurvature(setup, fit);
+  RadiusFromCurvature(setup, w, fit);
+  Adequacy(*setup.options, rss, n, fit);
 }
 
 // k-fold over feature ids: refit without each fold (from the full solution), predict the fold.
@@ -422,16 +472,29 @@ double HeldOut(const Setup& setup, const ModelWork& w, const std::vector<bool>& 
 }
 
 // The simplest model whose BIC is within bic_margin of the lowest and whose held-out RMS is within
-// heldout_tolerance of the lowest.
+// heldout_tolerance of the lowest, among the adequate candidates (all, when none is adequate).
 void Choose(const FitOptions& options, ScreenFitResult* result) {
   const auto& c = result->candidates;
   // Held-out RMS (of the 2D residual's length) floored at the detections' systematic error.
   const double held_floor = std::sqrt(2.0) * options.noise_floor_px;
   const auto held = [&](size_t i) { return std::max(c[i].heldout_rms_px, held_floor); };
+  // The pool: converged and adequate candidates; every converged one when none is adequate (then the result is
+  // inadequate whatever is chosen).
+  std::string inadequate;
+  bool any_adequate = false;
+  for (size_t i = 0; i < c.size(); ++i) {
+    if (!c[i].converged) continue;
+    if (c[i].adequate) any_adequate = true;
+    else inadequate += (inadequate.empty() ? "" : ", ") + c[i].model;
+  }
+  const auto in_pool = [&](size_t i) { return c[i].converged && (c[i].adequate || !any_adequate); };
+  const std::string pool_note = inadequate.empty() ? std::string()
+                                : any_adequate   ? "; left out as inadequate: " + inadequate
+                                                 : "; no candidate is adequate";
   double best_bic = kInf, best_held = kInf;
   int best_bic_i = -1, best_held_i = -1;
   for (size_t i = 0; i < c.size(); ++i) {
-    if (!c[i].converged) continue;
+    if (!in_pool(i)) continue;
     if (c[i].bic < best_bic) best_bic = c[i].bic, best_bic_i = static_cast<int>(i);
     if (held(i) < best_held) best_held = held(i), best_held_i = static_cast<int>(i);
   }
@@ -446,7 +509,7 @@ void Choose(const FitOptions& options, ScreenFitResult* result) {
   }
   const bool use_held = best_held_i >= 0;
   for (size_t i = 0; i < c.size(); ++i) {
-    if (!c[i].converged) continue;
+    if (!in_pool(i)) continue;
     const bool bic_ok = c[i].bic <= best_bic + options.bic_margin;
     const bool held_ok = !use_held || held(i) <= best_held * (1 + options.heldout_tolerance);
     if (bic_ok && held_ok) {
@@ -465,13 +528,14 @@ void Choose(const FitOptions& options, ScreenFitResult* result) {
             name, options.bic_margin, c[static_cast<size_t>(best_bic_i)].model, 100 * options.heldout_tolerance,
             c[static_cast<size_t>(best_held_i)].model, best_held);
       }
+      result->choice_reason += pool_note;
       return;
     }
   }
   result->chosen = best_bic_i;
   result->choice_reason = fmt::format(
       "BIC and held-out error disagree (lowest BIC: {}, lowest held-out error: {}); the lowest BIC is taken",
-      c[static_cast<size_t>(best_bic_i)].model, c[static_cast<size_t>(best_held_i)].model);
+      c[static_cast<size_t>(best_bic_i)].model, c[static_cast<size_t>(best_held_i)].model) + pool_note;
 }
 
 void Deviations(const Setup& setup, const ModelWork& w, ScreenFitResult* result) {
@@ -539,6 +603,104 @@ void Deviations(const Setup& setup, const ModelWork& w, ScreenFitResult* result)
   }
 }
 
+// The warning for an inadequate chosen model: its figures, per photo when there are several (a wrong pattern.json
+// shows in one photo), and the likely causes.
+std::string InadequacyWarning(const std::vector<PhotoObservations>& photos, const ScreenFitResult& result) {
+  const ModelFit& m = result.Chosen();
+  std::string s = fmt::format(
+      "{}: inadequate: the fit's residual noise is {:.3f} px per coordinate (RMS {:.3f} px), {:.1f} times the {} "
+      "detection noise of {:.3f} px (limit {:.3f} px); chi2/dof = {:.4g}/{} = {:.3g}, p = {:.2g}.",
+      m.model, m.noise_px, m.rms_px, m.noise_ratio,
+      result.detection_noise_assumed ? "assumed (not measured: expected_noise_px)" : "measured",
+      result.detection_noise_px, result.adequacy_limit_px, m.chi2, m.dof, m.dof > 0 ? m.chi2 / m.dof : kNaN,
+      m.chi2_p_value);
+  std::string others;
+  for (const ModelFit& c : result.candidates) {
+    if (&c == &m) continue;
+    others += fmt::format("{}{} {:.3f} px", others.empty() ? "" : ", ", c.model, c.noise_px);
+  }
+  s += others.empty() ? " It was the only model tried." : " No candidate fits better than that (" + others + ").";
+  if (m.residual_px.size() > 1) {
+    // Per-photo RMS of the inliers: the worst photo and the median of the others.
+    std::vector<std::pair<double, size_t>> rms;
+    for (size_t p = 0; p < m.residual_px.size(); ++p) {
+      double sum = 0;
+      int count = 0;
+      for (size_t i = 0; i < m.residual_px[p].size(); ++i) {
+        if (m.outlier[p][i] || !m.residual_px[p][i].allFinite()) continue;
+        sum += m.residual_px[p][i].squaredNorm();
+        ++count;
+      }
+      rms.emplace_back(count > 0 ? std::sqrt(sum / count) : kNaN, p);
+    }
+    std::sort(rms.begin(), rms.end(), [](const auto& a, const auto& b) { return a.first > b.first; });
+    std::vector<double> rest;
+    for (size_t i = 1; i < rms.size(); ++i) rest.push_back(rms[i].first);
+    const std::string& name = photos[rms[0].second].photo;
+    s += fmt::format(" Worst photo: {} with an RMS of {:.3f} px (median of the other {}: {:.3f} px).",
+                     name.empty() ? fmt::format("photo {}", rms[0].second + 1) : name, rms[0].first, rest.size(),
+                     Median(rest));
+  }
+  s += " Its parameters are not measurements. Likely causes: the wrong pattern.json for a photo (e.g. two "
+       "--pattern files in the wrong order), the wrong camera model (another camera's or another focus's "
+       "calibration), a mirrored photo, or a screen that no model in the list fits (e.g. --models flat on a curved "
+       "monitor).";
+  return s;
+}
+
+// The chosen model's curvature against the nominal: a radius beyond both 5 sigma and 25% of the nominal, a flat
+// screen measured on a monitor specified curved, or a curved one on a monitor specified flat.
+std::optional<std::string> PlausibilityWarning(const Monitor& nominal, const ScreenFitResult& result) {
+  const ModelFit& m = result.Chosen();
+  const double kn = nominal.curvature_per_mm;
+  if (m.radius_mm) {
+    const double r = *m.radius_mm, sr = m.radius_sigma_mm.value_or(kNaN);
+    if (kn == 0) {
+      return fmt::format(
+          "{}: implausible: the screen measures curved, R = {:.0f} +- {:.0f} mm (95% interval {:.0f} to {:.0f} mm), "
+          "but the monitor is specified flat; check the monitor given, and the camera model (a wrong lens model "
+          "bends straight lines).",
+          m.model, r, sr, m.radius_ci95_mm[0], m.radius_ci95_mm[1]);
+    }
+    const double rn = 1 / kn, d = r - rn;
+    if (std::abs(d) > 5 * sr && std::abs(d) > 0.25 * std::abs(rn)) {
+      return fmt::format(
+          "{}: implausible: the radius {:.0f} +- {:.0f} mm is {:+.0f} mm ({:+.0f}%, {:.0f} sigma) from the nominal "
+          "{:.0f} mm; check the monitor given (its radius and pixel pitch: the scale of the fit is the pitch's), "
+          "the camera model and the pattern.json.",
+          m.model, r, sr, d, 100 * d / std::abs(rn), std::abs(d) / sr, rn);
+    }
+    return std::nullopt;
+  }
+  if (kn == 0) return std::nullopt;
+  // No radius: the flat model, or a curved model whose 95% interval holds flat. The evidence about the curvature
+  // is the chosen model's own, or the cylinder's when flat was chosen. An ill-conditioned one says that the
+  // photos cannot tell (its own warning); none fitted: only flat was tried.
+  const ModelFit* evidence = &m;
+  if (m.model == "flat") {
+    evidence = nullptr;
+    for (const ModelFit& c : result.candidates) {
+      if (c.model == "cylinder") evidence = &c;
+    }
+    if (!evidence) {
+      return fmt::format(
+          "flat: implausible: a flat screen was fitted to a monitor specified {:.0f}R and no curved model was tried "
+          "(check --models); the curvature was not measured.",
+          1 / kn);
+    }
+  }
+  if (evidence->ill_conditioned || !evidence->converged) return std::nullopt;
+  const double k = evidence->curvature_per_mm, sk = evidence->curvature_sigma_per_mm;
+  const bool far = std::abs(k - kn) > 5 * sk && (k * kn <= 0 || std::abs(1 / k - 1 / kn) > 0.25 * std::abs(1 / kn));
+  if (!far) return std::nullopt;
+  return fmt::format(
+      "{}: implausible: the screen measures flat on a monitor specified {:.0f}R: the {} curvature is {:.3g} +- {:.3g} "
+      "/m (R beyond {:.0f} mm at 95%), {:.0f} sigma from the nominal {:.3g} /m; check the monitor given, and the "
+      "pattern.json and camera model.",
+      m.model, 1 / kn, evidence->model, 1000 * k, 1000 * sk, evidence->radius_lower_bound_mm,
+      sk > 0 ? std::abs(k - kn) / sk : kInf, 1000 * kn);
+}
+
 void CheckPhotos(const std::vector<PhotoObservations>& photos, const FitOptions& options) {
   if (photos.empty()) throw Error("fit", "no photos to fit", "give at least one photo with detected features");
   for (const PhotoObservations& p : photos) {
@@ -576,6 +738,19 @@ void FitOptions::Check(const std::string& where) const {
     }
   };
   positive(expected_noise_px, "expected_noise_px");
+  if (!(detection_noise_px >= 0) || !std::isfinite(detection_noise_px)) {
+    throw Error(where, fmt::format("detection_noise_px is {}, but must be 0 (unknown) or a positive number",
+                                   detection_noise_px),
+                "");
+  }
+  if (!(adequacy_p_value > 0 && adequacy_p_value < 1)) {
+    throw Error(where, fmt::format("adequacy_p_value is {}, but must be between 0 and 1", adequacy_p_value),
+                "give e.g. 0.001");
+  }
+  if (!(adequacy_noise_ratio >= 1) || !std::isfinite(adequacy_noise_ratio)) {
+    throw Error(where, fmt::format("adequacy_noise_ratio is {}, but must be 1 or more", adequacy_noise_ratio),
+                "give e.g. 1.5");
+  }
   if (!(noise_floor_px >= 0) || !std::isfinite(noise_floor_px)) {
     throw Error(where, fmt::format("noise_floor_px is {}, but must be 0 or a positive number", noise_floor_px), "");
   }
@@ -703,16 +878,26 @@ ScreenFitResult FitScreen(const Monitor& nominal, const CameraModel& camera,
     fit.time_ms = time_ms[i] + watch.Ms();
     result.candidates.push_back(std::move(fit));
   }
+  result.detection_noise_px = DetectionSigma(options);
+  result.detection_noise_assumed = !(options.detection_noise_px > 0);
+  result.adequacy_limit_px = AdequacyLimit(options);
   Choose(options, &result);
   result.noise_px = result.Chosen().noise_px;
+  if (!result.Chosen().adequate) {
+    result.status = "inadequate";
+    result.warnings.push_back(InadequacyWarning(photos, result));
+  }
   for (size_t i = 0; i < result.candidates.size(); ++i) {
     const ModelFit& c = result.candidates[i];
     if (!c.ill_conditioned) continue;
     std::string note = c.condition_note;
     while (!note.empty() && note.back() == ' ') note.pop_back();
     result.warnings.push_back(c.model + ": ill-conditioned: " + note);
-    if (static_cast<int>(i) == result.chosen || c.model == "cylinder") result.status = "ill_conditioned";
+    if ((static_cast<int>(i) == result.chosen || c.model == "cylinder") && result.status == "ok") {
+      result.status = "ill_conditioned";
+    }
   }
+  if (std::optional<std::string> w = PlausibilityWarning(nominal, result)) result.warnings.push_back(*w);
   Deviations(setup, work[static_cast<size_t>(result.chosen)], &result);
 
   result.assumptions.push_back(fmt::format(
@@ -724,6 +909,13 @@ ScreenFitResult FitScreen(const Monitor& nominal, const CameraModel& camera,
   result.assumptions.push_back(
       "detection noise isotropic and Gaussian; sigmas scaled by the measured residual noise (reduced chi-square)");
   result.assumptions.push_back(
+      result.detection_noise_assumed
+          ? fmt::format("detection noise not measured: each model's fit was tested against an assumed {:.3f} px per "
+                        "coordinate (expected_noise_px); adequacy is only as good as that guess",
+                        result.detection_noise_px)
+          : fmt::format("each model's fit tested against the measured detection noise, {:.3f} px per coordinate",
+                        result.detection_noise_px));
+  result.assumptions.push_back(
       "deviations are along the surface normal; displacements within the surface are not modelled");
   if (std::find(kinds.begin(), kinds.end(), ScreenModelKind::kCylinderDeviation) != kinds.end()) {
     result.assumptions.push_back(fmt::format(
@@ -732,6 +924,44 @@ ScreenFitResult FitScreen(const Monitor& nominal, const CameraModel& camera,
         options.deviation_nu, options.deviation_nv, options.deviation_prior_mm));
   }
   return result;
+}
+
+void ChooseModel(const FitOptions& options, ScreenFitResult* result) { Choose(options, result); }
+
+double ChiSquareUpperTail(double chi2, double dof) {
+  if (!(dof > 0) || !(chi2 >= 0)) return kNaN;
+  if (chi2 == 0) return 1;
+  if (std::isinf(chi2)) return 0;
+  // Q(a, x) = Gamma(a, x) / Gamma(a), a = dof/2, x = chi2/2 (Numerical Recipes 6.2): below x = a + 1 the series
+  // of P = 1 - Q (Q > 0.08 there for every a, so 1 - P loses at most a digit); above, Q's continued fraction
+  // (modified Lentz), accurate far into the tail. Both converge in O(sqrt(a)) terms.
+  const double a = 0.5 * dof, x = 0.5 * chi2;
+  const double log_prefix = a * std::log(x) - x - std::lgamma(a);
+  constexpr int kMaxTerms = 10000000;
+  constexpr double kEps = 1e-16, kTiny = 1e-300;
+  if (x < a + 1) {
+    double term = 1 / a, sum = term;
+    for (int n = 1; n < kMaxTerms; ++n) {
+      term *= x / (a + n);
+      sum += term;
+      if (term < sum * kEps) break;
+    }
+    return std::clamp(1 - sum * std::exp(log_prefix), 0.0, 1.0);
+  }
+  double b = x + 1 - a, c = 1 / kTiny, d = 1 / b, h = d;
+  for (int i = 1; i < kMaxTerms; ++i) {
+    const double an = -i * (i - a);
+    b += 2;
+    d = an * d + b;
+    if (std::abs(d) < kTiny) d = kTiny;
+    c = b + an / c;
+    if (std::abs(c) < kTiny) c = kTiny;
+    d = 1 / d;
+    const double delta = d * c;
+    h *= delta;
+    if (std::abs(delta - 1) < kEps) break;
+  }
+  return std::clamp(std::exp(log_prefix) * h, 0.0, 1.0);
 }
 
 double RadiusCramerRaoBoundMm(const Monitor& true_monitor, const CameraModel& camera,

@@ -38,6 +38,31 @@ struct FitOptions {
   std::vector<ScreenModelKind> models = AllScreenModels();
   // Expected detection noise per coordinate (px): scales the robust loss. Detectors give 0.02-0.2 px.
   double expected_noise_px = 0.15;
+  // Measured detection noise per coordinate (camera px), from a source independent of the screen model (the
+  // analysis sets it from the verification's scatter: each photo's residuals about a smooth field beyond a
+  // homography). Every candidate is tested against it (ModelFit::adequate). 0 = unknown: expected_noise_px is
+  // used instead and the result says that the noise was assumed (ScreenFitResult::detection_noise_assumed).
+  double detection_noise_px = 0;
+  // Adequacy of a candidate against the detection noise sigma (metrology.md section 3). A model is inadequate when
+  // its misfit is both statistically and practically significant:
+  //   chi2_p_value < adequacy_p_value  AND  noise_px > max(adequacy_noise_ratio sigma, sigma + noise_floor_px).
+  // - Statistical, p < 1e-3: a correct model is called inadequate once in a thousand fits (at most 0.6% of
+  //   fits over the six candidates). This is the test that decides on small samples: with dof = 20 a noise
+  //   ratio of 1.5 happens by chance with p = 1e-3, so the ratio alone would fail correct models there.
+  // - Practical, ratio 1.5: with thousands of residuals a misfit of a few percent of the noise is
+  //   "significant" (dof = 5000: p < 1e-3 from a ratio of 1.03). At a ratio of 1.5 the systematic misfit,
+  //   sqrt(1.5^2 - 1) = 1.1 sigma per coordinate, is larger than the detection noise itself. Below that the
+  //   misfit is not cleanly separable from an error in sigma: sigma is measured by another estimator on other
+  //   residuals (about a smooth field, per photo, heavy-tailed in real photos), and a 20-30% error in it is
+  //   plausible; and a moderate misfit is not hidden, it inflates this model's sigmas, which are scaled by its
+  //   own residual noise (noise_px).
+  // - Floor, sigma + noise_floor_px: the detectors' systematic error (pixel-locking) is not Gaussian noise, and
+  //   at small sigma (0.02-0.05 px) 1.5 sigma would call a model inadequate for misfits of 0.01-0.02 px that no
+  //   screen model is about (pixel-locking, the lens calibration's own error). Model choice already treats
+  //   residual differences below the floor as no evidence; the adequacy test must not contradict it. The
+  //   linear sum (not the quadrature one) is the bound for a systematic error that adds to the noise.
+  double adequacy_p_value = 1e-3;
+  double adequacy_noise_ratio = 1.5;
   // Huber loss threshold in units of expected_noise_px: residuals beyond it weigh linearly in the first,
   // robust pass. 3 keeps ~99% efficiency on Gaussian noise.
   double huber_sigmas = 3;
@@ -50,7 +75,8 @@ struct FitOptions {
   int heldout_folds = 5;
   // A richer model is chosen only if its BIC is lower than every simpler one's by more than bic_margin
   // (10: "very strong" evidence on Kass and Raftery's scale), and its held-out RMS is within
-  // heldout_tolerance (relative) of the best held-out RMS.
+  // heldout_tolerance (relative) of the best held-out RMS. The rule runs among the adequate candidates (see
+  // adequacy_p_value), or among all when none is adequate (ChooseModel).
   double bic_margin = 10;
   double heldout_tolerance = 0.05;
   // Systematic error floor of the detections, px per coordinate: residual differences below it are not evidence
@@ -87,12 +113,18 @@ struct FitOptions {
 };
 
 struct CameraEstimate {
-  // The camera in the centre frame: its translation is the camera centre there (mm), sigma below.
+  // The camera in the centre frame: its translation is the camera centre there (mm), with its sigma (mm, per
+  // axis, from the pose's covariance scaled by the model's noise_px).
   Pose centre_from_cam;
-  Eigen::Vector3d position_sigma_mm = Eigen::Vector3d::Zero();
+  Eigen::Vector3d position_in_centre_sigma_mm = Eigen::Vector3d::Zero();
   // In the architecture's screen frame: origin on the fitted axis (centre frame shifted by -R in z); the centre
-  // frame itself when the radius is not a number (flat within its interval).
+  // frame itself when the radius is not a number (flat within its interval). Its sigma is this frame's: x and y
+  // as in the centre frame, z = c_z - R propagated with the covariance of the position and the curvature,
+  // their cross-covariance included, var = var(c_z) + var(k)/k^4 + 2 cov(c_z, k)/k^2 (R = 1/k): about the
+  // radius's sigma, as the centre-frame z is far better determined than the radius. NaN where the covariance
+  // could not be computed.
   Eigen::Vector3d position_in_screen_mm = Eigen::Vector3d::Zero();
+  Eigen::Vector3d position_in_screen_sigma_mm = Eigen::Vector3d::Zero();
 };
 
 struct ModelFit {
@@ -103,6 +135,18 @@ struct ModelFit {
   double rms_px = 0, bic = 0, heldout_rms_px = 0;
   // Per-coordinate noise of this model's residuals, sqrt(RSS/(n - p)); scales this model's covariance.
   double noise_px = 0;
+  // Goodness of fit against the detection noise sigma (ScreenFitResult::detection_noise_px), over the inliers:
+  // chi2 = RSS / sigma^2, dof = n - p (n = 2 x inliers, p = parameters; for cylinder+deviation the prior makes
+  // the effective p smaller, so its chi2/dof is slightly optimistic), chi2_p_value = P(X >= chi2) for X
+  // chi-square with dof degrees of freedom (exact: the regularized upper incomplete gamma Q(dof/2, chi2/2), no
+  // normal approximation), noise_ratio = noise_px / sigma = sqrt(chi2 / dof). adequate: the misfit is not both
+  // statistically and practically significant (FitOptions::adequacy_p_value); an inadequate model's parameters
+  // are not measurements. adequacy_note says why, with the figures, when it is not adequate.
+  double chi2 = 0;
+  int dof = 0;
+  double chi2_p_value = 1, noise_ratio = 0;
+  bool adequate = true;
+  std::string adequacy_note;
   // Curvature k = 1/R (for varying curvature: its mean over the width, k0 + k2/3) and its sigma.
   double curvature_per_mm = 0, curvature_sigma_per_mm = 0;
   std::optional<double> radius_mm, radius_sigma_mm;  // empty when flat is inside the 95% interval
@@ -152,8 +196,19 @@ struct ScreenFitResult {
   // Models of options.models that were not tried, each with the reason (too few residuals for its parameters:
   // fewer than 3 per parameter, e.g. the deviation field on a 15 x 4 board).
   std::vector<std::string> skipped;
-  // "ok", or "ill_conditioned" when the chosen model or the cylinder candidate is ill-conditioned (the radius
-  // cannot be measured from these photos); warnings holds one line per ill-conditioned candidate with its reason.
+  // The detection noise (px per coordinate) the candidates were tested against: FitOptions::detection_noise_px,
+  // or expected_noise_px when that was 0 (then detection_noise_assumed, and an assumption says so). A model is
+  // inadequate beyond noise_px > adequacy_limit_px = max(adequacy_noise_ratio sigma, sigma + noise_floor_px)
+  // (and chi2_p_value < adequacy_p_value).
+  double detection_noise_px = 0;
+  bool detection_noise_assumed = false;
+  double adequacy_limit_px = 0;
+  // "inadequate" when the chosen model is not adequate (no candidate fits the photos to their noise; takes
+  // precedence), else "ill_conditioned" when the chosen model or the cylinder candidate is ill-conditioned (the
+  // radius cannot be measured from these photos), else "ok". warnings: one line per ill-conditioned candidate
+  // with its reason; the inadequacy of the chosen model with the figures and the likely causes; a radius
+  // implausible against the nominal (beyond both 5 sigma and 25% of it), a flat screen measured on a monitor
+  // specified curved, or a curved one on a monitor specified flat.
   std::string status = "ok";
   std::vector<std::string> warnings;
 
@@ -166,6 +221,18 @@ struct ScreenFitResult {
 // an error.
 ScreenFitResult FitScreen(const Monitor& nominal, const CameraModel& camera,
                           const std::vector<PhotoObservations>& photos, const FitOptions& options);
+
+// The choice among result->candidates (sets chosen and choice_reason; FitScreen calls it): among the converged
+// adequate candidates (all converged ones if none is adequate), the simplest whose BIC is within
+// options.bic_margin of the lowest and whose held-out RMS, floored at sqrt(2) options.noise_floor_px, is within
+// options.heldout_tolerance (relative) of the lowest; the lowest BIC when none qualifies or nothing converged.
+// Candidates must be in order of complexity. Public for tests of the rule at its boundaries.
+void ChooseModel(const FitOptions& options, ScreenFitResult* result);
+
+// P(X >= chi2) for X chi-square distributed with dof degrees of freedom (the regularized upper incomplete gamma
+// function Q(dof/2, chi2/2), series or continued fraction, relative error ~1e-14). NaN unless dof > 0 and
+// chi2 >= 0.
+double ChiSquareUpperTail(double chi2, double dof);
 
 // The surface points of candidate `fit` at display coordinates `uv` (-1..1 edge to edge), in the frame of the camera
 // of photo `photo` as fitted (x right, y down, z forward), mm: the model's surface, deviation field included, placed

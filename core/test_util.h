@@ -24,10 +24,24 @@ inline std::string MessageOf(const std::function<void()>& f) {
 }
 
 // Matches an Eigen vector or matrix whose largest absolute element difference from `expected` is <= tol.
+// A NaN or an infinity in either argument never matches, not even the same value in both: a non-finite number
+// is not near anything (a NaN difference compares false with every tolerance, and Eigen's maxCoeff over NaNs
+// is unspecified, so without this check a NaN result passed). Test non-finite values explicitly.
 MATCHER_P2(EigenNear, expected, tol, "") {
-  if (arg.rows() != expected.rows() || arg.cols() != expected.cols()) return false;
+  if (arg.rows() != expected.rows() || arg.cols() != expected.cols()) {
+    *result_listener << "size " << arg.rows() << " x " << arg.cols() << ", expected " << expected.rows() << " x "
+                     << expected.cols();
+    return false;
+  }
+  if (!arg.allFinite() || !expected.allFinite()) {
+    std::ostringstream s;
+    s << "not finite: value " << arg.transpose() << ", expected " << expected.transpose();
+    *result_listener << s.str();
+    return false;
+  }
+  if (arg.size() == 0) return true;  // two empty matrices of one shape (maxCoeff needs an element)
   const double err = (arg - expected).cwiseAbs().maxCoeff();
-  if (err > tol) {
+  if (!(err <= tol)) {
     std::ostringstream s;
     s << "max abs difference " << err << " > " << tol << "; expected " << expected.transpose();
     *result_listener << s.str();

@@ -76,6 +76,11 @@ nlohmann::json VerificationJson(const Verification& v) {
 nlohmann::json ModelFitJson(const ModelFit& f) {
   nlohmann::json j = {{"model", f.model},
                       {"parameters", f.parameters},
+                      {"chi2", Num(f.chi2)},
+                      {"dof", f.dof},
+                      {"chi2_p_value", Num(f.chi2_p_value)},
+                      {"noise_ratio", Num(f.noise_ratio)},
+                      {"adequate", f.adequate},
                       {"rms_px", f.rms_px},
                       {"noise_px", f.noise_px},
                       {"bic", f.bic},
@@ -96,6 +101,7 @@ nlohmann::json ModelFitJson(const ModelFit& f) {
                        : f.ill_conditioned ? "unobservable"
                                            : "lower_bound";
   if (!f.condition_note.empty()) j["condition_note"] = f.condition_note;
+  if (!f.adequacy_note.empty()) j["adequacy_note"] = f.adequacy_note;
   nlohmann::json extra = nlohmann::json::object();
   for (const auto& [name, value] : f.extra) extra[name] = {{"value", value.first}, {"sigma", value.second}};
   j["extra"] = extra;
@@ -270,8 +276,21 @@ AnalysisResult AnalyzeWith(const CameraModel& camera, const std::filesystem::pat
     r.fit_failure_kind = FitFailure::kNoUsablePhoto;
   } else {
     const Stopwatch fit_watch;
+    // The fit's adequacy is tested against the detection noise the verification measured (the scatter about
+    // a smooth field beyond each photo's homography: independent of any screen model), pooled over the photos
+    // by their features.
+    FitOptions fit_options = options.fit;
+    if (fit_options.detection_noise_px == 0) {
+      double sum = 0, weight = 0;
+      for (const PhotoAnalysis& p : r.photos) {
+        if (!p.used || !(p.verification.noise_px > 0)) continue;
+        sum += p.verification.noise_px * p.verification.noise_px * static_cast<double>(p.verification.features.size());
+        weight += static_cast<double>(p.verification.features.size());
+      }
+      if (weight > 0) fit_options.detection_noise_px = std::sqrt(sum / weight);
+    }
     try {
-      r.fit = FitScreen(r.monitor, r.camera, observations, options.fit);
+      r.fit = FitScreen(r.monitor, r.camera, observations, fit_options);
     } catch (const Error& e) {
       r.fit_failure = e.what();
       const bool too_few = std::any_of(observations.begin(), observations.end(), [&](const PhotoObservations& o) {
@@ -283,6 +302,15 @@ AnalysisResult AnalyzeWith(const CameraModel& camera, const std::filesystem::pat
     r.fit_ms = fit_watch.Ms();
   }
   if (r.fit) AddPlausibilityWarnings(r);
+  // An inadequate fit means the data do not fit what they claim to be (the wrong pattern.json, camera model or
+  // screen model): no pass is stated on them.
+  if (r.fit && r.fit->status == "inadequate" && r.verification.verdict == Verdict::kPass) {
+    r.verification.verdict = Verdict::kInconclusive;
+    r.verification.pass = false;
+    r.verification.verdict_reason +=
+        "; but the screen fit is inadequate (fit.warnings): the photos do not fit what their inputs claim, so no "
+        "pass is stated";
+  }
   r.total_ms = total_watch.Ms();
   return r;
 }
@@ -356,19 +384,29 @@ nlohmann::json ResultJson(const AnalysisResult& r, const std::string& command_li
 
     nlohmann::json cameras = nlohmann::json::array();
     for (const PhotoAnalysis& p : r.photos) {
-      if (p.fit_index < 0) continue;
+      if (p.fit_index < 0 || static_cast<size_t>(p.fit_index) >= chosen.cameras.size()) continue;
       const CameraEstimate& c = chosen.cameras[static_cast<size_t>(p.fit_index)];
+      // Each position with the sigma of that position in that frame: the axis frame (origin on the fitted
+      // cylinder's axis: moves with the radius) and the centre frame (origin at the screen centre).
       cameras.push_back({{"photo", p.name},
                          {"position_mm", Vec(c.position_in_screen_mm)},
+                         {"position_sigma_mm", Vec(c.position_in_screen_sigma_mm)},
+                         {"position_in_axis_mm", Vec(c.position_in_screen_mm)},
+                         {"position_in_axis_sigma_mm", Vec(c.position_in_screen_sigma_mm)},
                          {"position_in_centre_mm", Vec(c.centre_from_cam.translation)},
-                         {"position_sigma_mm", Vec(c.position_in_centre_sigma_mm)},
+                         {"position_in_centre_sigma_mm", Vec(c.position_in_centre_sigma_mm)},
                          {"stated_viewpoint_mm", Vec(r.patterns[static_cast<size_t>(&p - r.photos.data())].viewpoint_in_screen)}});
     }
     nlohmann::json f = ModelFitJson(chosen);
     f["camera_position_mm"] = cameras.empty() ? nlohmann::json(nullptr) : cameras[0]["position_mm"];
     f["camera_position_sigma_mm"] = cameras.empty() ? nlohmann::json(nullptr) : cameras[0]["position_sigma_mm"];
     f["cameras"] = cameras;
+    f["camera_position_frame"] = "axis: origin on the fitted cylinder's axis at the screen's vertical centre (the "
+                                 "centre frame when the radius is not a number); cameras[] have both frames";
     f["status"] = fit.status;
+    f["detection_noise_px"] = Num(fit.detection_noise_px);
+    f["detection_noise_assumed"] = fit.detection_noise_assumed;
+    f["adequacy_limit_px"] = Num(fit.adequacy_limit_px);
     f["warnings"] = fit.warnings;
     f["choice_reason"] = fit.choice_reason;
     f["assumptions"] = fit.assumptions;
@@ -573,7 +611,17 @@ std::string SummaryText(const AnalysisResult& r) {
     for (const auto& [name, value] : f.extra) {
       s << fmt::format("  {} = {:.4g} +- {:.2g}\n", name, value.first, value.second);
     }
-    s << fmt::format("fit: RMS {:.3f} px, noise {:.3f} px per coordinate\n", f.rms_px, r.fit->noise_px);
+    s << fmt::format("fit: RMS {:.3f} px, noise {:.3f} px per coordinate; status {}\n", f.rms_px, r.fit->noise_px,
+                     r.fit->status);
+    s << fmt::format("adequacy (against the detection noise {:.3f} px{}; inadequate beyond {:.3f} px with p < 1e-3):",
+                     r.fit->detection_noise_px, r.fit->detection_noise_assumed ? ", assumed" : ", measured",
+                     r.fit->adequacy_limit_px);
+    for (const ModelFit& c : r.fit->candidates) {
+      s << fmt::format(" {} {} (noise {:.3f} px, chi2/dof {:.2f}, p {:.2g});", c.model,
+                       c.adequate ? "adequate" : "INADEQUATE", c.noise_px, c.dof > 0 ? c.chi2 / c.dof : 0.0,
+                       c.chi2_p_value);
+    }
+    s << "\n";
   } else {
     s << "fit: none (" << r.fit_failure << ")\n";
   }

@@ -203,7 +203,7 @@ ErrorField EstimateErrorField(const ErrorFieldInput& in, const ErrorFieldOptions
       a.push_back(std::abs(fit.residual[i].x()));
       a.push_back(std::abs(fit.residual[i].y()));
     }
-    const double robust = 1.4826 * Median(std::move(a));
+    const double robust = std::max(1.4826 * Median(std::move(a)), options.outlier_floor_px);
     std::vector<bool> inlier(n, true);
     for (size_t i = 0; i < n; ++i) {
       inlier[i] = !(fit.residual[i].cwiseAbs().maxCoeff() > options.outlier_sigmas * robust);

@@ -44,6 +44,9 @@ struct ErrorFieldInput {
 struct ErrorFieldOptions {
   int max_degree = 16;        // highest Du on the ladder
   double outlier_sigmas = 5;  // per coordinate, robust sigma
+  // Floor of the robust sigma for the outlier test, camera px: on a very clean photo the scatter is far below the
+  // detector's systematic error (pixel-locking), which would otherwise flag ordinary features as outliers.
+  double outlier_floor_px = 0;
   int draws = 400;
   uint64_t seed = 20261201;
 };

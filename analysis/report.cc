@@ -95,7 +95,8 @@ std::string ModelsTable(const json& fit, Warnings& warnings) {
   std::ostringstream s;
   s << "<table id=\"models\"><thead><tr><th>model</th><th>parameters</th><th>RMS, px</th><th>held-out RMS, px</th>"
        "<th>noise, px</th><th>BIC</th><th>&#916;BIC</th><th>radius &#177; &#963;, mm</th><th>95% interval, mm</th>"
-       "<th>other parameters</th><th>converged</th><th>notes</th></tr></thead><tbody>\n";
+       "<th>other parameters</th><th>converged</th><th>fits the detection noise (&#967;&#178;/dof, p)</th><th>notes</th>"
+       "</tr></thead><tbody>\n";
   for (const json& k : fit["candidates"]) {
     const bool chosen = k.value("chosen", false);
     const std::string name = Str(k["model"]);
@@ -137,16 +138,30 @@ std::string ModelsTable(const json& fit, Warnings& warnings) {
       }
     }
     if (chosen && !converged) warnings.Add(fmt::format("The chosen model <b>{}</b> did not converge.", Html(name)));
+    // Adequacy against the detection noise (absent in result.json written before it).
+    std::string adequacy = "&#8212;";
+    const bool adequate = k.value("adequate", true);
+    if (k.contains("adequate")) {
+      const std::optional<double> chi2 = Opt(k["chi2"]), p_value = Opt(k.value("chi2_p_value", json(nullptr)));
+      const long dof = k.value("dof", 0L);
+      adequacy = fmt::format("{} ({}, p {})", adequate ? "yes" : "<b>no</b>",
+                             chi2 && dof > 0 ? fmt::format("{:.2f}", *chi2 / static_cast<double>(dof)) : "&#8212;",
+                             p_value ? fmt::format("{:.2g}", *p_value) : "&#8212;");
+    }
+    if (k.contains("adequacy_note")) notes.push_back(Html(Str(k["adequacy_note"])));
     s << fmt::format(
-        "<tr data-model=\"{}\" data-chosen=\"{}\" data-radius-mm=\"{}\"{}><td>{}{}</td><td class=\"num\">{}</td>"
+        "<tr data-model=\"{}\" data-chosen=\"{}\" data-radius-mm=\"{}\" data-adequate=\"{}\"{}><td>{}{}</td>"
+        "<td class=\"num\">{}</td>"
         "<td class=\"num\">{}</td><td class=\"num\">{}</td><td class=\"num\">{}</td><td class=\"num\">{}</td>"
         "<td class=\"num\">{}</td><td class=\"num\">{}</td><td class=\"num\">{}</td><td>{}</td><td>{}</td><td>{}</td>"
-        "</tr>\n",
-        Html(name), chosen ? "true" : "false", Exact(radius), chosen ? " class=\"chosen\"" : "", Html(name),
+        "<td>{}</td></tr>\n",
+        Html(name), chosen ? "true" : "false", Exact(radius), adequate ? "true" : "false",
+        chosen ? " class=\"chosen\"" : "", Html(name),
         chosen ? " (chosen)" : "", k["parameters"].get<long>(), Fixed(Opt(k["rms_px"]), 4),
         Fixed(Opt(k["heldout_rms_px"]), 4), Fixed(Opt(k["noise_px"]), 4), Fixed(bic, 1),
         bic && best_bic ? fmt::format("{:.1f}", *bic - *best_bic) : "&#8212;", radius_text, interval,
-        extra.empty() ? "&#8212;" : extra, converged ? "yes" : "<b>no</b>", fmt::format("{}", fmt::join(notes, "; ")));
+        extra.empty() ? "&#8212;" : extra, converged ? "yes" : "<b>no</b>", adequacy,
+        fmt::format("{}", fmt::join(notes, "; ")));
   }
   s << "</tbody></table>\n";
   return s.str();

@@ -381,6 +381,7 @@ Verification VerifyCorrection(const PatternFile& pattern, const CameraModel& cam
   ErrorFieldOptions field_options;
   field_options.max_degree = options.max_field_degree;
   field_options.outlier_sigmas = options.outlier_sigmas;
+  field_options.outlier_floor_px = options.detector_systematic_px;
   field_options.draws = options.uncertainty_draws;
   const ErrorField field = EstimateErrorField(field_in, field_options);
   std::vector<double> display_per_camera;

@@ -52,8 +52,8 @@ struct VerifyOptions {
   // detectors give 0.02-0.3 px on real photos; beyond this the residuals hold an error the field cannot resolve
   // (rough at the feature spacing) or the photo is too poor, and a pass cannot be stated.
   double max_noise_px = 0.5;
-  // Features whose residual about the field exceeds this many robust sigmas are left out of the field fit
-  // (and listed); they keep their residuals.
+  // Features whose residual about the field exceeds this many robust sigmas (at least detector_systematic_px)
+  // are left out of the field fit (and listed); they keep their residuals.
   double outlier_sigmas = 5;
   // Standard uncertainty of the detector's systematic error, camera px per coordinate: corner detectors lock to
   // the pixel grid and are biased on small, blurred squares by a few hundredths to a tenth of a pixel, and such a

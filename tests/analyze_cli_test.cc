@@ -84,11 +84,20 @@ TEST_F(AnalyzeCli, ARadius8PercentOffFailsTheVerificationAndIsMeasured) {
                                (Dir() / "exact.json").string(), (Dir() / "photo-exact.png").string(), "-o",
                                out.string()});
   ASSERT_EQ(r.code, 0) << r.err << r.out;
-  EXPECT_THAT(r.out, HasSubstr("verification: FAIL"));
   const nlohmann::json j = Result(out);
   EXPECT_EQ(j["format"], "curvecheck.result/1");
   EXPECT_FALSE(j["verification"]["pass"].get<bool>());
   EXPECT_GT(j["verification"]["p95_display_px"].get<double>(), 0.5);
+  // The error is seen (e beyond the tolerance), but at this quarter resolution (5 display px per camera px) U
+  // holds the detector's systematic term of 2 x 0.05 x 5 = 0.5 display px, so the rule cannot state a fail:
+  // inconclusive, never pass, with the advice to come closer.
+  const nlohmann::json& v = j["verification"];
+  EXPECT_GT(v["error_p95_display_px"].get<double>(), 0.5);
+  EXPECT_NE(v["verdict"], "pass");
+  EXPECT_THAT(r.out, ::testing::AnyOf(HasSubstr("verification: FAIL"), HasSubstr("verification: INCONCLUSIVE")));
+  if (v["verdict"] == "inconclusive") {
+    EXPECT_THAT(v["advice"].get<std::string>(), HasSubstr("m away"));
+  }
 
   // The radius. At this quarter resolution (5 display px per camera px) the corner detector's pixel-locking
   // (about +-0.045 px, periodic across the columns) biases the radius by about 0.8% (measured: 1071.6 +- 1.5 mm
@@ -116,6 +125,48 @@ TEST_F(AnalyzeCli, ARadius8PercentOffFailsTheVerificationAndIsMeasured) {
         << f.dump();
   }
   EXPECT_TRUE(fs::exists(out / "overlay-photo-exact.png"));
+}
+
+// Data that does not fit what it claims is flagged, never passed (issue 15): the same photo content twice counts
+// once (a copy under another name: the same sigma as the photo alone), and a model family that cannot fit
+// (`--models flat` on a curved monitor) is inadequate with a warning, its verdict not a pass.
+TEST_F(AnalyzeCli, DataThatDoesNotFitIsFlaggedNotPassed) {
+  const std::string camera = (Dir() / "small.cameramodel").string(), pattern = (Dir() / "exact.json").string();
+  fs::copy_file(Dir() / "photo-exact.png", Dir() / "copy-of-photo.png", fs::copy_options::overwrite_existing);
+  const fs::path once = Dir() / "out-once", twice = Dir() / "out-twice", flat = Dir() / "out-flat";
+  ASSERT_EQ(Curvecheck({"analyze", "--camera", camera, "--pattern", pattern, (Dir() / "photo-exact.png").string(),
+                        "-o", once.string(), "--no-report"})
+                .code,
+            0);
+  const CliRun r = Curvecheck({"analyze", "--camera", camera, "--pattern", pattern,
+                               (Dir() / "photo-exact.png").string(), (Dir() / "copy-of-photo.png").string(), "-o",
+                               twice.string(), "--no-report"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  const nlohmann::json a = Result(once), b = Result(twice);
+  EXPECT_EQ(b["inputs"]["photos"][1]["status"], "rejected");
+  EXPECT_THAT(b["inputs"]["photos"][1]["reason"].get<std::string>(), HasSubstr("the same image content as"));
+  EXPECT_DOUBLE_EQ(b["fit"]["radius_sigma_mm"].get<double>(), a["fit"]["radius_sigma_mm"].get<double>());
+  EXPECT_EQ(b["verification"]["features"], a["verification"]["features"]);
+  EXPECT_GT(a["verification"]["features"].get<int>(), 100);
+
+  const CliRun f = Curvecheck({"analyze", "--camera", camera, "--pattern", pattern, "--models", "flat",
+                               (Dir() / "photo-exact.png").string(), "-o", flat.string(), "--no-report"});
+  ASSERT_EQ(f.code, 0) << f.err;
+  const nlohmann::json j = Result(flat);
+  EXPECT_EQ(j["fit"]["status"], "inadequate");
+  EXPECT_FALSE(j["fit"]["candidates"][0]["adequate"].get<bool>());
+  EXPECT_GT(j["fit"]["candidates"][0]["noise_ratio"].get<double>(), 10);
+  EXPECT_THAT(j["fit"]["warnings"].dump(), HasSubstr("--models flat"));
+  EXPECT_NE(j["verification"]["verdict"], "pass");
+  EXPECT_THAT(f.out, HasSubstr("flat INADEQUATE"));
+  // The cylinder fits the same photo to its noise.
+  EXPECT_EQ(a["fit"]["status"], "ok");
+  EXPECT_TRUE(a["fit"]["adequate"].get<bool>());
+  // Each camera position with the sigma of its own frame: the axis frame's z moves with the radius.
+  const nlohmann::json& cam = a["fit"]["cameras"][0];
+  EXPECT_EQ(cam["position_mm"], cam["position_in_axis_mm"]);
+  EXPECT_GT(cam["position_in_axis_sigma_mm"][2].get<double>(), 0.5 * a["fit"]["radius_sigma_mm"].get<double>());
+  EXPECT_LT(cam["position_in_centre_sigma_mm"][2].get<double>(), cam["position_in_axis_sigma_mm"][2].get<double>());
 }
 
 TEST_F(AnalyzeCli, UncorrectedRenderingFailsTheVerificationByAWideMargin) {

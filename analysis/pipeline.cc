@@ -568,13 +568,6 @@ std::vector<std::filesystem::path> WriteOverlays(const AnalysisResult& r, const 
   return written;
 }
 
-namespace {
-std::string ToUpper(std::string text) {
-  for (char& c : text) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
-  return text;
-}
-}  // namespace
-
 std::string SummaryText(const AnalysisResult& r) {
   std::ostringstream s;
   const Verification& v = r.verification;
@@ -583,7 +576,7 @@ std::string SummaryText(const AnalysisResult& r) {
   } else {
     s << fmt::format("verification: {} (e = {:.3f} display px, the 95th percentile of the correction error; U = "
                      "{:.3f} (95%); tolerance T = {:g}; T/U = {:.1f})\n",
-                     v.failure.empty() ? ToUpper(VerdictName(v.verdict)) : std::string("NO VERDICT"),
+                     v.failure.empty() ? std::string(VerdictLabel(v.verdict)) : std::string("NO VERDICT"),
                      v.error_p95_display_px, v.expanded_uncertainty_display_px, v.tolerance_display_px,
                      v.tolerance_ratio);
     if (!v.verdict_reason.empty()) s << "  " << v.verdict_reason << "\n";

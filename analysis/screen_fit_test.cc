@@ -335,10 +335,9 @@ TEST(ScreenFitTest, SparseBoardSkipsTheDeviationFieldAndSaysWhy) {
   EXPECT_GT(finite, 0);
 }
 
-TEST(ScreenFitTest, RadiusUnobservableFromANarrowStripIsReported) {
-  // Features only within 2% of the width around the centre column: the sagitta there is ~0.07 mm, which a
-  // camera 1.5 m away cannot see; the curvature's interval holds both flat and the nominal 1000R.
-  const SyntheticScene scene = LoadScene(Scene("default"));
+// Features only within 2% of the width around the centre column (9 rows of 5), seen by the default scene's
+// camera with kNoisePx noise (seed 21): the sagitta there is ~0.07 mm, which a camera 1.5 m away cannot see.
+PhotoObservations NarrowStripPhoto(const SyntheticScene& scene) {
   std::vector<Eigen::Vector2d> strip;
   for (int j = 0; j < 9; ++j) {
     for (int i = 0; i < 5; ++i) {
@@ -346,7 +345,14 @@ TEST(ScreenFitTest, RadiusUnobservableFromANarrowStripIsReported) {
     }
   }
   std::mt19937_64 rng(21);
-  const auto photo = Observe(scene, strip, kNoisePx, rng, SceneSurface(scene));
+  return Observe(scene, strip, kNoisePx, rng, SceneSurface(scene));
+}
+
+TEST(ScreenFitTest, RadiusUnobservableFromANarrowStripIsReported) {
+  // Features only within 2% of the width around the centre column: the sagitta there is ~0.07 mm, which a
+  // camera 1.5 m away cannot see; the curvature's interval holds both flat and the nominal 1000R.
+  const SyntheticScene scene = LoadScene(Scene("default"));
+  const auto photo = NarrowStripPhoto(scene);
   FitOptions options;
   options.models = ParseScreenModels({"flat", "cylinder"}, "test");
   const ScreenFitResult r = FitScreen(scene.monitor, scene.camera, {photo}, options);
@@ -861,14 +867,7 @@ TEST(ScreenFitAdequacyTest, UnknownDetectionNoiseIsAssumedAndSaid) {
 // detection noise far below the photos'.
 TEST(ScreenFitAdequacyTest, InadequateTakesPrecedenceOverIllConditioned) {
   const SyntheticScene scene = LoadScene(Scene("default"));
-  std::vector<Eigen::Vector2d> strip;
-  for (int j = 0; j < 9; ++j) {
-    for (int i = 0; i < 5; ++i) {
-      strip.emplace_back(scene.monitor.width_px * (0.49 + 0.005 * i), scene.monitor.height_px * (0.1 + 0.1 * j));
-    }
-  }
-  std::mt19937_64 rng(21);
-  const auto photo = Observe(scene, strip, kNoisePx, rng, SceneSurface(scene));
+  const auto photo = NarrowStripPhoto(scene);
   FitOptions options;
   options.models = ParseScreenModels({"flat", "cylinder"}, "test");
   options.detection_noise_px = 0.02;

@@ -189,6 +189,15 @@ const char* VerdictName(Verdict v) {
   return "inconclusive";
 }
 
+const char* VerdictLabel(Verdict v) {
+  switch (v) {
+    case Verdict::kPass: return "PASS";
+    case Verdict::kFail: return "FAIL";
+    case Verdict::kInconclusive: return "INCONCLUSIVE";
+  }
+  return "INCONCLUSIVE";
+}
+
 void VerifyOptions::Check(const std::string& where) const {
   if (!(tolerance_display_px > 0) || !std::isfinite(tolerance_display_px)) {
     throw Error(where, fmt::format("the tolerance is {} display px; it must be a positive number", tolerance_display_px),

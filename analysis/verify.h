@@ -71,7 +71,8 @@ struct VerifyOptions {
 // The three outcomes of the decision rule (ISO 14253-1 with the expanded uncertainty U as guard band;
 // ../shared/design/metrology.md section 2): pass when e + U <= T, fail when e - U > T, otherwise inconclusive.
 enum class Verdict { kPass, kFail, kInconclusive };
-const char* VerdictName(Verdict v);  // "pass", "fail", "inconclusive"
+const char* VerdictName(Verdict v);   // "pass", "fail", "inconclusive" (result.json)
+const char* VerdictLabel(Verdict v);  // "PASS", "FAIL", "INCONCLUSIVE" (summaries)
 
 struct FeatureCheck {
   std::string id;

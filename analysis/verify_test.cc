@@ -61,6 +61,12 @@ class VerifyTest : public ::testing::Test {
     }
   }
 
+  // Where a rendering exact for viewpoint `stated` puts each feature (a misstated viewpoint when it is not the
+  // camera's).
+  std::function<Eigen::Vector2d(const Feature&)> RenderedFor(const Eigen::Vector3d& stated) const {
+    return [this, stated](const Feature& f) { return *DisplayPxFromPattern(monitor_, stated, plane_, f.pattern_mm); };
+  }
+
   Monitor monitor_;
   Eigen::Vector3d viewpoint_;
   PatternPlane plane_;
@@ -174,8 +180,7 @@ TEST_F(VerifyTest, AFewGrossOutliersDoNotFailAGoodCorrection) {
 
 // The same photo decided at three tolerances: the tolerance decides, with the inconclusive band between.
 TEST_F(VerifyTest, TheToleranceDecidesTheVerdictWithAnInconclusiveBandAroundIt) {
-  const Eigen::Vector3d stated = viewpoint_ + Eigen::Vector3d(0, 0, 20);
-  const auto misstated = [&](const Feature& f) { return *DisplayPxFromPattern(monitor_, stated, plane_, f.pattern_mm); };
+  const auto misstated = RenderedFor(viewpoint_ + Eigen::Vector3d(0, 0, 20));
   std::vector<std::string> ids;
   std::vector<Eigen::Vector2d> px;
   Photograph(misstated, 0.1, &ids, &px, 5);
@@ -201,8 +206,7 @@ TEST_F(VerifyTest, TheToleranceDecidesTheVerdictWithAnInconclusiveBandAroundIt) 
 // The figure judged is the 95th percentile of the correction error, not its largest value: a misstated
 // viewpoint's error grows toward the screen's edges, so a tolerance between the two passes.
 TEST_F(VerifyTest, TheNinetyFifthPercentileIsJudgedNotTheLargestError) {
-  const Eigen::Vector3d stated = viewpoint_ + Eigen::Vector3d(20, 0, 0);
-  const auto misstated = [&](const Feature& f) { return *DisplayPxFromPattern(monitor_, stated, plane_, f.pattern_mm); };
+  const auto misstated = RenderedFor(viewpoint_ + Eigen::Vector3d(20, 0, 0));
   std::vector<std::string> ids;
   std::vector<Eigen::Vector2d> px;
   Photograph(misstated, 0.03, &ids, &px, 6);
@@ -283,10 +287,7 @@ TEST_F(VerifyTest, CatchesTheUncorrectedRenderingByAWideMargin) {
 TEST_F(VerifyTest, CatchesAViewpointMisstatedBy20mm) {
   // Rendered for a viewpoint 20 mm off the camera's real position, in each axis.
   for (const Eigen::Vector3d& offset : {Eigen::Vector3d(20, 0, 0), Eigen::Vector3d(0, 20, 0), Eigen::Vector3d(0, 0, 20)}) {
-    const Eigen::Vector3d stated = viewpoint_ + offset;
-    const auto misstated = [&](const Feature& f) {
-      return *DisplayPxFromPattern(monitor_, stated, plane_, f.pattern_mm);
-    };
+    const auto misstated = RenderedFor(viewpoint_ + offset);
     std::vector<std::string> ids;
     std::vector<Eigen::Vector2d> px;
     Photograph(misstated, 0.1, &ids, &px);

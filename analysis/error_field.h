@@ -39,6 +39,22 @@ struct ErrorFieldInput {
   std::vector<Eigen::Matrix2d> jacobian;     // camera px per display px at each feature (invertible)
   std::vector<Eigen::Vector2d> residual_px;  // camera px, already orthogonal to `nuisance`
   Eigen::MatrixXd nuisance;                  // 2n x k (rows 2i, 2i+1: feature i's x, y); k may be 0
+  // The detected camera px of each feature: when given (same size), the pixel-locking coefficients are fitted
+  // with the field (see above); empty: no pixel-locking term.
+  std::vector<Eigen::Vector2d> camera_px;
+};
+
+// Pixel-locking coefficients (a_x, b_x, a_y, b_y), camera px, and the bias they predict at a detected position
+// (detected - true), camera px.
+struct PixelLocking {
+  bool estimated = false;
+  Eigen::Vector4d coefficients = Eigen::Vector4d::Zero();
+  Eigen::Matrix4d covariance = Eigen::Matrix4d::Zero();
+  // Amplitude per coordinate, hypot(a, b), camera px.
+  Eigen::Vector2d Amplitude() const;
+  Eigen::Vector2d BiasAt(const Eigen::Vector2d& camera_px) const;
+  // d(bias)/d(coefficients) at a detected position (2 x 4).
+  static Eigen::Matrix<double, 2, 4> Basis(const Eigen::Vector2d& camera_px);
 };
 
 struct ErrorFieldOptions {
@@ -62,6 +78,7 @@ struct ErrorField {
   double band95_display_px = 0;             // simultaneous 95% bound (see above), selection included
   double selection_display_px = 0;          // largest change at a feature from the next level up
   double rms_sigma_display_px = 0;          // RMS over features of sqrt(trace covariance)
+  PixelLocking pixel_locking;               // fitted with the field when ErrorFieldInput::camera_px is given
 };
 
 // Throws Error when the sizes do not match or fewer than 4 features are given.

@@ -252,7 +252,8 @@ AnalysisResult AnalyzeWith(const CameraModel& camera, const std::filesystem::pat
         for (const FeatureCheck& c : pa.verification.features) {
           obs.ids.push_back(c.id);
           obs.display_px.push_back(c.display_px);
-          obs.detected_px.push_back(c.detected_px);
+          // Less the detector's pixel-locking bias the verification estimated (zero when it did not).
+          obs.detected_px.push_back(c.detected_px - c.pixel_locking_px);
         }
         pa.fit_ids = obs.ids;
         pa.fit_index = static_cast<int>(observations.size());

@@ -26,6 +26,21 @@
 // the band holds, i.e. with probability >= 95% when the model is right. The degree is itself estimated: the
 // largest change at a feature when the next level up is fitted instead is added to the band in quadrature
 // (it holds the truncation bias of a level chosen too low; measured coverage in error_field_test.cc).
+//
+// Pixel-locking. Sub-pixel estimators are pulled toward the pixel grid: the detection error is a periodic
+// function of the detected position's sub-pixel phase (peak-locking in particle image velocimetry; cornerSubPix
+// and saddle fits alike), to first order
+//     e_x = a_x sin(2 pi q_x) + b_x cos(2 pi q_x),   e_y = a_y sin(2 pi q_y) + b_y cos(2 pi q_y),
+// with q the detected camera px (integers at pixel centres). On the default synthetic camera at quarter
+// resolution this first harmonic explains 97-98% of the detection error's variance (0.047 px amplitude), and
+// the error, though it looks like noise, is correlated along the board's rows and columns (the phase beats with
+// the feature spacing): it moved the fitted radius by 2 of its sigmas. When `camera_px` is given, the four
+// coefficients are fitted jointly with the field at the chosen level (their columns beside the field's, in
+// the same least squares and sandwich covariance) and returned; the reported field, noise and band stay those
+// of the field alone (see error_field.cc for why). The phases vary fast across the features (non-integer
+// spacing), so the columns are nearly orthogonal to a smooth field; where they are not (a spacing near a whole
+// number of pixels), the minimum-norm solution leaves the common part in the field and the coefficients'
+// covariance says how little is known.
 #pragma once
 
 #include <Eigen/Core>

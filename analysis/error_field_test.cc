@@ -176,9 +176,9 @@ namespace {
 
 // Pixel-locking of a known amplitude on top of a smooth field and noise, at camera positions whose spacing is
 // not a whole number of pixels (the sub-pixel phase walks across the board, as on a real photo): the four
-// coefficients come back within 3.5 of their sigmas over 24 seeds, their sigmas match their scatter, and the field
-// is the same as on the photo without the bias.
-TEST(ErrorField, PixelLockingIsRecoveredAndLeavesTheFieldAsWithoutIt) {
+// coefficients come back within 3.5 of their sigmas over 24 seeds, their sigmas match their scatter, and the field,
+// its noise and band are those of the field alone (the term is estimated beside them, not inside them).
+TEST(ErrorField, PixelLockingIsRecoveredBesideTheField) {
   const Scene scene;
   const Eigen::Vector4d truth(0.045, -0.01, 0.04, 0.015);  // a_x, b_x, a_y, b_y, camera px
   PixelLocking expected;
@@ -197,16 +197,23 @@ TEST(ErrorField, PixelLockingIsRecoveredAndLeavesTheFieldAsWithoutIt) {
       biased.residual_px[i] += expected.BiasAt(q);
     }
     const ErrorField with = EstimateErrorField(biased), without = EstimateErrorField(clean);
+    ErrorFieldInput biased_no_positions = biased;
+    biased_no_positions.camera_px.clear();
+    const ErrorField field_alone = EstimateErrorField(biased_no_positions);
     ASSERT_TRUE(with.pixel_locking.estimated);
     for (int k = 0; k < 4; ++k) {
       const double sigma = std::sqrt(with.pixel_locking.covariance(k, k));
       ASSERT_GT(sigma, 0);
-      EXPECT_LT(sigma, 0.01) << "coefficient " << k;
+      // 168 features at 0.02 px would give 0.002 px if the columns were orthogonal to the field; along x the
+      // phase steps 0.17 cycle per column, slow enough for the chosen field to share part of it: up to 0.02.
+      EXPECT_LT(sigma, 0.025) << "coefficient " << k;
       z[k].push_back((with.pixel_locking.coefficients(k) - truth(k)) / sigma);
     }
     EXPECT_LT(without.pixel_locking.Amplitude().maxCoeff(), 0.02) << "no bias, seed " << seed;
-    EXPECT_NEAR(with.noise_px, without.noise_px, 0.1 * without.noise_px) << seed;
-    EXPECT_LT(MaxDifference(with.value, without.value), 0.5 * with.band95_display_px) << seed;
+    // The verdict's field, noise and band are those of the field alone: the term is reported, not used there.
+    EXPECT_EQ(with.noise_px, field_alone.noise_px) << seed;
+    EXPECT_EQ(MaxDifference(with.value, field_alone.value), 0) << seed;
+    EXPECT_EQ(with.band95_display_px, field_alone.band95_display_px) << seed;
   }
   for (int k = 0; k < 4; ++k) {
     double sum2 = 0;

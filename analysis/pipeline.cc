@@ -64,6 +64,17 @@ nlohmann::json VerificationJson(const Verification& v) {
     j["display_px_per_camera_px"] = Num(v.display_px_per_camera_px);
     j["field_degree"] = v.field_degree;
     j["field_outliers"] = v.field_outliers;
+    if (v.pixel_locking.estimated) {
+      const PixelLocking& pl = v.pixel_locking;
+      const Eigen::Vector4d sigma = pl.covariance.diagonal().cwiseMax(0).cwiseSqrt();
+      j["pixel_locking"] = {
+          {"model", "detected - true = a sin(2 pi q) + b cos(2 pi q) per coordinate, q the detected camera px"},
+          {"a_x_px", Num(pl.coefficients(0))}, {"b_x_px", Num(pl.coefficients(1))},
+          {"a_y_px", Num(pl.coefficients(2))}, {"b_y_px", Num(pl.coefficients(3))},
+          {"sigma_px", {Num(sigma(0)), Num(sigma(1)), Num(sigma(2)), Num(sigma(3))}},
+          {"amplitude_px", {Num(pl.Amplitude().x()), Num(pl.Amplitude().y())}},
+          {"note", "fitted with the correction-error field; removed from the detections before the screen fit"}};
+    }
     j["reason"] = v.verdict_reason;
     if (!v.advice.empty()) j["advice"] = v.advice;
   } else {
@@ -453,6 +464,7 @@ nlohmann::json ResultJson(const AnalysisResult& r, const std::string& command_li
         e["error_display_sigma_px"] = {Num(c->second->error_display_sigma_px.x()),
                                        Num(c->second->error_display_sigma_px.y())};
         if (c->second->field_outlier) e["field_outlier"] = true;
+        if (p.verification.pixel_locking.estimated) e["pixel_locking_px"] = Vec(c->second->pixel_locking_px);
         e["residual_arcmin"] = c->second->residual_arcmin;
       }
       const auto fr = fit_residual.find({p.fit_index, d.id});

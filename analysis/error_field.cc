@@ -299,6 +299,7 @@ ErrorField EstimateErrorField(const ErrorFieldInput& in, const ErrorFieldOptions
       out.pixel_locking.estimated = true;
       out.pixel_locking.coefficients = pl.coefficients.tail<4>();
       out.pixel_locking.covariance = Covariance(pl, q_nuisance, use).bottomRightCorner<4, 4>() * (pl.rss / pl.dof);
+      out.pixel_locking.noise_px = std::sqrt(pl.rss / pl.dof);
     }
   }
 

@@ -65,6 +65,9 @@ struct PixelLocking {
   bool estimated = false;
   Eigen::Vector4d coefficients = Eigen::Vector4d::Zero();
   Eigen::Matrix4d covariance = Eigen::Matrix4d::Zero();
+  // The detection noise once the term is removed: the scatter about the field and the term, camera px per
+  // coordinate (what the screen fit, which sees corrected detections, should be compared with).
+  double noise_px = 0;
   // Amplitude per coordinate, hypot(a, b), camera px.
   Eigen::Vector2d Amplitude() const;
   Eigen::Vector2d BiasAt(const Eigen::Vector2d& camera_px) const;

@@ -73,6 +73,7 @@ nlohmann::json VerificationJson(const Verification& v) {
           {"a_y_px", Num(pl.coefficients(2))}, {"b_y_px", Num(pl.coefficients(3))},
           {"sigma_px", {Num(sigma(0)), Num(sigma(1)), Num(sigma(2)), Num(sigma(3))}},
           {"amplitude_px", {Num(pl.Amplitude().x()), Num(pl.Amplitude().y())}},
+          {"noise_without_px", Num(pl.noise_px)},
           {"note", "fitted with the correction-error field; removed from the detections before the screen fit"}};
     }
     j["reason"] = v.verdict_reason;
@@ -295,8 +296,11 @@ AnalysisResult AnalyzeWith(const CameraModel& camera, const std::filesystem::pat
     if (fit_options.detection_noise_px == 0) {
       double sum = 0, weight = 0;
       for (const PhotoAnalysis& p : r.photos) {
-        if (!p.used || !(p.verification.noise_px > 0)) continue;
-        sum += p.verification.noise_px * p.verification.noise_px * static_cast<double>(p.verification.features.size());
+        // The fit sees detections less their pixel-locking: its noise is the scatter without that term.
+        const double noise =
+            p.verification.pixel_locking.estimated ? p.verification.pixel_locking.noise_px : p.verification.noise_px;
+        if (!p.used || !(noise > 0)) continue;
+        sum += noise * noise * static_cast<double>(p.verification.features.size());
         weight += static_cast<double>(p.verification.features.size());
       }
       if (weight > 0) fit_options.detection_noise_px = std::sqrt(sum / weight);

@@ -316,10 +316,14 @@ TEST(ImagingChain, PresetsAndOverrides) {
   const SyntheticScene w = LoadScene(Scenes() / "default.yaml", {"imaging.preset=webcam", "imaging.raw_bits=10"});
   EXPECT_EQ(w.imaging.raw_bits, 10);
   EXPECT_EQ(w.imaging.full_well_e, 8000);
+  EXPECT_EQ(LoadScene(Scenes() / "default.yaml", {"imaging.jpeg_quality=0"}).imaging.jpeg_quality, 0);
+  EXPECT_EQ(LoadScene(Scenes() / "default.yaml", {"imaging.jpeg_quality=off"}).imaging.jpeg_quality, 0);
   EXPECT_THAT(curvecheck::testing::MessageOf([&] { LoadScene(Scenes() / "default.yaml", {"imaging.preset=dslr"}); }),
               ::testing::HasSubstr("is not one of clean, phone, ilc24, webcam"));
   EXPECT_THAT(curvecheck::testing::MessageOf([&] { LoadScene(Scenes() / "default.yaml", {"imaging.raw_bits=20"}); }),
               ::testing::HasSubstr("raw_bits"));
+  EXPECT_THAT(curvecheck::testing::MessageOf([&] { LoadScene(Scenes() / "default.yaml", {"imaging.jpeg_quality=101"}); }),
+              ::testing::HasSubstr("give a whole number 1..100"));
 }
 
 // The whole chain: a colour 8-bit photo; PhotoToMat is the gray that ReadPhotoGray would make of the written

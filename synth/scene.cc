@@ -200,7 +200,15 @@ void ReadImaging(const ConfigMap& m, Imaging* imaging) {
   if (m.Has("prnu")) g.prnu = m.Number("prnu");
   if (m.Has("raw_bits")) g.raw_bits = m.PositiveInt("raw_bits");
   if (m.Has("tone")) g.tone = static_cast<ToneCurve>(Choice(m, "tone", {"srgb", "linear"}));
-  if (m.Has("jpeg_quality")) g.jpeg_quality = m.IsWord("jpeg_quality", "off") ? 0 : m.PositiveInt("jpeg_quality");
+  if (m.Has("jpeg_quality") && !m.IsWord("jpeg_quality", "off")) {
+    const double q = m.Number("jpeg_quality");
+    if (!(q >= 0 && q <= 100 && q == std::floor(q))) {
+      m.Fail("jpeg_quality", fmt::format("is {}", q), "give a whole number 1..100, or 0 / off for no JPEG");
+    }
+    g.jpeg_quality = static_cast<int>(q);
+  } else if (m.Has("jpeg_quality")) {
+    g.jpeg_quality = 0;
+  }
   if (m.Has("blur_px")) g.blur_px = m.Number("blur_px");
   if (m.Has("f_number")) g.f_number = m.Number("f_number");
   if (m.Has("focus_mm")) g.focus_mm = m.IsWord("focus_mm", "auto") ? 0.0 : m.PositiveNumber("focus_mm");
@@ -224,7 +232,6 @@ void ReadImaging(const ConfigMap& m, Imaging* imaging) {
   if (g.read_noise_e < 0) m.Fail("read_noise_e", "is below zero", "give 0 or more electrons");
   if (!(g.prnu >= 0 && g.prnu < 0.2)) m.Fail("prnu", fmt::format("is {}", g.prnu), "give a fraction 0..0.2");
   if (g.raw_bits < 8 || g.raw_bits > 16) m.Fail("raw_bits", "is not within 8..16", "give the ADC's bits");
-  if (g.jpeg_quality > 100) m.Fail("jpeg_quality", "is above 100", "give 1..100, or 0 / off for no JPEG");
   if (g.blur_px < 0) m.Fail("blur_px", "is below zero", "give the optics' Gaussian sigma, 0 or more px");
   if (g.f_number < 0) m.Fail("f_number", "is below zero", "give the f-number, or 0 for no defocus");
   if (!(g.glare >= 0 && g.glare < 1)) m.Fail("glare", fmt::format("is {}", g.glare), "give a fraction 0..1");

@@ -32,7 +32,10 @@ struct SynthArgs {
 
 int RunSynth(const SynthArgs& a) {
   const fs::path out = a.output;
-  if (out.extension() != ".png") throw Error("-o", fmt::format("'{}' does not end in .png", a.output), "write e.g. -o photo.png");
+  if (out.extension() != ".png" && out.extension() != ".jpg") {
+    throw Error("-o", fmt::format("'{}' does not end in .png or .jpg", a.output),
+                "write e.g. -o photo.png (or photo.jpg: the realistic chain's JPEG itself)");
+  }
   const fs::path truth_path = fs::path(out).replace_extension(".truth.json");
   CheckNotAnInput(out, {a.scene, a.display});
   CheckNotAnInput(truth_path, {a.scene, a.display});
@@ -85,7 +88,9 @@ void AddCaptureSynthCommand(CLI::App& capture, std::function<int()>& run) {
   cmd->add_option("--scene", args->scene, "Scene YAML (datasets/scenes/)")->required();
   cmd->add_option("--display", args->display, "The pattern PNG shown on the display (its .json beside it)")
       ->required();
-  cmd->add_option("-o,--output", args->output, "Output photo (PNG)")->required();
+  cmd->add_option("-o,--output", args->output,
+                  "Output photo: PNG (gray or colour), or .jpg for the realistic chain's JPEG itself")
+      ->required();
   cmd->add_option("--ray-grid-px", args->ray_grid_px, "Spacing of the unprojection grid, px")->capture_default_str();
   cmd->add_option("--set", args->overrides,
                   "Override a scene field, KEY=VALUE with a dotted key (repeatable), e.g. --set optics.blur=none "

@@ -50,10 +50,26 @@ void ReadTrueMonitor(const ConfigMap& t, const Monitor& nominal, TrueMonitor* tr
   check.Check(t.source() + " (true_monitor)");
 }
 
+// The index of the word `key` holds among `words` (compared without case); Fail lists them otherwise.
+int Choice(const ConfigMap& c, const std::string& key, std::initializer_list<const char*> words) {
+  int i = 0;
+  std::string all;
+  for (const char* w : words) {
+    if (c.IsWord(key, w)) return i;
+    all += (i++ ? ", " : "") + std::string(w);
+  }
+  c.Fail(key, "is not one of " + all, "choose one");
+}
+
 void ReadDisplay(const ConfigMap& d, DisplayModel* display) {
-  d.RejectUnknownKeys({"fill_factor", "rgb_stripes", "gamma", "black", "bezel_mm", "bezel", "room"});
+  d.RejectUnknownKeys({"fill_factor", "rgb_stripes", "layout", "gamma", "black", "bezel_mm", "bezel", "room"});
   if (d.Has("fill_factor")) display->fill_factor = d.PositiveNumber("fill_factor");
   if (d.Has("rgb_stripes")) display->rgb_stripes = d.IsWord("rgb_stripes", "true");
+  if (d.Has("layout")) {
+    const int layout = Choice(d, "layout", {"rgb", "bgr", "none"});
+    display->rgb_stripes = layout != 2;
+    display->stripes_bgr = layout == 1;
+  }
   if (d.Has("gamma")) display->gamma = d.PositiveNumber("gamma");
   if (d.Has("black")) display->black = d.Number("black");
   if (d.Has("bezel_mm")) display->bezel_mm = d.Number("bezel_mm");
@@ -74,6 +90,48 @@ const char* BlurName(Blur blur) {
     case Blur::kDisc: return "disc";
   }
   return "none";
+}
+
+const char* ImagingPresetName(ImagingPreset preset) {
+  switch (preset) {
+    case ImagingPreset::kClean: return "clean";
+    case ImagingPreset::kPhone: return "phone";
+    case ImagingPreset::kIlc24: return "ilc24";
+    case ImagingPreset::kWebcam: return "webcam";
+  }
+  return "clean";
+}
+
+Imaging ImagingFromPreset(ImagingPreset preset) {
+  Imaging g;  // the defaults are ilc24's
+  g.preset = preset;
+  switch (preset) {
+    case ImagingPreset::kClean:
+    case ImagingPreset::kIlc24:
+      break;
+    case ImagingPreset::kPhone:  // 4080 x 3072 binned, 2.4 um, f/1.8; vignetting after the ISP's shading
+      g.full_well_e = 12000;
+      g.read_noise_e = 1;
+      g.raw_bits = 10;
+      g.jpeg_quality = 95;
+      g.blur_px = 0.55;
+      g.f_number = 1.8;
+      g.pixel_pitch_um = 2.4;
+      g.vignetting_ev = 0.5;
+      break;
+    case ImagingPreset::kWebcam:  // C920 class: 1080p MJPEG, bilinear demosaic, 8-bit
+      g.full_well_e = 8000;
+      g.read_noise_e = 6;
+      g.raw_bits = 8;
+      g.jpeg_quality = 85;
+      g.blur_px = 0.8;
+      g.f_number = 2.4;
+      g.pixel_pitch_um = 2.7;
+      g.demosaic = Demosaic::kBilinear;
+      g.vignetting_ev = 0.7;
+      break;
+  }
+  return g;
 }
 
 namespace {
@@ -123,6 +181,63 @@ void ReadSensor(const ConfigMap& n, Sensor* sensor) {
   }
   if (n.Has("bits")) sensor->bits = n.PositiveInt("bits");
   if (sensor->bits != 8 && sensor->bits != 16) n.Fail("bits", "is not 8 or 16", "choose 8 or 16");
+}
+
+void ReadImaging(const ConfigMap& m, Imaging* imaging) {
+  m.RejectUnknownKeys({"preset", "cfa", "demosaic", "full_well_e", "read_noise_e", "prnu", "raw_bits", "tone",
+                       "jpeg_quality", "blur_px", "f_number", "focus_mm", "pixel_pitch_um", "panel", "glare",
+                       "reflection", "vignetting_ev", "vignetting_model", "exposure"});
+  // The preset first, then the keys that override it; keys without a preset override ilc24 (the realistic
+  // default).
+  ImagingPreset preset = ImagingPreset::kIlc24;
+  if (m.Has("preset")) preset = static_cast<ImagingPreset>(Choice(m, "preset", {"clean", "phone", "ilc24", "webcam"}));
+  *imaging = ImagingFromPreset(preset);
+  Imaging& g = *imaging;
+  if (m.Has("cfa")) g.cfa = static_cast<ColourFilter>(Choice(m, "cfa", {"rggb", "none"}));
+  if (m.Has("demosaic")) g.demosaic = static_cast<Demosaic>(Choice(m, "demosaic", {"bilinear", "vng", "ea"}));
+  if (m.Has("full_well_e")) g.full_well_e = m.PositiveNumber("full_well_e");
+  if (m.Has("read_noise_e")) g.read_noise_e = m.Number("read_noise_e");
+  if (m.Has("prnu")) g.prnu = m.Number("prnu");
+  if (m.Has("raw_bits")) g.raw_bits = m.PositiveInt("raw_bits");
+  if (m.Has("tone")) g.tone = static_cast<ToneCurve>(Choice(m, "tone", {"srgb", "linear"}));
+  if (m.Has("jpeg_quality") && !m.IsWord("jpeg_quality", "off")) {
+    const double q = m.Number("jpeg_quality");
+    if (!(q >= 0 && q <= 100 && q == std::floor(q))) {
+      m.Fail("jpeg_quality", fmt::format("is {}", q), "give a whole number 1..100, or 0 / off for no JPEG");
+    }
+    g.jpeg_quality = static_cast<int>(q);
+  } else if (m.Has("jpeg_quality")) {
+    g.jpeg_quality = 0;
+  }
+  if (m.Has("blur_px")) g.blur_px = m.Number("blur_px");
+  if (m.Has("f_number")) g.f_number = m.Number("f_number");
+  if (m.Has("focus_mm")) g.focus_mm = m.IsWord("focus_mm", "auto") ? 0.0 : m.PositiveNumber("focus_mm");
+  if (m.Has("pixel_pitch_um")) g.pixel_pitch_um = m.PositiveNumber("pixel_pitch_um");
+  if (m.Has("panel")) g.panel = static_cast<PanelAngular>(Choice(m, "panel", {"none", "ips", "va", "oled"}));
+  if (m.Has("glare")) g.glare = m.Number("glare");
+  if (m.Has("reflection")) {
+    const ConfigMap r = m.Map("reflection");
+    r.RejectUnknownKeys({"u", "v", "sigma_mm", "strength"});
+    if (r.Has("u")) g.reflection.u = r.Number("u");
+    if (r.Has("v")) g.reflection.v = r.Number("v");
+    if (r.Has("sigma_mm")) g.reflection.sigma_mm = r.PositiveNumber("sigma_mm");
+    if (r.Has("strength")) g.reflection.strength = r.Number("strength");
+    if (g.reflection.strength < 0) r.Fail("strength", "is below zero", "give 0 (none) or more, relative to white");
+  }
+  if (m.Has("vignetting_ev")) g.vignetting_ev = m.Number("vignetting_ev");
+  if (m.Has("vignetting_model")) {
+    g.vignetting_model = static_cast<VignettingModel>(Choice(m, "vignetting_model", {"cos4", "quadratic"}));
+  }
+  if (m.Has("exposure")) g.exposure = m.PositiveNumber("exposure");
+  if (g.read_noise_e < 0) m.Fail("read_noise_e", "is below zero", "give 0 or more electrons");
+  if (!(g.prnu >= 0 && g.prnu < 0.2)) m.Fail("prnu", fmt::format("is {}", g.prnu), "give a fraction 0..0.2");
+  if (g.raw_bits < 8 || g.raw_bits > 16) m.Fail("raw_bits", "is not within 8..16", "give the ADC's bits");
+  if (g.blur_px < 0) m.Fail("blur_px", "is below zero", "give the optics' Gaussian sigma, 0 or more px");
+  if (g.f_number < 0) m.Fail("f_number", "is below zero", "give the f-number, or 0 for no defocus");
+  if (!(g.glare >= 0 && g.glare < 1)) m.Fail("glare", fmt::format("is {}", g.glare), "give a fraction 0..1");
+  if (!(g.vignetting_ev >= 0 && g.vignetting_ev <= 4)) {
+    m.Fail("vignetting_ev", fmt::format("is {}", g.vignetting_ev), "give the corner light loss, 0..4 EV");
+  }
 }
 
 // Applies one "dotted.key=value" override to the YAML document `root` (read from `path`, named in errors).
@@ -175,7 +290,8 @@ namespace {
 // is a preset name or a path as given, and `read_camera` reads the camera model it names.
 SyntheticScene ReadScene(const ConfigMap& c, const std::filesystem::path* scene_dir,
                          const std::function<CameraModel(const std::string& model)>& read_camera) {
-  c.RejectUnknownKeys({"format", "name", "monitor", "camera", "true_monitor", "display", "optics", "sensor"});
+  c.RejectUnknownKeys(
+      {"format", "name", "monitor", "camera", "true_monitor", "display", "optics", "sensor", "imaging"});
   if (c.Has("format") && c.String("format") != "curvecheck.scene/1") {
     c.Fail("format", "is not 'curvecheck.scene/1'", "this version reads curvecheck.scene/1");
   }
@@ -202,6 +318,7 @@ SyntheticScene ReadScene(const ConfigMap& c, const std::filesystem::path* scene_
   if (c.Has("display")) ReadDisplay(c.Map("display"), &s.display);
   if (c.Has("optics")) ReadOptics(c.Map("optics"), &s.optics);
   if (c.Has("sensor")) ReadSensor(c.Map("sensor"), &s.sensor);
+  if (c.Has("imaging")) ReadImaging(c.Map("imaging"), &s.imaging);
   CheckViewpoint(s.monitor, s.screen_from_cam.translation, c.source() + " (camera.position_mm)");
   return s;
 }

@@ -19,9 +19,12 @@ namespace curvecheck {
 
 class ConfigMap;
 
+// Scene key display.layout: rgb | bgr | none sets rgb_stripes and stripes_bgr (none = the whole pixel emits its
+// colour); the older key rgb_stripes: true | false is still read.
 struct DisplayModel {
   double fill_factor = 0.85;  // emitting fraction of a pixel along each axis (or of each stripe)
-  bool rgb_stripes = true;    // three vertical sub-pixels R, G, B
+  bool rgb_stripes = true;    // three vertical sub-pixels, R, G, B left to right
+  bool stripes_bgr = false;   // the stripes in the order B, G, R (some panels)
   double gamma = 2.2;         // code value -> linear light
   double black = 0.002;       // light of a black pixel, relative to white
   double bezel_mm = 8;        // frame width around the active area
@@ -51,6 +54,57 @@ struct Sensor {
   int bits = 8;                // 8 or 16
 };
 
+// The imaging chain (scene key imaging.preset). kClean: the monochrome chain of Optics and Sensor (linear light,
+// Gaussian or disc blur, quadratic vignetting, Poisson-Gaussian noise, 8 or 16 bit gray): the unit tests' mode.
+// The others are the realistic colour chain of Imaging with the numbers of a camera class
+// (shared/design/cameras.md; [E] values there are estimates, exposed as defaults).
+enum class ImagingPreset { kClean, kPhone, kIlc24, kWebcam };
+const char* ImagingPresetName(ImagingPreset preset);  // "clean", "phone", "ilc24", "webcam"
+
+enum class ColourFilter { kRggb, kNone };               // imaging.cfa: rggb | none (a value of R, G, B per px)
+enum class Demosaic { kBilinear, kVng, kEdgeAware };    // imaging.demosaic: bilinear | vng | ea (OpenCV's)
+enum class ToneCurve { kSrgb, kLinear };                // imaging.tone: srgb | linear
+enum class PanelAngular { kNone, kIps, kVa, kOled };    // imaging.panel: none | ips | va | oled
+enum class VignettingModel { kCos4, kQuadratic };       // imaging.vignetting_model: cos4 | quadratic
+
+// The realistic colour chain (synth/imaging.h has the formulas): trace R, G, B (the display's stripes through
+// the camera's colour filters, ideal and white-balanced), the panel's luminance against viewing angle, a
+// reflection on the screen, veiling glare, the optics' Gaussian combined with depth-dependent defocus,
+// vignetting, exposure, electrons per raw site (PRNU, shot, read noise, full-well clipping), gain and raw
+// quantization, demosaicing, tone curve, 8-bit colour, JPEG. Shared with the clean chain: optics.supersample,
+// sensor.seed and sensor.noise; the clean chain's optics.blur/blur_px/vignetting/exposure and sensor.gamma/
+// full_well_e/read_noise_e/bits do not act here (the output is 8-bit colour).
+struct Imaging {
+  ImagingPreset preset = ImagingPreset::kClean;
+  ColourFilter cfa = ColourFilter::kRggb;
+  Demosaic demosaic = Demosaic::kEdgeAware;
+  double full_well_e = 45000;  // electrons at saturation per raw site
+  double read_noise_e = 4.5;   // electrons RMS per raw site
+  double prnu = 0.007;         // photo-response non-uniformity: relative gain sigma, fixed per sensor.seed
+  int raw_bits = 14;           // ADC depth, 8..16; full well = 2^bits - 1 DN (VNG demosaics an 8-bit copy)
+  ToneCurve tone = ToneCurve::kSrgb;
+  int jpeg_quality = 92;       // 1..100, 0 = no JPEG (OpenCV/libjpeg: 4:2:0 chroma subsampling)
+  double blur_px = 0.65;       // Gaussian sigma of the optics in focus (diffraction + lens + AA filter), camera px
+  double f_number = 5.6;       // 0 = no defocus (pinhole)
+  double focus_mm = 0;         // focus distance along the optical axis, mm; 0 = auto (the depth at the image centre)
+  double pixel_pitch_um = 3.92;  // sensor pixel pitch: focal length mm = fx * pitch (defocus)
+  PanelAngular panel = PanelAngular::kIps;
+  double glare = 0.005;        // veiling glare: this fraction of the image's mean radiance added everywhere
+  struct Reflection {
+    double u = 0, v = 0;       // centre on the screen, surface coordinates (-1..1)
+    double sigma_mm = 100;     // Gaussian radius along the surface, mm
+    double strength = 0;       // peak radiance added, relative to a full white display pixel; 0 = none
+  } reflection;
+  double vignetting_ev = 0.3;  // light loss at the image corner, EV (stops)
+  VignettingModel vignetting_model = VignettingModel::kCos4;
+  double exposure = 0.9;       // white display -> this fraction of the full well (above 1: whites clip)
+};
+
+// The preset's numbers (cameras.md): phone (f/1.8, 12k e, 1 e, 10 bit, q95, blur 0.55 px), ilc24 (f/5.6, 45k e,
+// 4.5 e, 14 bit, q92, blur 0.65 px), webcam (f/2.4, 8k e, 6 e, 8 bit, q85, blur 0.8 px, bilinear); clean:
+// the struct's defaults with preset kClean.
+Imaging ImagingFromPreset(ImagingPreset preset);
+
 struct SyntheticScene {
   Monitor monitor;  // nominal
   TrueMonitor truth;
@@ -61,6 +115,7 @@ struct SyntheticScene {
   DisplayModel display;
   Optics optics;
   Sensor sensor;
+  Imaging imaging;  // preset kClean: the monochrome chain of optics and sensor
 };
 
 // Reads a scene (format curvecheck.scene/1); relative paths (the camera model) are relative to the scene file.
@@ -69,6 +124,10 @@ struct SyntheticScene {
 //   true_monitor: { radius_mm: R | flat, translation_mm, rotation_deg, lean_deg, bumps: [{u, v, sigma_u,
 //                   sigma_v, height_mm}] }      all optional; default: the nominal monitor
 //   display / optics / sensor: the fields of DisplayModel / Optics / Sensor, all optional
+//   imaging: { preset: clean | phone | ilc24 | webcam, then any field of Imaging to override the preset's:
+//              cfa, demosaic, full_well_e, read_noise_e, prnu, raw_bits, tone, jpeg_quality, blur_px, f_number,
+//              focus_mm, pixel_pitch_um, panel, glare, reflection: {u, v, sigma_mm, strength}, vignetting_ev,
+//              vignetting_model, exposure }       optional; default clean (a key without a preset: ilc24's)
 SyntheticScene SceneFromConfig(const ConfigMap& config, const std::filesystem::path& scene_dir);
 // As above, for a scene that is in no folder (the embedded datasets: experiments/scene_lookup.h): the monitor is a
 // preset name (or a path as given), and `read_camera(model)` reads the camera model the scene names (camera.model

@@ -142,11 +142,7 @@ SyntheticBoardSet MakeSyntheticBoardSet(const SyntheticBoardOptions& o) {
         for (const auto& f : tc["features"]) v.corners_px.emplace_back(f["image_px"][0].get<double>(), f["image_px"][1].get<double>());
         scene.sensor.seed = o.seed * 1000 + static_cast<uint64_t>(k);
         const SyntheticPhoto photo = RenderSyntheticPhoto(scene, display);
-        v.photo = cv::Mat(photo.height, photo.width, CV_8UC1);
-        const double scale = photo.bits == 16 ? 255.0 / 65535.0 : 1.0;
-        for (int i = 0; i < photo.height * photo.width; ++i) {
-          v.photo.data[i] = static_cast<uint8_t>(std::lround(photo.pixels[static_cast<size_t>(i)] * scale));
-        }
+        PhotoToMat(photo).convertTo(v.photo, CV_8U, photo.bits == 16 ? 255.0 / 65535.0 : 1.0);
         set.views.push_back(std::move(v));
       }
     }

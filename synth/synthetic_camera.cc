@@ -2,10 +2,15 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
+#include <cmath>
 #include <ctime>
+#include <opencv2/imgproc.hpp>
 
 #include "core/error.h"
+#include "core/file_io.h"
 #include "core/stopwatch.h"
+#include "synth/imaging.h"
 #include "synth/parallel_rows.h"
 #include "synth/sensor.h"
 #include "synth/tracer.h"
@@ -38,6 +43,54 @@ class StageTimer {
 
 }  // namespace
 
+namespace {
+
+// The realistic colour chain (synthetic_camera.h; the stages in imaging.h) after the ray table.
+void RenderColour(const SyntheticScene& s, const Image8& display, const RayGrid& rays, StageTimer* timer,
+                  SyntheticPhoto* photo) {
+  using namespace synth_internal;
+  const Imaging& g = s.imaging;
+  PhotoTiming& timing = photo->timing;
+  ColourTrace trace = TraceColour(s, display, rays);
+  timing.refined_rays = trace.refined_rays;
+  timer->Lap(&timing.trace_ms, &timing.trace_cpu_ms);
+
+  // Optics: glare, then the Gaussian of the optics combined with the defocus at each pixel's depth. Auto focus:
+  // the depth at the image centre (the screen there), else the distance to the screen centre.
+  AddVeilingGlare(g.glare, &trace.radiance);
+  double focus_mm = g.focus_mm;
+  if (focus_mm <= 0) {
+    const float centre = trace.depth_mm.at<float>(trace.depth_mm.rows / 2, trace.depth_mm.cols / 2);
+    focus_mm = std::isfinite(centre) ? centre : s.screen_from_cam.translation.norm();
+  }
+  const double focal_mm = FocalLengthMm(s.camera, g);
+  cv::Mat sigma(trace.depth_mm.size(), CV_32F);
+  ParallelRows(sigma.rows, [&](int y) {
+    const float* d = trace.depth_mm.ptr<float>(y);
+    float* out = sigma.ptr<float>(y);
+    for (int x = 0; x < sigma.cols; ++x) {
+      const double defocus = DefocusSigmaPx(d[x], focus_mm, focal_mm, g.f_number, g.pixel_pitch_um);
+      out[x] = static_cast<float>(std::sqrt(g.blur_px * g.blur_px + defocus * defocus));
+    }
+  });
+  photo->defocus_levels = BlurBySigmaMap(sigma, &trace.radiance);
+  timer->Lap(&timing.optics_ms, &timing.optics_cpu_ms);
+
+  const cv::Mat raw = ExposeRaw(g, s.sensor, trace.radiance);
+  trace.radiance.release();
+  cv::Mat bgr8 = ToneMap8(DemosaicRaw(raw, g), g.raw_bits, g.tone);
+  if (g.jpeg_quality > 0) {
+    photo->jpeg = EncodeJpeg(bgr8, g.jpeg_quality);
+    bgr8 = DecodeJpeg(photo->jpeg);
+  }
+  photo->bits = 8;
+  photo->channels = 3;
+  photo->pixels.assign(bgr8.data, bgr8.data + bgr8.total() * 3);
+  timer->Lap(&timing.sensor_ms, &timing.sensor_cpu_ms);
+}
+
+}  // namespace
+
 SyntheticPhoto RenderSyntheticPhoto(const SyntheticScene& s, const Image8& display, double ray_grid_px) {
   if (display.width != s.monitor.width_px || display.height != s.monitor.height_px) {
     throw Error("display image",
@@ -54,9 +107,13 @@ SyntheticPhoto RenderSyntheticPhoto(const SyntheticScene& s, const Image8& displ
   StageTimer timer;
   const std::shared_ptr<const RayGrid> rays = SharedRayGrid(s.camera, ray_grid_px, &timing.rays_cached);
   timer.Lap(&timing.rays_ms, &timing.rays_cpu_ms);
+  timing.rays = static_cast<int64_t>(photo.width) * photo.height * s.optics.supersample * s.optics.supersample;
+  if (s.imaging.preset != ImagingPreset::kClean) {
+    RenderColour(s, display, *rays, &timer, &photo);
+    return photo;
+  }
 
   cv::Mat radiance = synth_internal::TraceRadiance(s, display, *rays, &timing.refined_rays);
-  timing.rays = static_cast<int64_t>(photo.width) * photo.height * s.optics.supersample * s.optics.supersample;
   timer.Lap(&timing.trace_ms, &timing.trace_cpu_ms);
 
   synth_internal::BlurRadiance(s.optics, &radiance);
@@ -67,22 +124,37 @@ SyntheticPhoto RenderSyntheticPhoto(const SyntheticScene& s, const Image8& displ
   return photo;
 }
 
-cv::Mat PhotoToMat(const SyntheticPhoto& photo) {
-  cv::Mat image(photo.height, photo.width, photo.bits == 8 ? CV_8U : CV_16U);
-  for (size_t i = 0; i < photo.pixels.size(); ++i) {
-    if (photo.bits == 8) {
-      image.data[i] = static_cast<uint8_t>(photo.pixels[i]);
-    } else {
-      image.ptr<uint16_t>(0)[i] = photo.pixels[i];
-    }
+cv::Mat PhotoToStoredMat(const SyntheticPhoto& photo) {
+  cv::Mat image(photo.height, photo.width, CV_MAKETYPE(photo.bits == 8 ? CV_8U : CV_16U, photo.channels));
+  const size_t n = photo.pixels.size();
+  if (photo.bits == 8) {
+    for (size_t i = 0; i < n; ++i) image.data[i] = static_cast<uint8_t>(photo.pixels[i]);
+  } else {
+    std::copy(photo.pixels.begin(), photo.pixels.end(), image.ptr<uint16_t>(0));
   }
   return image;
 }
 
+cv::Mat PhotoToMat(const SyntheticPhoto& photo) {
+  cv::Mat image = PhotoToStoredMat(photo);
+  if (photo.channels == 3) cv::cvtColor(image, image, cv::COLOR_BGR2GRAY);
+  return image;
+}
+
 void WriteSyntheticPhoto(const std::filesystem::path& path, const SyntheticPhoto& photo) {
+  std::string ext = path.extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
+  if (ext == ".jpg" || ext == ".jpeg") {
+    if (photo.jpeg.empty()) {
+      throw Error(path.string(), "the photo has no JPEG (clean chain, or imaging.jpeg_quality 0)",
+                  "write a .png, or give a realistic imaging preset with a JPEG quality");
+    }
+    WriteFileAtomic(path, std::string(photo.jpeg.begin(), photo.jpeg.end()));
+    return;
+  }
   if (photo.bits == 8) {
     std::vector<uint8_t> bytes(photo.pixels.begin(), photo.pixels.end());
-    WritePng8(path, photo.width, photo.height, 1, bytes.data());
+    WritePng8(path, photo.width, photo.height, photo.channels, bytes.data());
   } else {
     WritePng16(path, photo.width, photo.height, photo.pixels.data());
   }

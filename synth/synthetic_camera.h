@@ -10,9 +10,15 @@
 // stays upright) and refined by fixed-point steps onto the deviated surface where a bump reaches.
 //
 // Radiometry. The display is physical pixels: nearest pixel of the display image, emitting over a fill factor
-// of each pixel, optionally as three vertical RGB stripes (a monochrome sensor weights them by Rec. 709 luma),
-// display gamma, black level, a bezel and a dim room. Then supersampling, Gaussian or disc blur, vignetting,
-// exposure, Poisson-Gaussian noise (seeded), sensor gamma and 8- or 16-bit quantization.
+// of each pixel, optionally as three vertical RGB (or BGR) stripes, display gamma, black level, a bezel and a dim
+// room. Two chains follow (scene.imaging.preset):
+// - clean (the unit tests' mode): a monochrome sensor (the stripes weighted by Rec. 709 luma), supersampling,
+//   Gaussian or disc blur, quadratic vignetting, exposure, Poisson-Gaussian noise (seeded), sensor gamma and
+//   8- or 16-bit gray;
+// - realistic (phone, ilc24, webcam: Imaging in synth/scene.h): R, G, B per ray (one intersection), the panel's
+//   luminance against viewing angle, a reflection, veiling glare, the optics' Gaussian with per-pixel defocus
+//   from the traced depth, vignetting, exposure, a Bayer RGGB raw in electrons (PRNU, shot and read noise,
+//   full-well clipping, ADC bits), demosaicing, tone curve, 8-bit colour and JPEG.
 //
 // This header is the entry point; it includes the public pieces:
 //   synth/scene.h        SyntheticScene (display, optics, sensor), the scene reader LoadScene / SceneFromConfig
@@ -20,8 +26,8 @@
 //   synth/ray_grid.h     RayGrid, SharedRayGrid (the lens's rays, precomputed)
 //   synth/truth_json.h   TruthJson (truth.json)
 // The stages of RenderSyntheticPhoto are internal (namespace synth_internal): true_surface.h (ray against the
-// true surface), tracer.h (display sampling, supersampled), sensor.h (blur, vignetting, exposure, noise,
-// quantization), parallel_rows.h.
+// true surface), tracer.h (display sampling, supersampled), sensor.h (the clean chain's blur, vignetting,
+// exposure, noise, quantization), imaging.h (the realistic chain's stages), random.h, parallel_rows.h.
 #pragma once
 
 #include <cstdint>
@@ -58,7 +64,10 @@ struct PhotoTiming {
 
 struct SyntheticPhoto {
   int width = 0, height = 0, bits = 8;
-  std::vector<uint16_t> pixels;  // row-major code values (0..255 or 0..65535)
+  int channels = 1;              // 1 gray (clean chain), 3 colour B, G, R (realistic chain, 8 bit)
+  std::vector<uint16_t> pixels;  // row-major code values (0..255 or 0..65535), channels interleaved
+  std::vector<uint8_t> jpeg;     // the JPEG the pixels were decoded from (realistic chain with a JPEG quality)
+  int defocus_levels = 0;        // blur levels blended for the defocus (realistic chain; imaging.h)
   PhotoTiming timing;
 };
 
@@ -67,10 +76,16 @@ struct SyntheticPhoto {
 // does not match the monitor.
 SyntheticPhoto RenderSyntheticPhoto(const SyntheticScene& scene, const Image8& display, double ray_grid_px = 16);
 
-// Writes the photo as PNG (8 or 16 bit gray), atomically.
+// Writes the photo, atomically: as PNG (8 or 16 bit gray, or 8-bit colour; a JPEG-compressed photo's decoded
+// pixels, artefacts included), or, for a path ending in .jpg or .jpeg, the photo's JPEG itself (Error if the
+// photo has none: imaging.jpeg_quality 0 or the clean chain).
 void WriteSyntheticPhoto(const std::filesystem::path& path, const SyntheticPhoto& photo);
 
-// The photo as an OpenCV image, CV_8U or CV_16U by its bit depth (what the detectors take).
+// The photo as the detectors take it, CV_8U or CV_16U by its bit depth, one channel: a colour photo is turned
+// to gray by cv::cvtColor(COLOR_BGR2GRAY), as detect/ReadPhotoGray does with a colour file, so the photo in
+// memory and the photo written and read back are detected alike.
 cv::Mat PhotoToMat(const SyntheticPhoto& photo);
+// The photo as stored: CV_8UC3 (B, G, R) for colour, else as PhotoToMat.
+cv::Mat PhotoToStoredMat(const SyntheticPhoto& photo);
 
 }  // namespace curvecheck

@@ -66,7 +66,8 @@ SurfaceIntersector::SurfaceIntersector(const SyntheticScene& s, double max_abs_v
   }
 }
 
-bool SurfaceIntersector::Intersect(const Eigen::Vector3d& d, int64_t* refined, double* u_out, double* v_out) const {
+bool SurfaceIntersector::Intersect(const Eigen::Vector3d& d, int64_t* refined, double* u_out, double* v_out,
+                                   HitGeometry* hit) const {
   double t;
   if (k_ == 0) {
     if (!(d.z() < 0)) return false;
@@ -110,6 +111,15 @@ bool SurfaceIntersector::Intersect(const Eigen::Vector3d& d, int64_t* refined, d
       Refine(d, sin_phi, cos_phi, &u, &v);
       break;
     }
+  }
+  if (hit) {
+    // The angle in the true centre frame (the upright frame's shear does not keep angles): the leaned normal
+    // (TrueGeometry::Normal) against the ray's direction there.
+    const Eigen::Vector3d d_true = geometry_.shear * d;
+    const double cl = geometry_.cos_l, sl = geometry_.sin_l;
+    const Eigen::Vector3d n(-sin_phi * cl, -cos_phi * sl, cos_phi * cl);
+    hit->t = t;
+    hit->cos_incidence = std::abs(n.dot(d_true)) / std::sqrt(n.squaredNorm() * d_true.squaredNorm());
   }
   *u_out = u;
   *v_out = v;

@@ -58,6 +58,12 @@ struct TrueGeometry {
 // bump reaches, the hit is refined onto the deviated surface.
 class SurfaceIntersector {
  public:
+  // What the colour chain needs of a hit besides (u, v).
+  struct HitGeometry {
+    double t = 0;              // the ray parameter: the depth along the optical axis (mm) when d's camera z is 1
+    double cos_incidence = 1;  // cosine of the angle between the ray and the base surface's normal there
+  };
+
   // `max_abs_v`: rays that land beyond |v| > max_abs_v on the base surface, where no bump can move them, are
   // reported as misses without computing their u (the tracer passes the bezel's outer edge).
   SurfaceIntersector(const SyntheticScene& scene, double max_abs_v);
@@ -69,8 +75,10 @@ class SurfaceIntersector {
 
   // Where the ray o + t d (o the camera, d in the upright frame) meets the true surface at t > 0, the side the
   // viewer sees: true with the surface coordinates (u, v) (any value; -1..1 is the display), false on a miss.
-  // `refined` counts the rays refined onto the deviation field.
-  bool Intersect(const Eigen::Vector3d& d, int64_t* refined, double* u, double* v) const;
+  // `refined` counts the rays refined onto the deviation field. `geometry` (optional) receives the hit's depth and
+  // incidence (the normal of the base surface, leaned; a bump's slope is left out).
+  bool Intersect(const Eigen::Vector3d& d, int64_t* refined, double* u, double* v,
+                 HitGeometry* geometry = nullptr) const;
 
  private:
   // Moves (u, v) from the base surface onto the deviated one (see the definition).

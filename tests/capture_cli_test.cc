@@ -208,7 +208,8 @@ CornerCheck DetectAgainstTruth(const fs::path& photo, const nlohmann::json& trut
 }
 
 // Every scene of datasets/scenes through the real `capture synth` (issue 4, "Done when"), in a reduced variant:
-// half the imager (--scale 0.5, lens scaled), no blur, no noise, a display of uniform square pixels (fill 1, no
+// the clean imaging chain (imaging.preset=clean: this checks the geometry, synth/imaging_test.cc the realistic
+// chain), half the imager (--scale 0.5, lens scaled), no blur, no noise, a display of uniform square pixels (fill 1, no
 // RGB stripes: the scenes' stripes at 0.4-0.8 camera px per display pixel make a moire that scatters
 // cornerSubPix by ~1 px) and 4 x 4 supersampling (2 x 2 leaves ~0.2 px of edge aliasing). In that setting
 // cornerSubPix's own precision on these perspective-distorted corners is ~0.1 px RMS, so the truth must agree
@@ -239,11 +240,16 @@ TEST_F(CaptureCli, SynthEverySceneMatchesItsTruth) {
     const std::string name = scene.stem().string();
     const fs::path photo = dir_ / (name + ".png");
     const CliRun r = Curvecheck({"capture", "synth", "--scene", scene.string(), "--display", pattern.string(), "-o",
-                                 photo.string(), "--scale", "0.5", "--set", "optics.blur=none", "--set",
+                                 photo.string(), "--scale", "0.5", "--set", "imaging.preset=clean", "--set",
+                                 "optics.blur=none", "--set",
                                  "optics.supersample=4", "--set", "sensor.noise=false", "--set",
                                  "display.fill_factor=1", "--set", "display.rgb_stripes=false"});
     ASSERT_EQ(r.code, 0) << name << ": " << r.err;
-    EXPECT_THAT(r.out, HasSubstr("3000 x 2000 px, 96000000 rays")) << name;
+    // Half of each camera's imager, 4 x 4 rays per pixel.
+    const char* size = name == "phone"    ? "2040 x 1536 px, 50135040 rays"
+                       : name == "webcam" ? "960 x 540 px, 8294400 rays"
+                                          : "3000 x 2000 px, 96000000 rays";
+    EXPECT_THAT(r.out, HasSubstr(size)) << name;
     const nlohmann::json truth = nlohmann::json::parse(Slurp(dir_ / (name + ".truth.json")));
     EXPECT_EQ(truth["format"], "curvecheck.truth/1");
     const CornerCheck c = DetectAgainstTruth(photo, truth);
@@ -257,7 +263,8 @@ TEST_F(CaptureCli, SynthEverySceneMatchesItsTruth) {
     truths[name] = truth;
     checks[name] = c;
   }
-  for (const char* name : {"default", "off-axis", "close", "long-lens", "radius-8pct", "bulge-2mm", "lean-1deg"}) {
+  for (const char* name :
+       {"default", "off-axis", "close", "long-lens", "radius-8pct", "bulge-2mm", "lean-1deg", "phone", "webcam"}) {
     ASSERT_TRUE(truths.count(name)) << "datasets/scenes lacks " << name;
   }
 

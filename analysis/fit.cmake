@@ -16,4 +16,5 @@ curvecheck_add_test(screen_fit_test
     ${CMAKE_CURRENT_SOURCE_DIR}/screen_model_test.cc
     ${CMAKE_CURRENT_SOURCE_DIR}/screen_fit_cost_test.cc
     ${CMAKE_CURRENT_SOURCE_DIR}/screen_fit_test.cc
+    ${CMAKE_CURRENT_SOURCE_DIR}/screen_fit_budget_test.cc
   LIBS curvecheck_analysis_fit curvecheck_synth curvecheck_datasets)

@@ -402,9 +402,16 @@ std::optional<Linearization> Linearize(const Setup& setup, const ModelWork& w, B
     if (o < 0) continue;
     for (int a = 0; a < 3; ++a) sel(1 + 3 * p + a, o + 3 + a) = 1;
   }
-  const Eigen::CompleteOrthogonalDecomposition<Eigen::MatrixXd> cod(j);
+  // G = sel (J^T J)^+ J^T through the small normal matrix (t x t; J has thousands of rows): its pseudo-inverse
+  // drops directions below 1e-12 of the largest eigenvalue, as the covariance's fallback does.
+  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(j.transpose() * j);
+  const Eigen::VectorXd ev = eig.eigenvalues();
+  const double cut = 1e-12 * std::max(ev.maxCoeff(), 1e-300);
+  Eigen::VectorXd inv = Eigen::VectorXd::Zero(ev.size());
+  for (long i = 0; i < ev.size(); ++i) inv[i] = ev[i] > cut ? 1 / ev[i] : 0;
+  const Eigen::MatrixXd x = eig.eigenvectors() * inv.asDiagonal() * (eig.eigenvectors().transpose() * sel.transpose());
   Linearization lin;
-  const Eigen::MatrixXd g_all = sel * cod.pseudoInverse();
+  const Eigen::MatrixXd g_all = x.transpose() * j.transpose();
   const size_t n_obs = b.obs_index.size();
   lin.g = g_all.leftCols(static_cast<long>(2 * n_obs));
   lin.obs = b.obs_index;

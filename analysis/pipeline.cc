@@ -179,6 +179,8 @@ nlohmann::json BudgetJson(const ModelFit& f, const std::string& first_photo) {
       {"method", "per coordinate, the fit's residuals (detected - predicted) regressed on (1, sin 2 pi phi, cos 2 pi "
                  "phi), phi the detected coordinate's subpixel phase; amplitude = sqrt(a_sin^2 + a_cos^2)"},
       {"bound_px", b.systematic_bound_px},
+      {"smooth_fields_curvature_per_mm", Num(b.smooth_share_curvature_per_mm)},
+      {"pixel_locking_shape_curvature_per_mm", Num(b.pixel_locking_share_curvature_per_mm)},
       {"bound_reason", b.systematic_bound_reason}};
   j["correlations"] = "rows are independent of one another and combined in quadrature; within a row the curvature "
                       "and the camera positions are correlated (their covariance is carried into the axis-frame z)";

@@ -447,6 +447,30 @@ QuantityVariance SystematicVariance(const Setup& setup, const Linearization& lin
   return QuantityVariance::FromCovariance(cov / o.systematic_field_draws, setup.photos);
 }
 
+// Pixel-locking itself, propagated in its own shape: per coordinate c a bias A_c sin(2 pi phi_i + psi) with phi_i
+// the detection's subpixel phase, A_c the bound (estimate + 2 sigma) and the phase offset psi unknown (uniform):
+// dq = A_c (G s_c cos psi + G c_c sin psi), s_c = sin 2 pi phi, c_c = cos 2 pi phi, whose covariance over psi is
+// A_c^2 / 2 (G s_c s_c^T G^T + G c_c c_c^T G^T). On a regular board the phases beat across the image, so this
+// field is correlated in a way that low-order smooth fields do not represent.
+QuantityVariance PixelLockingVariance(const Setup& setup, const Linearization& lin, const Eigen::Vector2d& bound_px) {
+  constexpr double kTwoPi = 6.283185307179586;
+  const int n = static_cast<int>(lin.obs.size()), nq = static_cast<int>(lin.g.rows());
+  Eigen::MatrixXd cov = Eigen::MatrixXd::Zero(nq, nq);
+  for (int c = 0; c < 2; ++c) {
+    if (!std::isfinite(bound_px[c]) || !(bound_px[c] > 0)) continue;
+    Eigen::VectorXd sv = Eigen::VectorXd::Zero(2 * n), cv = Eigen::VectorXd::Zero(2 * n);
+    for (int i = 0; i < n; ++i) {
+      const double q = setup.obs[lin.obs[static_cast<size_t>(i)]].detected[c];
+      const double phase = kTwoPi * (q - std::floor(q));
+      sv[2 * i + c] = std::sin(phase);
+      cv[2 * i + c] = std::cos(phase);
+    }
+    const Eigen::VectorXd gs = lin.g * sv, gc = lin.g * cv;
+    cov += 0.5 * bound_px[c] * bound_px[c] * (gs * gs.transpose() + gc * gc.transpose());
+  }
+  return QuantityVariance::FromCovariance(cov, setup.photos);
+}
+
 // Lens calibration: dq/d(intrinsics) by central differences of the residuals at the fitted parameters (the
 // linearized refit), then S Sigma S^T.
 QuantityVariance LensVariance(const Setup& setup, const ModelWork& w, const Linearization& lin) {
@@ -543,11 +567,28 @@ std::vector<QuantityVariance> Budget(const Setup& setup, ModelWork& w, BuiltProb
         "the detector's bias (pixel-locking, moire, corner shape) is smooth across the image and common to every "
         "photo: Legendre fields of total degree <= {} with independent N(0,1) coefficients per coordinate, each "
         "scaled to RMS b ({} seeded draws); its standard uncertainty is the RMS effect. Correlated across features, "
-        "unlike the noise row (independent per-feature errors are in that row already)",
+        "unlike the noise row (independent per-feature errors are in that row already); plus, in quadrature, the "
+        "pixel-locking signature in its own shape: A sin(2 pi phase + psi) per coordinate at each detection's "
+        "subpixel phase, A = the estimate + 2 sigma, psi uniform (on a regular board the phases beat across the "
+        "image: a correlated field that smooth fields do not represent)",
         o.systematic_field_degree, o.systematic_field_draws);
     bud.components.push_back(c);
-    vars.push_back(lin && bud.systematic_bound_px > 0 ? SystematicVariance(setup, *lin, bud.systematic_bound_px)
-                                                      : QuantityVariance(setup.photos));
+    QuantityVariance v(setup.photos);
+    if (lin && bud.systematic_bound_px > 0) {
+      // Two parts in quadrature: smooth bias fields of RMS b, and the pixel-locking signature in its own shape.
+      Eigen::Vector2d pl_bound = pl.amplitude_px + 2 * pl.sigma_px;
+      const QuantityVariance smooth = SystematicVariance(setup, *lin, bud.systematic_bound_px);
+      const QuantityVariance locking = PixelLockingVariance(setup, *lin, pl_bound);
+      v.var_k = smooth.var_k + locking.var_k;
+      for (int p = 0; p < setup.photos; ++p) {
+        v.var_pos[static_cast<size_t>(p)] = smooth.var_pos[static_cast<size_t>(p)] + locking.var_pos[static_cast<size_t>(p)];
+        v.cov_pos_k[static_cast<size_t>(p)] =
+            smooth.cov_pos_k[static_cast<size_t>(p)] + locking.cov_pos_k[static_cast<size_t>(p)];
+      }
+      bud.pixel_locking_share_curvature_per_mm = std::sqrt(std::max(0.0, locking.var_k));
+      bud.smooth_share_curvature_per_mm = std::sqrt(std::max(0.0, smooth.var_k));
+    }
+    vars.push_back(v);
   }
   // 3. Lens calibration.
   {

@@ -187,6 +187,8 @@ struct UncertaintyBudget {
   PixelLocking pixel_locking;
   double systematic_bound_px = 0;  // b = max(amplitude + 2 sigma, noise floor), RMS per coordinate of the fields
   std::string systematic_bound_reason;
+  // The detector-systematic row's two parts, u(k) (1/mm): the smooth fields and the pixel-locking signature.
+  double smooth_share_curvature_per_mm = 0, pixel_locking_share_curvature_per_mm = 0;
 };
 
 struct ModelFit {

@@ -5,7 +5,8 @@
 //   intrinsic perturbed (central differences), for a correlated synthetic Sigma;
 // - detector systematic: injected smooth bias fields from the row's own family move the radius by an RMS that
 //   matches the row (the linearization is the refit), a radial field the family holds is covered;
-// - pixel-locking: an injected sin(2 pi phase) bias of known amplitude is recovered within its sigma.
+// - pixel-locking: an injected sin(2 pi phase) bias of known amplitude is recovered within its sigma, and the
+//   row's pixel-locking share matches the radius shift that bias causes.
 // What it does not prove: that the real detectors' bias is smooth (the assumption the row states).
 #include <gtest/gtest.h>
 
@@ -244,6 +245,34 @@ TEST(UncertaintyBudgetTest, PixelLockingAmplitudeIsRecovered) {
   // sigma, reaches the injected amplitude.
   for (int c = 0; c < 2; ++c) EXPECT_NEAR(got.amplitude_px[c], kAx, 3 * got.sigma_px[c]) << c;
   EXPECT_GE(f.budget.systematic_bound_px, kAx);
+}
+
+// The pixel-locking part of the systematic row: A sin(2 pi phase + psi) injected (noise-free) at four phase
+// offsets psi moves the radius by an RMS that the row's pixel-locking share (propagated at the estimated A + 2
+// sigma, psi uniform) matches.
+TEST(UncertaintyBudgetTest, PixelLockingShareMatchesTheRadiusShiftItCauses) {
+  const SyntheticScene scene = DefaultScene();
+  const PhotoObservations clean = Clean(scene);
+  FitOptions o = CylinderOnly();
+  const double r0 = *FitScreen(scene.monitor, scene.camera, {clean}, o).Chosen().radius_mm;
+  constexpr double kA = 0.03;
+  double sum2 = 0, share_mm = 0;
+  for (int j = 0; j < 4; ++j) {
+    const double psi = 0.5 * kPi * j;
+    PhotoObservations photo = clean;
+    for (Eigen::Vector2d& q : photo.detected_px) {
+      for (int c = 0; c < 2; ++c) q[c] += kA * std::sin(2 * kPi * (q[c] - std::floor(q[c])) + psi);
+    }
+    const ModelFit f = FitScreen(scene.monitor, scene.camera, {photo}, o).Chosen();
+    sum2 += (*f.radius_mm - r0) * (*f.radius_mm - r0);
+    share_mm += f.budget.pixel_locking_share_curvature_per_mm / (f.curvature_per_mm * f.curvature_per_mm) / 4;
+  }
+  const double rms = std::sqrt(sum2 / 4);
+  std::cout << "pixel-locking share of u(R) " << share_mm << " mm; injected signature moves R by " << rms
+            << " mm RMS over 4 phase offsets\n";
+  EXPECT_GT(rms, 0.05);  // the signature does move the radius
+  EXPECT_GT(share_mm, 0.7 * rms);
+  EXPECT_LT(share_mm, 1.5 * rms);
 }
 
 TEST(UncertaintyBudgetTest, CovarianceSidecarIsReadAndChecked) {

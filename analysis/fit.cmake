@@ -5,6 +5,7 @@ add_library(curvecheck_analysis_fit STATIC
   ${CMAKE_CURRENT_SOURCE_DIR}/screen_fit_cost.cc
   ${CMAKE_CURRENT_SOURCE_DIR}/screen_fit.cc
   ${CMAKE_CURRENT_SOURCE_DIR}/screen_fit_surface.cc
+  ${CMAKE_CURRENT_SOURCE_DIR}/screen_fit_budget.cc
 )
 target_link_libraries(curvecheck_analysis_fit PUBLIC curvecheck_core Ceres::ceres PRIVATE opencv_core opencv_calib3d)
 target_link_libraries(curvecheck_analysis INTERFACE curvecheck_analysis_fit)
@@ -15,4 +16,5 @@ curvecheck_add_test(screen_fit_test
     ${CMAKE_CURRENT_SOURCE_DIR}/screen_model_test.cc
     ${CMAKE_CURRENT_SOURCE_DIR}/screen_fit_cost_test.cc
     ${CMAKE_CURRENT_SOURCE_DIR}/screen_fit_test.cc
+    ${CMAKE_CURRENT_SOURCE_DIR}/screen_fit_budget_test.cc
   LIBS curvecheck_analysis_fit curvecheck_synth curvecheck_datasets)

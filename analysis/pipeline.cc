@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <map>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -31,6 +32,7 @@ nlohmann::json Vec(const Eigen::Vector2d& v) { return {v.x(), v.y()}; }
 nlohmann::json Vec(const Eigen::Vector3d& v) { return {v.x(), v.y(), v.z()}; }
 // JSON has no NaN or infinity: those become null.
 nlohmann::json Num(double x) { return std::isfinite(x) ? nlohmann::json(x) : nlohmann::json(nullptr); }
+constexpr double kNaNJson = std::numeric_limits<double>::quiet_NaN();
 
 nlohmann::json VerificationJson(const Verification& v) {
   nlohmann::json j = {{"rms_px", v.rms_px},
@@ -117,6 +119,84 @@ nlohmann::json ModelFitJson(const ModelFit& f) {
   nlohmann::json extra = nlohmann::json::object();
   for (const auto& [name, value] : f.extra) extra[name] = {{"value", value.first}, {"sigma", value.second}};
   j["extra"] = extra;
+  return j;
+}
+
+// One budget (UncertaintyBudget) for one quantity: per row its standard uncertainty, picked by `u` from the row.
+nlohmann::json BudgetRowsJson(const UncertaintyBudget& b, const std::function<double(const BudgetComponent&)>& u,
+                              const std::string& unit_suffix, double value, std::array<double, 2> interval) {
+  nlohmann::json rows = nlohmann::json::array();
+  size_t dominant = 0;
+  for (size_t i = 0; i < b.components.size(); ++i) {
+    const BudgetComponent& c = b.components[i];
+    if (u(c) > u(b.components[dominant])) dominant = i;
+    rows.push_back({{"name", c.name},
+                    {"type", c.type},
+                    {"standard_uncertainty" + unit_suffix, Num(u(c))},
+                    {"dof", Num(c.dof)},
+                    {"source", c.source},
+                    {"assumption", c.assumption}});
+  }
+  return {{"value" + unit_suffix, Num(value)},
+          {"components", rows},
+          {"combined_standard_uncertainty" + unit_suffix, Num(u(b.combined))},
+          {"coverage_factor", Num(b.coverage_factor)},
+          {"coverage_probability", b.coverage_probability},
+          {"effective_dof", Num(b.effective_dof)},
+          {"interval95" + unit_suffix, {Num(interval[0]), Num(interval[1])}},
+          {"dominant", b.components.empty() ? std::string() : b.components[dominant].name}};
+}
+
+// fit.uncertainty_budget (metrology.md section 1): the radius at the top, the curvature and the first camera's
+// position (axis frame, per axis) below it, and the detector-systematic estimate.
+nlohmann::json BudgetJson(const ModelFit& f, const std::string& first_photo) {
+  const UncertaintyBudget& b = f.budget;
+  if (!b.computed) return {{"computed", false}, {"note", b.note}};
+  const double kc = b.coverage_factor;
+  nlohmann::json j = BudgetRowsJson(
+      b, [](const BudgetComponent& c) { return c.radius_mm; }, "_mm", f.radius_mm.value_or(kNaNJson),
+      {f.radius_ci95_mm[0], f.radius_ci95_mm[1]});
+  j["quantity"] = "radius R (mm); rows u(R) = u(k)/k^2; null when the radius is not a number";
+  j["unit"] = "mm";
+  j["interval_note"] = fmt::format(
+      "formed on the curvature, k +- {:.3f} u_c(k), and inverted to R (coverage factor: Student's t for {:g}% at "
+      "the Welch-Satterthwaite effective degrees of freedom; type B rows have infinite dof)",
+      kc, 100 * b.coverage_probability);
+  const double k = f.curvature_per_mm, uk = b.combined.curvature_per_mm;
+  j["curvature"] = BudgetRowsJson(b, [](const BudgetComponent& c) { return c.curvature_per_mm; }, "_per_mm", k,
+                                  {k - kc * uk, k + kc * uk});
+  j["curvature"]["quantity"] = "curvature k = 1/R (mean over the width for varying curvature)";
+  j["curvature"]["unit"] = "1/mm";
+  if (!f.cameras.empty()) {
+    const CameraEstimate& cam = f.cameras[0];
+    nlohmann::json pos = {{"photo", first_photo},
+                          {"frame", "axis (position_in_axis_mm: origin on the fitted axis; the centre frame when "
+                                    "the radius is not a number)"}};
+    const char* axes[3] = {"x", "y", "z"};
+    for (int a = 0; a < 3; ++a) {
+      const double v = cam.position_in_screen_mm[a], ua = b.combined.position_in_axis_mm[a];
+      nlohmann::json row = BudgetRowsJson(
+          b, [a](const BudgetComponent& c) { return c.position_in_axis_mm[a]; }, "_mm", v,
+          {v - kc * ua, v + kc * ua});
+      row["quantity"] = fmt::format("first camera position {} (axis frame)", axes[a]);
+      row["unit"] = "mm";
+      pos[axes[a]] = row;
+    }
+    j["camera_position"] = pos;
+  }
+  j["detector_systematic"] = {
+      {"pixel_locking_amplitude_px", Vec(b.pixel_locking.amplitude_px)},
+      {"pixel_locking_sigma_px", Vec(b.pixel_locking.sigma_px)},
+      {"pixel_locking_observations", b.pixel_locking.observations},
+      {"method", "per coordinate, the fit's residuals (detected - predicted) regressed on (1, sin 2 pi phi, cos 2 pi "
+                 "phi), phi the detected coordinate's subpixel phase; amplitude = sqrt(a_sin^2 + a_cos^2)"},
+      {"bound_px", b.systematic_bound_px},
+      {"smooth_fields_curvature_per_mm", Num(b.smooth_share_curvature_per_mm)},
+      {"pixel_locking_shape_curvature_per_mm", Num(b.pixel_locking_share_curvature_per_mm)},
+      {"bound_reason", b.systematic_bound_reason}};
+  j["correlations"] = "rows are independent of one another and combined in quadrature; within a row the curvature "
+                      "and the camera positions are correlated (their covariance is carried into the axis-frame z)";
+  if (!b.note.empty()) j["note"] = b.note;
   return j;
 }
 
@@ -293,6 +373,21 @@ AnalysisResult AnalyzeWith(const CameraModel& camera, const std::filesystem::pat
     // a smooth field beyond each photo's homography: independent of any screen model), pooled over the photos
     // by their features.
     FitOptions fit_options = options.fit;
+    // The lens calibration's covariance: given, or beside the camera model (read outside the fit's try: a bad
+    // file is an input error, not a fit failure).
+    const std::filesystem::path beside = camera_path.empty() ? std::filesystem::path() : IntrinsicsCovariancePathFor(camera_path);
+    const std::filesystem::path cov_path = !options.lens_covariance.empty() ? options.lens_covariance : beside;
+    if (!options.lens_covariance.empty() || (!beside.empty() && std::filesystem::exists(beside))) {
+      const IntrinsicsCovariance cov = ReadIntrinsicsCovariance(cov_path, r.camera);
+      fit_options.intrinsics_covariance = cov.covariance;
+      fit_options.intrinsics_covariance_dof = cov.dof;
+      fit_options.intrinsics_covariance_source = cov.source;
+    } else if (!camera_path.empty()) {
+      fit_options.lens_exact_note = fmt::format(
+          "lens model taken as exact: no covariance beside {} ({} not found); calibrate with curvecheck calibrate "
+          "to get one (for a synthetic photo rendered through this very model the lens is exact, and 0 is the truth)",
+          camera_path.filename().string(), beside.filename().string());
+    }
     if (fit_options.detection_noise_px == 0) {
       double sum = 0, weight = 0;
       for (const PhotoAnalysis& p : r.photos) {
@@ -417,6 +512,12 @@ nlohmann::json ResultJson(const AnalysisResult& r, const std::string& command_li
     f["camera_position_mm"] = cameras.empty() ? nlohmann::json(nullptr) : cameras[0]["position_mm"];
     f["camera_position_sigma_mm"] = cameras.empty() ? nlohmann::json(nullptr) : cameras[0]["position_sigma_mm"];
     f["cameras"] = cameras;
+    f["curvature_noise_sigma_per_mm"] = Num(chosen.curvature_noise_sigma_per_mm);
+    f["radius_noise_sigma_mm"] =
+        chosen.radius_mm ? Num(chosen.curvature_noise_sigma_per_mm / (chosen.curvature_per_mm * chosen.curvature_per_mm))
+                         : nlohmann::json(nullptr);
+    f["uncertainty_budget"] =
+        BudgetJson(chosen, cameras.empty() ? std::string() : cameras[0]["photo"].get<std::string>());
     f["camera_position_frame"] = "axis: origin on the fitted cylinder's axis at the screen's vertical centre (the "
                                  "centre frame when the radius is not a number); cameras[] have both frames";
     f["status"] = fit.status;
@@ -607,6 +708,15 @@ std::string SummaryText(const AnalysisResult& r) {
     if (f.radius_mm) {
       s << fmt::format("radius: {:.1f} +- {:.1f} mm (1 sigma; 95% interval {:.1f} .. {:.1f} mm), model {}\n",
                        *f.radius_mm, f.radius_sigma_mm.value_or(0), f.radius_ci95_mm[0], f.radius_ci95_mm[1], f.model);
+      if (f.budget.computed) {
+        std::string rows;
+        for (const BudgetComponent& c : f.budget.components) {
+          rows += fmt::format("{}{} {:.2f}", rows.empty() ? "" : ", ", c.name, c.radius_mm);
+        }
+        s << fmt::format("  uncertainty budget: combined sigma {:.2f} mm, dominated by {} ({} mm; coverage factor "
+                         "{:.3f})\n",
+                         f.budget.combined.radius_mm, f.budget.dominant, rows, f.budget.coverage_factor);
+      }
     } else {
       s << (f.ill_conditioned
                 ? fmt::format("radius: unobservable from these photos (ill-conditioned fit; 95% lower bound {:.0f} mm), "

@@ -30,6 +30,10 @@ struct AnalyzeOptions {
   FitOptions fit;
   // Fit the screen (false: detection and verification only).
   bool fit_screen = true;
+  // The lens calibration's intrinsics covariance (curvecheck.intrinsics_covariance/1, written by curvecheck
+  // calibrate). Empty: CAM.intrinsics_covariance.json beside the camera model when it exists; otherwise the lens
+  // is taken as exact (the budget's lens row is 0 and says so). A file given here must exist.
+  std::filesystem::path lens_covariance;
 
   void Check(const std::string& where) const;
 };

@@ -167,6 +167,52 @@ std::string ModelsTable(const json& fit, Warnings& warnings) {
   return s.str();
 }
 
+// The uncertainty budget (result.json fit.uncertainty_budget): one row per source with its type, its standard
+// uncertainty of R, of the curvature and of the first camera's position (axis frame), its source and assumption;
+// the combined row, the coverage factor and the 95% interval. "" when the result has no budget.
+std::string BudgetTable(const json& fit) {
+  if (!fit.contains("uncertainty_budget") || !fit["uncertainty_budget"].is_object() ||
+      !fit["uncertainty_budget"].contains("components")) {
+    return "";
+  }
+  const json& b = fit["uncertainty_budget"];
+  const json empty = json::object();
+  const json& cam = b.contains("camera_position") ? b["camera_position"] : empty;
+  const auto pos = [&](const char* axis, size_t i) -> std::optional<double> {
+    if (!cam.contains(axis)) return std::nullopt;
+    return Opt(cam[axis]["components"][i]["standard_uncertainty_mm"]);
+  };
+  const auto pos_c = [&](const char* axis) -> std::optional<double> {
+    if (!cam.contains(axis)) return std::nullopt;
+    return Opt(cam[axis]["combined_standard_uncertainty_mm"]);
+  };
+  std::ostringstream s;
+  s << "<table id=\"budget\"><thead><tr><th>source</th><th>type</th><th>u(R) mm</th><th>u(k) 1/m</th>"
+       "<th>u(camera x, y, z) mm</th><th>how</th><th>assumption</th></tr></thead><tbody>\n";
+  const json& rows = b["components"];
+  for (size_t i = 0; i < rows.size(); ++i) {
+    const json& c = rows[i];
+    const std::optional<double> uk = Opt(b["curvature"]["components"][i]["standard_uncertainty_per_mm"]);
+    s << "<tr" << (Str(c["name"]) == Str(b["dominant"]) ? " class=\"dominant\"" : "") << "><td>" << Html(Str(c["name"]))
+      << "</td><td>" << Html(Str(c["type"])) << "</td><td>" << Fixed(Opt(c["standard_uncertainty_mm"]), 2)
+      << "</td><td>" << Fixed(uk ? std::optional<double>(*uk * 1000) : std::nullopt, 5) << "</td><td>"
+      << Fixed(pos("x", i), 2) << ", " << Fixed(pos("y", i), 2) << ", " << Fixed(pos("z", i), 2) << "</td><td>"
+      << Html(Str(c["source"])) << "</td><td>" << Html(Str(c["assumption"])) << "</td></tr>\n";
+  }
+  const std::optional<double> ukc = Opt(b["curvature"]["combined_standard_uncertainty_per_mm"]);
+  s << "<tr class=\"combined\"><td><b>combined</b></td><td></td><td>"
+    << ValueSpan("budget-combined-mm", Opt(b["combined_standard_uncertainty_mm"]), 2) << "</td><td>"
+    << Fixed(ukc ? std::optional<double>(*ukc * 1000) : std::nullopt, 5) << "</td><td>" << Fixed(pos_c("x"), 2)
+    << ", " << Fixed(pos_c("y"), 2) << ", " << Fixed(pos_c("z"), 2) << "</td><td colspan=\"2\">quadrature sum; "
+    << "dominant: " << Html(Str(b["dominant"])) << "</td></tr>\n</tbody></table>\n";
+  const json& iv = b["interval95_mm"];
+  s << "<p>95% interval of R: " << Fixed(Opt(iv[0]), 1) << " to " << Fixed(Opt(iv[1]), 1)
+    << " mm, coverage factor " << ValueSpan("budget-coverage-factor", Opt(b["coverage_factor"]), 3) << " ("
+    << Html(Str(b.value("interval_note", json("")))) << "). " << Html(Str(b.value("correlations", json(""))))
+    << ".</p>\n";
+  return s.str();
+}
+
 std::string FeaturesTable(const json& r) {
   std::ostringstream s;
   s << fmt::format("<details><summary>All {} features (detections, residuals, deviations)</summary>\n",
@@ -349,6 +395,13 @@ std::string ReportHtml(const json& r, const ReportAssets& assets, const ReportOp
     s << "<h2>Model selection</h2>\n<p>Every screen model tried, simplest first. The chosen one is the simplest "
          "that the data supports (BIC and held-out error); &#916;BIC is against the lowest BIC.</p>\n"
       << models_table << Figure(RadiusChart(r), options, chart_dir);
+    const std::string budget = BudgetTable(fit);
+    if (!budget.empty()) {
+      s << "<h2>Uncertainty budget</h2>\n<p>Each source of uncertainty of the radius and of the first camera's "
+           "position, as a standard uncertainty (GUM: type A from the data's statistics, type B from other "
+           "information), combined in quadrature; the radius's sigma above is the combined one.</p>\n"
+        << budget;
+    }
   }
 
   // Verification residuals.

@@ -12,6 +12,8 @@
 
 #include <Eigen/Core>
 #include <array>
+#include <filesystem>
+#include <limits>
 #include <map>
 #include <optional>
 #include <string>
@@ -108,6 +110,30 @@ struct FitOptions {
   // Fewer features per photo than this is an error (6 for the pose, plus margin for the shape).
   int min_features_per_photo = 8;
 
+  // Uncertainty budget (metrology.md section 1; UncertaintyBudget below).
+  // Lens calibration: the covariance of the camera model's intrinsics (mrcal's order and units: fx, fy, cx, cy in
+  // px, then the distortion parameters), from the calibration (calibrate/ writes it beside the model,
+  // ReadIntrinsicsCovariance). Empty: the lens is taken as exact and the budget's lens row is 0, with
+  // lens_exact_note as its assumption. intrinsics_covariance_dof: the calibration's residual degrees of freedom
+  // (Welch-Satterthwaite; infinity when unknown). intrinsics_covariance_source names the file.
+  Eigen::MatrixXd intrinsics_covariance;
+  double intrinsics_covariance_dof = std::numeric_limits<double>::infinity();
+  std::string intrinsics_covariance_source;
+  std::string lens_exact_note =
+      "lens model taken as exact: no covariance beside the camera model; calibrate with curvecheck calibrate to get "
+      "one (for a synthetic photo rendered through this very model the lens is exact)";
+  // Pixel pitch: the relative tolerance of the datasheet's pitch (half-width of a rectangular distribution,
+  // standard uncertainty tolerance/sqrt(3)). 0.1%: active areas are specified to 0.1 mm on ~600 mm.
+  double pitch_tolerance_relative = 0.001;
+  // Detector systematic: the bias fields (Legendre polynomials of total degree <= systematic_field_degree over
+  // the image, independent N(0,1) coefficients per coordinate, each draw scaled to the bound's RMS) and the
+  // number of seeded draws whose RMS effect is the standard uncertainty.
+  int systematic_field_degree = 3;
+  int systematic_field_draws = 2000;
+  unsigned systematic_field_seed = 20261201;
+  // Coverage probability of the interval (the coverage factor is Student's t at the effective degrees of freedom).
+  double coverage_probability = 0.95;
+
   // Throws Error naming `where` for values out of range or unknown model names.
   void Check(const std::string& where) const;
 };
@@ -125,6 +151,44 @@ struct CameraEstimate {
   // could not be computed.
   Eigen::Vector3d position_in_screen_mm = Eigen::Vector3d::Zero();
   Eigen::Vector3d position_in_screen_sigma_mm = Eigen::Vector3d::Zero();
+};
+
+// One row of the uncertainty budget: a standard uncertainty of the curvature k = 1/R, of the radius and of the
+// first camera's position, from one source (GUM, JCGM 100:2008 section 5: rows combined in quadrature).
+struct BudgetComponent {
+  std::string name;  // "detection noise", "detector systematic", "lens calibration", "pixel pitch"
+  std::string type;  // "A" (evaluated from the data's statistics) or "B" (from other information)
+  std::string source, assumption;
+  double curvature_per_mm = 0;  // u(k), 1/mm
+  double radius_mm = 0;         // u(R) = u(k)/k^2 (linearized), NaN when the radius is not a number
+  // The first camera's position: in the axis frame (CameraEstimate::position_in_screen_mm) and the centre frame.
+  Eigen::Vector3d position_in_axis_mm = Eigen::Vector3d::Zero(), position_in_centre_mm = Eigen::Vector3d::Zero();
+  double dof = std::numeric_limits<double>::infinity();  // degrees of freedom (infinity for type B)
+};
+
+// The pixel-locking estimate: per coordinate, the fit's residuals regressed on (1, sin 2 pi phi, cos 2 pi phi)
+// with phi the subpixel phase of the detected coordinate (EstimatePixelLocking).
+struct PixelLocking {
+  Eigen::Vector2d amplitude_px = Eigen::Vector2d::Zero();  // sqrt(a_sin^2 + a_cos^2), x and y
+  Eigen::Vector2d sigma_px = Eigen::Vector2d::Zero();      // its standard uncertainty
+  int observations = 0;
+};
+
+struct UncertaintyBudget {
+  bool computed = false;
+  std::string note;  // why a component could not be computed, if so
+  std::vector<BudgetComponent> components;
+  BudgetComponent combined;  // quadrature sum (name "combined")
+  double effective_dof = 0;  // Welch-Satterthwaite over the components' dof
+  double coverage_factor = 0;  // Student's t at effective_dof for FitOptions::coverage_probability
+  double coverage_probability = 0.95;
+  std::string dominant;  // the component with the largest u(k)
+  std::array<std::string, 3> dominant_position;  // per axis (axis frame)
+  PixelLocking pixel_locking;
+  double systematic_bound_px = 0;  // b = max(amplitude + 2 sigma, noise floor), RMS per coordinate of the fields
+  std::string systematic_bound_reason;
+  // The detector-systematic row's two parts, u(k) (1/mm): the smooth fields and the pixel-locking signature.
+  double smooth_share_curvature_per_mm = 0, pixel_locking_share_curvature_per_mm = 0;
 };
 
 struct ModelFit {
@@ -147,8 +211,12 @@ struct ModelFit {
   double chi2_p_value = 1, noise_ratio = 0;
   bool adequate = true;
   std::string adequacy_note;
-  // Curvature k = 1/R (for varying curvature: its mean over the width, k0 + k2/3) and its sigma.
-  double curvature_per_mm = 0, curvature_sigma_per_mm = 0;
+  // Curvature k = 1/R (for varying curvature: its mean over the width, k0 + k2/3) and its sigma: the combined
+  // standard uncertainty of the budget (every source); curvature_noise_sigma_per_mm is the detection noise's share
+  // alone (the covariance scaled by noise_px). radius_sigma_mm, radius_ci95_mm and the cameras' sigmas are the
+  // combined ones; the interval is k +- coverage_factor u_c(k), inverted.
+  double curvature_per_mm = 0, curvature_sigma_per_mm = 0, curvature_noise_sigma_per_mm = 0;
+  UncertaintyBudget budget;
   std::optional<double> radius_mm, radius_sigma_mm;  // empty when flat is inside the 95% interval
   double radius_lower_bound_mm = 0;                  // 95% lower bound of |R| when the radius is not a number
   std::array<double, 2> radius_ci95_mm{};            // from k +- 1.96 sigma_k, inverted (+inf when it holds 0)
@@ -250,5 +318,33 @@ std::vector<Eigen::Vector3d> FittedSurfacePointsInCamera(const Monitor& nominal,
 double RadiusCramerRaoBoundMm(const Monitor& true_monitor, const CameraModel& camera,
                               const std::vector<Pose>& centre_from_cams,
                               const std::vector<std::vector<Eigen::Vector2d>>& display_px, double sigma_px);
+
+// Pixel-locking signature of detections: per coordinate c, the residuals (detected - predicted, px) regressed
+// by least squares on (1, sin 2 pi phi, cos 2 pi phi), phi = the subpixel phase of the detected coordinate
+// (q - floor(q)); amplitude sqrt(a_s^2 + a_c^2) with its standard uncertainty from the regression's residual
+// scatter (delta method; near zero amplitude the coefficients' RMS sigma). Non-finite entries are skipped.
+PixelLocking EstimatePixelLocking(const std::vector<Eigen::Vector2d>& detected_px,
+                                  const std::vector<Eigen::Vector2d>& residual_px);
+
+// The two-sided quantile of Student's t for coverage probability p (e.g. 0.95) at dof degrees of freedom
+// (infinity: the normal quantile); Hill's expansion (Abramowitz & Stegun 26.7.5) from the normal quantile,
+// accurate to 1e-3 for dof >= 3. Throws Error for dof < 1.
+double StudentTCoverageFactor(double p, double dof);
+
+// The Legendre field basis over an image of width x height px: one column per polynomial
+// P_i(x') P_j(y'), i + j <= degree, x' = 2 x/(width - 1) - 1 (likewise y'), evaluated at the points.
+Eigen::MatrixXd LegendreFieldBasis(const std::vector<Eigen::Vector2d>& points_px, int width, int height, int degree);
+
+// The intrinsics covariance written beside a camera model at calibration time (format
+// curvecheck.intrinsics_covariance/1: lensmodel, intrinsics, covariance n x n, dof, ...). Throws Error naming the
+// file when it cannot be read or does not match `camera` (lens model, parameter count).
+struct IntrinsicsCovariance {
+  Eigen::MatrixXd covariance;
+  double dof = std::numeric_limits<double>::infinity();
+  std::string source;
+};
+IntrinsicsCovariance ReadIntrinsicsCovariance(const std::filesystem::path& path, const CameraModel& camera);
+// Where the covariance of a camera model is looked for: CAM.cameramodel -> CAM.intrinsics_covariance.json.
+std::filesystem::path IntrinsicsCovariancePathFor(const std::filesystem::path& camera_path);
 
 }  // namespace curvecheck

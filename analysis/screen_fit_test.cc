@@ -45,6 +45,19 @@ int IndexOf(const ScreenFitResult& r, const std::string& model) {
   return -1;
 }
 
+// The budget's detection-noise row (UncertaintyBudget): the only source in observations drawn with Gaussian noise
+// through the exact lens on the exact pitch, so the statistical tests below check it against the scatter. The
+// combined sigma adds the bounded detector systematic and the pitch tolerance, which these observations lack.
+const BudgetComponent& NoiseRow(const ModelFit& c) {
+  EXPECT_TRUE(c.budget.computed);
+  EXPECT_EQ(c.budget.components.at(0).name, "detection noise");
+  return c.budget.components.at(0);
+}
+// Whether the noise row's 95% interval of the curvature holds the truth.
+bool NoiseCovers(const ModelFit& c, double r_true) {
+  return std::abs(1 / r_true - c.curvature_per_mm) <= 1.959963984540054 * c.curvature_noise_sigma_per_mm;
+}
+
 std::string Table(const ScreenFitResult& r) {
   std::string s = r.choice_reason + "\n";
   for (const ModelFit& c : r.candidates) {
@@ -82,7 +95,7 @@ TEST(ScreenFitTest, IdealCylinderChoosesCylinderAndRecoversTheRadius) {
   }
   // In the screen frame the sigma of z is the radius's (the centre-frame z is known 50 times better).
   EXPECT_NEAR(cam.position_in_screen_mm.z(), 500, 4 * cam.position_in_screen_sigma_mm.z());
-  EXPECT_NEAR(cam.position_in_screen_sigma_mm.z(), *cyl.radius_sigma_mm, 0.05 * *cyl.radius_sigma_mm);
+  EXPECT_NEAR(NoiseRow(cyl).position_in_axis_mm.z(), NoiseRow(cyl).radius_mm, 0.05 * NoiseRow(cyl).radius_mm);
   EXPECT_EQ(cam.position_in_screen_sigma_mm.x(), cam.position_in_centre_sigma_mm.x());
   EXPECT_EQ(cam.position_in_screen_sigma_mm.y(), cam.position_in_centre_sigma_mm.y());
   // Every candidate reports its fit; flat does not fit a 1000R panel at all.
@@ -124,7 +137,7 @@ TEST(ScreenFitTest, FlatMonitorChoosesFlatAndTheRadiusIsALowerBound) {
   // The lower bound is 1 / (|k| + 1.96 sigma): meters, not a number to quote as the radius.
   EXPECT_GT(cyl.radius_lower_bound_mm, 5000);
   EXPECT_NEAR(cyl.radius_lower_bound_mm,
-              1 / (std::abs(cyl.curvature_per_mm) + 1.959963984540054 * cyl.curvature_sigma_per_mm),
+              1 / (std::abs(cyl.curvature_per_mm) + cyl.budget.coverage_factor * cyl.curvature_sigma_per_mm),
               1e-6 * cyl.radius_lower_bound_mm);
   EXPECT_TRUE(std::isinf(cyl.radius_ci95_mm[1]));
   EXPECT_FALSE(cyl.ill_conditioned) << cyl.condition_note;  // flat is the nominal: nothing is unobservable
@@ -491,8 +504,8 @@ TEST(ScreenFitAccuracyTest, DefaultSceneSinglePhotoRadiusStatistics) {
     const ModelFit& c = r.Chosen();
     ASSERT_TRUE(c.radius_mm.has_value());
     radius.push_back(*c.radius_mm);
-    sigma.push_back(*c.radius_sigma_mm);
-    covered += c.radius_ci95_mm[0] <= r_true && r_true <= c.radius_ci95_mm[1];
+    sigma.push_back(NoiseRow(c).radius_mm);
+    covered += NoiseCovers(c, r_true);
   }
   const double mean = std::accumulate(radius.begin(), radius.end(), 0.0) / kTrials;
   double var = 0;
@@ -547,13 +560,13 @@ Trials RadiusTrials(const SyntheticScene& scene, const std::vector<Eigen::Vector
     EXPECT_TRUE(c.radius_mm.has_value());
     if (!c.radius_mm) continue;
     t.radius.push_back(*c.radius_mm);
-    t.radius_sigma.push_back(*c.radius_sigma_mm);
-    t.covered += c.radius_ci95_mm[0] <= r_true && r_true <= c.radius_ci95_mm[1];
+    t.radius_sigma.push_back(NoiseRow(c).radius_mm);
+    t.covered += NoiseCovers(c, r_true);
     const CameraEstimate& cam = c.cameras.at(0);
     t.centre_z.push_back(cam.centre_from_cam.translation.z());
-    t.centre_z_sigma.push_back(cam.position_in_centre_sigma_mm.z());
+    t.centre_z_sigma.push_back(NoiseRow(c).position_in_centre_mm.z());
     t.screen_z.push_back(cam.position_in_screen_mm.z());
-    t.screen_z_sigma.push_back(cam.position_in_screen_sigma_mm.z());
+    t.screen_z_sigma.push_back(NoiseRow(c).position_in_axis_mm.z());
   }
   return t;
 }

@@ -36,6 +36,8 @@ struct AnalyzeArgs {
   bool no_report = false;
   double magnification = 50;
   std::string command_line;
+  std::string lens_covariance;
+  double pitch_tolerance_percent = 0.1;
 };
 
 int RunAnalyze(AnalyzeArgs a) {
@@ -46,6 +48,12 @@ int RunAnalyze(AnalyzeArgs a) {
   }
   if (!a.models.empty()) a.options.fit.models = ParseScreenModels(a.models, "analyze options");
   a.options.fit_screen = !a.no_fit;
+  if (!(a.pitch_tolerance_percent >= 0 && a.pitch_tolerance_percent < 50)) {
+    throw Error("--pitch-tolerance", fmt::format("{} % is not a tolerance", a.pitch_tolerance_percent),
+                "give a percentage from 0 to 50, e.g. 0.1");
+  }
+  a.options.fit.pitch_tolerance_relative = a.pitch_tolerance_percent / 100;
+  a.options.lens_covariance = a.lens_covariance;
   a.options.detect.detector = ParseDetector(a.detector, "analyze options");
   a.options.Check("analyze options");
   if (!(a.magnification > 0)) throw Error("--magnify", "must be a positive factor", "give e.g. 50");
@@ -142,6 +150,14 @@ void AddAnalyzeCommand(CLI::App& app, std::function<int()>& run) {
       ->allow_extra_args(false);
   cmd->add_option("--expected-noise", args->options.fit.expected_noise_px,
                   "Expected detection noise per coordinate, px (scales the robust loss)")
+      ->capture_default_str();
+  cmd->add_option("--lens-covariance", args->lens_covariance,
+                  "The lens calibration's intrinsics covariance (curvecheck.intrinsics_covariance/1, written by "
+                  "`curvecheck calibrate`); default: CAM.intrinsics_covariance.json beside --camera when it exists, "
+                  "else the lens is taken as exact (the budget says so)");
+  cmd->add_option("--pitch-tolerance", args->pitch_tolerance_percent,
+                  "Tolerance of the datasheet's pixel pitch, percent (half-width of a rectangular distribution; "
+                  "its u = tolerance/sqrt(3) is the budget's pixel-pitch row: u(R)/R = u(p)/p)")
       ->capture_default_str();
   cmd->add_flag("--no-fit", args->no_fit, "Detection and verification only");
   cmd->add_flag("--no-overlays", args->no_overlays, "Do not write overlay images");

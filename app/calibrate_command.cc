@@ -94,6 +94,14 @@ int RunCalibrate(const CalibrateArgs& a) {
   WriteFileAtomic(out, ch.model_text);
   WriteFileAtomic(report_path, report.dump(1) + "\n");
   std::cout << fmt::format("wrote {} and {}\n", out.string(), report_path.string());
+  // The lens's own uncertainty, which `curvecheck analyze` propagates into the radius (its uncertainty budget).
+  if (ch.intrinsics_covariance.size() > 0) {
+    fs::path cov_path = out;
+    cov_path.replace_extension(".intrinsics_covariance.json");
+    WriteFileAtomic(cov_path, IntrinsicsCovarianceJson(ch, out.filename().string()).dump(1) + "\n");
+    std::cout << fmt::format("wrote {} (the intrinsics covariance, for analyze's uncertainty budget)\n",
+                             cov_path.string());
+  }
   return 0;
 }
 

@@ -94,10 +94,43 @@ CandidateResult ParseCandidate(const nlohmann::json& c) {
     r.inlier.push_back(std::move(v));
   }
   r.model_text = ReadFileToString(c.at("model_path").get<std::string>());
+  if (c.contains("intrinsics_covariance")) {
+    const auto& ic = c.at("intrinsics_covariance");
+    const auto& rows = ic.at("covariance");
+    const long n = static_cast<long>(rows.size());
+    r.intrinsics_covariance.resize(n, n);
+    for (long i = 0; i < n; ++i) {
+      for (long k = 0; k < n; ++k) r.intrinsics_covariance(i, k) = Num(rows[static_cast<size_t>(i)][static_cast<size_t>(k)]);
+    }
+    r.intrinsics_covariance_dof = Num(ic.at("dof"));
+    r.observed_pixel_uncertainty_px = Num(ic.at("observed_pixel_uncertainty_px"));
+  }
   return r;
 }
 
 }  // namespace
+
+nlohmann::json IntrinsicsCovarianceJson(const CandidateResult& c, const std::string& model_file) {
+  if (c.intrinsics_covariance.size() == 0 || !c.intrinsics_covariance.allFinite()) {
+    throw Error(model_file, "the calibration has no intrinsics covariance (mrcal could not factor J^T J)",
+                "recalibrate with more photos covering the imager");
+  }
+  nlohmann::json cov = nlohmann::json::array();
+  for (long i = 0; i < c.intrinsics_covariance.rows(); ++i) {
+    nlohmann::json row = nlohmann::json::array();
+    for (long k = 0; k < c.intrinsics_covariance.cols(); ++k) row.push_back(c.intrinsics_covariance(i, k));
+    cov.push_back(row);
+  }
+  return {{"format", "curvecheck.intrinsics_covariance/1"},
+          {"model", model_file},
+          {"lensmodel", c.lensmodel},
+          {"intrinsics", c.intrinsics},
+          {"covariance", cov},
+          {"dof", c.intrinsics_covariance_dof},
+          {"observed_pixel_uncertainty_px", c.observed_pixel_uncertainty_px},
+          {"method", "mrcal: s^2 (J^T J)^-1 [J_obs^T J_obs] (J^T J)^-1 in the packed state, intrinsics block, "
+                     "unpacked (D Var D), marginal over the board poses; s = std of the board residuals"}};
+}
 
 const std::string& MrcalSolveScript() {
   static const std::string kScript(kMrcalSolveScript);

@@ -82,6 +82,11 @@ struct CandidateResult {
   std::vector<std::vector<Eigen::Vector2d>> residuals_px;  // per used photo, per corner (row-major)
   std::vector<std::vector<bool>> inlier;                   // false: rejected as an outlier
   std::string model_text;  // the .cameramodel file mrcal wrote, with its optimization inputs
+  // The covariance of the intrinsics (mrcal's order and units), marginal over the board poses: the observed pixel
+  // noise s squared times the intrinsics block of inv(J^T J) in mrcal's unpacked state (mrcal_solve.py
+  // intrinsics_covariance); dof = 2 x inlier corners - states. Empty when mrcal could not factor J^T J.
+  Eigen::MatrixXd intrinsics_covariance;
+  double intrinsics_covariance_dof = 0, observed_pixel_uncertainty_px = 0;
 
   bool adequate() const { return error.empty() && no_structure && (!crossval_done || crossval_pass); }
   // Uncertainty summaries (px): median over the central half of the imager (where a monitor is framed),
@@ -90,6 +95,14 @@ struct CandidateResult {
   double SigmaObservedMedian() const;
   double SigmaObservedMax() const;
 };
+
+// The sidecar written beside a calibrated camera model, CAM.intrinsics_covariance.json, that `curvecheck analyze`
+// propagates into its uncertainty budget (analysis/screen_fit.h ReadIntrinsicsCovariance):
+//   { "format": "curvecheck.intrinsics_covariance/1", "model": CAM file name, "lensmodel": .., "intrinsics": [..],
+//     "covariance": n x n (mrcal's intrinsics order; px^2 for fx fy cx cy, the distortions' units squared),
+//     "dof": residual degrees of freedom, "observed_pixel_uncertainty_px": s, "method": .. }
+// Throws Error when the candidate has no covariance.
+nlohmann::json IntrinsicsCovarianceJson(const CandidateResult& c, const std::string& model_file);
 
 struct CalibrationResult {
   BoardSpec board;

@@ -98,6 +98,22 @@ TEST(Calibrate, Opencv8TruthChoosesOpencv8AndRecoversTheLens) {
   EXPECT_EQ(c.Chosen().lensmodel, "LENSMODEL_OPENCV8") << c.choice;
   EXPECT_FALSE(c.candidates[0].adequate()) << "OPENCV4 cannot absorb the truth's k3 and rational terms";
   ExpectRecovered(Compare(StrongOpencv8Lens(), r, options.distance_mm));
+  // The intrinsics covariance written beside the model (analyze's lens row): the recovered core (fx, fy, cx, cy)
+  // is within 4 of its sigmas of the truth, and the sidecar carries it.
+  const CandidateResult& ch = c.Chosen();
+  const CameraModel truth = StrongOpencv8Lens();
+  ASSERT_EQ(ch.intrinsics_covariance.rows(), static_cast<long>(truth.intrinsics.size()));
+  EXPECT_GT(ch.intrinsics_covariance_dof, 1000);
+  for (int i = 0; i < 4; ++i) {
+    const double sigma = std::sqrt(ch.intrinsics_covariance(i, i)), err = ch.intrinsics[static_cast<size_t>(i)] -
+                                                                          truth.intrinsics[static_cast<size_t>(i)];
+    std::cout << "intrinsic " << i << ": error " << err << " px, sigma " << sigma << " px\n";
+    EXPECT_GT(sigma, 0);
+    EXPECT_LT(std::abs(err), 4 * sigma) << i;
+  }
+  const nlohmann::json side = IntrinsicsCovarianceJson(ch, "cam.cameramodel");
+  EXPECT_EQ(side["format"], "curvecheck.intrinsics_covariance/1");
+  EXPECT_EQ(side["covariance"].size(), truth.intrinsics.size());
 }
 
 // The wide lens: whatever model is chosen must reproduce the truth within 0.1 px and its own uncertainty.

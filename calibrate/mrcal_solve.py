@@ -95,6 +95,46 @@ def uncertainty(model, q, distance_mm):
     return mrcal.projection_uncertainty(v * distance_mm, model=model, what='worstdirection-stdev')
 
 
+def intrinsics_covariance(oi, lensmodel):
+    """The covariance of the intrinsics (mrcal's order and units), marginal over the board poses, from the
+    calibration's own Jacobian, as mrcal's projection uncertainty computes it (mrcal 2.2 model_analysis.py,
+    _projection_uncertainty and its docstring; http://mrcal.secretsauce.net/uncertainty.html):
+      Var(b*) = s^2 inv(J*t J*) J*[obs]t J*[obs] inv(J*t J*)   (s^2 inv(J*t J*) without regularization rows),
+      Var(b)  = D Var(b*) D,
+    with b* mrcal's packed (unitless) state, D its unpacking scale (mrcal.unpack_state on ones) and s the observed
+    pixel noise (the std of the board residuals, mrcal's default). Intrinsics that were not optimized (the core
+    of a splined model) get 0. Returns (n x n list, dof = inlier measurements - states, s)."""
+    _, x, jpacked, factorization = mrcal.optimizer_callback(**oi)
+    if factorization is None:
+        raise Exception("the calibration's JtJ could not be factored")
+    n = int(mrcal.lensmodel_num_params(lensmodel))
+    ncore = 4 if mrcal.lensmodel_metadata_and_config(lensmodel)['has_core'] else 0
+    i0 = 0 if oi.get('do_optimize_intrinsics_core') else ncore
+    i1 = n if oi.get('do_optimize_intrinsics_distortions') else ncore
+    full = np.zeros((n, n))
+    m = i1 - i0
+    nstate = jpacked.shape[1]
+    if m <= 0:
+        return full.tolist(), 0, 0.0
+    istate = mrcal.state_index_intrinsics(0, **oi)
+    e = np.zeros((m, nstate))
+    e[np.arange(m), istate + np.arange(m)] = 1
+    a = factorization.solve_xt_JtJ_bt(e)  # e inv(J*t J*), shape (m, nstate)
+    nobs = mrcal.num_measurements_boards(**oi)
+    if nobs == mrcal.num_measurements(**oi):
+        var = nps.matmult(a, nps.transpose(e))
+    else:
+        b = jpacked[:nobs].dot(nps.transpose(a))  # J*[obs] inv(J*t J*) e^T, shape (nobs, m)
+        var = nps.matmult(nps.transpose(b), b)
+    d = np.ones(nstate)
+    mrcal.unpack_state(d, **oi)
+    dscale = d[istate:istate + m]
+    s = float(np.std(mrcal.residuals_chessboard(oi, residuals=x).ravel()))
+    full[i0:i1, i0:i1] = s * s * dscale[:, None] * var * dscale[None, :]
+    inliers = int(np.sum(oi['observations_board'][..., 2] > 0))
+    return full.tolist(), 2 * inliers - nstate, s
+
+
 def observed_mask(q, observations, inp):
     """Grid points near observed corners: the region where the calibration has data."""
     pts = observations[..., :2][observations[..., 2] > 0]
@@ -164,6 +204,8 @@ def candidate(inp, observations, lensmodel, index):
                uncertainty=dict(grid_px=q.reshape(-1, 2).tolist(),
                                 sigma_px=sig.reshape(-1).tolist(),
                                 observed=mask.reshape(-1).tolist()))
+    cov, dof, s = intrinsics_covariance(oi, lensmodel)
+    out['intrinsics_covariance'] = dict(covariance=cov, dof=dof, observed_pixel_uncertainty_px=s)
     path = f"{inp['out_dir']}/candidate-{index}.cameramodel"
     model.write(path, note=f"curvecheck calibrate: candidate {lensmodel}")
     out['model_path'] = path

@@ -177,10 +177,10 @@ std::vector<std::string> SweepColumns(const std::vector<std::string>& factor_nam
   return c;
 }
 
-std::string Cell(double v) {
+std::string Cell(double v, int digits) {
   if (std::isnan(v)) return "nan";
   if (std::isinf(v)) return v > 0 ? "inf" : "-inf";
-  return fmt::format("{:.6g}", v);
+  return fmt::format("{:.{}g}", v, digits);
 }
 
 std::string CellText(const std::string& text) {

@@ -42,8 +42,8 @@ struct SweepTable {
 // The columns of sweep.csv for these factor names.
 std::vector<std::string> SweepColumns(const std::vector<std::string>& factor_names);
 
-// A number for a cell: "%.6g", "nan" for NaN, "inf"/"-inf".
-std::string Cell(double v);
+// A number for a cell: `digits` significant digits ("%.6g" by default), "nan" for NaN, "inf"/"-inf".
+std::string Cell(double v, int digits = 6);
 // Free text for a cell: commas become ';', quotes and line breaks become spaces.
 std::string CellText(const std::string& text);
 

@@ -40,11 +40,13 @@ constexpr int kDigits = 10;
 const char* const kAxes[] = {"x", "y", "z"};
 const char* const kFrames[] = {"centre", "axis"};
 
-// The scene `name_or_path` (scene_lookup.h FindScene) with `overrides` applied through LoadScene, the one reader
-// of overrides. An embedded scene has no file for LoadScene to read, so it and the camera model it names are
-// copied, in their datasets/ layout, into a private temporary folder that is removed on return.
-// TODO(merge): an overrides argument of FindScene (experiments/scene_lookup.h) would make this copy unnecessary.
-SyntheticScene LoadSceneWithOverrides(const std::string& name_or_path, const std::vector<std::string>& overrides) {
+// The scene `name_or_path` (scene_lookup.h FindScene) with `overrides` applied through LoadScene, the one
+// reader of overrides. An embedded scene has no file for LoadScene to read, so it and the camera model it
+// names are copied, in their datasets/ layout, into a private temporary folder that is removed on return.
+// TODO(merge): an overrides argument of FindScene (experiments/scene_lookup.h) would make this copy
+// unnecessary.
+SyntheticScene LoadSceneWithOverrides(const std::string& name_or_path,
+                                      const std::vector<std::string>& overrides) {
   std::error_code ec;
   if (overrides.empty()) return FindScene(name_or_path, "--scene");
   if (fs::exists(name_or_path, ec)) return LoadScene(name_or_path, overrides);
@@ -96,7 +98,7 @@ struct Grid {
   }
 
   json ToJson() const {
-    return {{"scales", scales},   {"distances_mm", distances_mm}, {"yaws_deg", yaws_deg},
+    return {{"scales", scales},   {"distances_mm", distances_mm},     {"yaws_deg", yaws_deg},
             {"realism", realism}, {"radius_factors", radius_factors}, {"trials_per_cell", trials}};
   }
   static Grid FromJson(const json& g) {
@@ -117,18 +119,40 @@ Grid GridOf(const BenchValidityOptions& o) {
 
 // validity_trials.csv's columns.
 std::vector<std::string> TrialColumns() {
-  std::vector<std::string> c = {"index",         "cell",          "scale",       "distance_mm", "yaw_deg",
-                                "realism",       "radius_factor", "trial",       "seed",        "camera_px",
-                                "jitter_x_mm",   "jitter_y_mm",   "jitter_z_mm", "jitter_aim_x_deg",
-                                "jitter_aim_y_deg", "jitter_aim_z_deg", "reason", "verification_verdict",
-                                "features",      "chosen_model",  "true_radius_mm", "radius_mm", "radius_sigma_mm",
-                                "radius_ci95_lo_mm", "radius_ci95_hi_mm", "radius_in68", "radius_in95"};
+  std::vector<std::string> c = {"index",
+                                "cell",
+                                "scale",
+                                "distance_mm",
+                                "yaw_deg",
+                                "realism",
+                                "radius_factor",
+                                "trial",
+                                "seed",
+                                "camera_px",
+                                "jitter_x_mm",
+                                "jitter_y_mm",
+                                "jitter_z_mm",
+                                "jitter_aim_x_deg",
+                                "jitter_aim_y_deg",
+                                "jitter_aim_z_deg",
+                                "reason",
+                                "verification_verdict",
+                                "features",
+                                "chosen_model",
+                                "true_radius_mm",
+                                "radius_mm",
+                                "radius_sigma_mm",
+                                "radius_ci95_lo_mm",
+                                "radius_ci95_hi_mm",
+                                "radius_in68",
+                                "radius_in95"};
   for (const char* f : kFrames) {
     for (const char* what : {"true_cam_{}_{}_mm", "cam_{}_{}_mm", "cam_{}_{}_sigma_mm"}) {
       for (const char* a : kAxes) c.push_back(fmt::format(fmt::runtime(what), f, a));
     }
   }
-  for (const char* name : {"render_ms", "photo_ms", "detect_ms", "fit_ms", "trial_ms", "detail"}) c.push_back(name);
+  for (const char* name : {"render_ms", "photo_ms", "detect_ms", "fit_ms", "trial_ms", "detail"})
+    c.push_back(name);
   return c;
 }
 
@@ -155,7 +179,8 @@ std::vector<std::string> RunTrial(Bench& b, int index, std::string* line) {
   scene.truth.curvature_per_mm = base.monitor.curvature_per_mm / cell.radius_factor;
   const double true_radius = 1 / scene.truth.curvature_per_mm;
 
-  // The camera: on its circle around the screen centre, looking at it, then jittered (seeded by the trial's seed).
+  // The camera: on its circle around the screen centre, looking at it, then jittered (seeded by the trial's
+  // seed).
   const Eigen::Vector3d centre = ScreenCentreInScreen(base.monitor);
   const Eigen::Vector3d placed =
       centre + cell.distance_mm * (Eigen::AngleAxisd(cell.yaw_deg * M_PI / 180, Eigen::Vector3d::UnitY()) *
@@ -166,7 +191,8 @@ std::vector<std::string> RunTrial(Bench& b, int index, std::string* line) {
   for (int i = 0; i < 3; ++i) jitter[i] = position_noise(rng);
   for (int i = 0; i < 3; ++i) aim_deg[i] = aim_noise(rng);
   const Eigen::Vector3d position = placed + jitter;
-  const Eigen::Matrix3d looking = ScreenFromCamLookAt(placed, centre, Eigen::Vector3d::UnitY()).RotationMatrix();
+  const Eigen::Matrix3d looking =
+      ScreenFromCamLookAt(placed, centre, Eigen::Vector3d::UnitY()).RotationMatrix();
   const Eigen::Vector3d aim_rad = aim_deg * M_PI / 180;
   const Eigen::Matrix3d turn =
       aim_rad.norm() > 0 ? Eigen::AngleAxisd(aim_rad.norm(), aim_rad.normalized()).toRotationMatrix()
@@ -192,7 +218,8 @@ std::vector<std::string> RunTrial(Bench& b, int index, std::string* line) {
     const Stopwatch render_watch;
     try {
       if (!b.renderer) b.renderer = std::make_unique<Renderer>();
-      display = std::make_unique<TrialDisplay>(RenderTrialDisplay(*b.renderer, base.monitor, position, b.spec));
+      display =
+          std::make_unique<TrialDisplay>(RenderTrialDisplay(*b.renderer, base.monitor, position, b.spec));
       WriteFileAtomic(pattern_json, display->PatternJson().dump() + "\n");
     } catch (const Error& e) {
       outcome = TrialOutcome::kRenderRefused;
@@ -200,8 +227,9 @@ std::vector<std::string> RunTrial(Bench& b, int index, std::string* line) {
     }
     render_ms = render_watch.Ms();
     if (display) {
-      const TrialAnalysis t = PhotographAndAnalyse(scene, display->image, {fmt::format("trial-{}", index), pattern_json},
-                                                   "scaled camera", AnalyzeOptions{});
+      const TrialAnalysis t =
+          PhotographAndAnalyse(scene, display->image, {fmt::format("trial-{}", index), pattern_json},
+                               "scaled camera", AnalyzeOptions{});
       const AnalysisResult& r = t.analysis;
       const PhotoAnalysis& photo = r.photos.front();
       photo_ms = t.photo_ms;
@@ -255,21 +283,18 @@ std::vector<std::string> RunTrial(Bench& b, int index, std::string* line) {
     detail.replace(at, pattern_json.string().size(), "pattern.json");
   }
   const IntervalSample rs{radius, true_radius, sigma, lo, hi};
-  std::vector<std::string> row = {std::to_string(index),
-                                  std::to_string(cell.index),
-                                  Cell(cell.scale),
-                                  Cell(cell.distance_mm),
-                                  Cell(cell.yaw_deg),
-                                  cell.realism,
-                                  Cell(cell.radius_factor),
-                                  std::to_string(k),
-                                  std::to_string(seed),
-                                  fmt::format("{}x{}", scene.camera.width, scene.camera.height)};
+  std::vector<std::string> row = {
+      std::to_string(index),    std::to_string(cell.index),
+      Cell(cell.scale),         Cell(cell.distance_mm),
+      Cell(cell.yaw_deg),       cell.realism,
+      Cell(cell.radius_factor), std::to_string(k),
+      std::to_string(seed),     fmt::format("{}x{}", scene.camera.width, scene.camera.height)};
   for (int i = 0; i < 3; ++i) row.push_back(Cell(jitter[i], kDigits));
   for (int i = 0; i < 3; ++i) row.push_back(Cell(aim_deg[i], kDigits));
   for (const std::string& c :
-       {std::string(TrialOutcomeName(outcome)), verdict, std::to_string(features), chosen, Cell(true_radius, kDigits),
-        Cell(radius, kDigits), Cell(sigma, kDigits), Cell(lo, kDigits), Cell(hi, kDigits), rs.Valid() ? std::string(rs.In68() ? "1" : "0") : "",
+       {std::string(TrialOutcomeName(outcome)), verdict, std::to_string(features), chosen,
+        Cell(true_radius, kDigits), Cell(radius, kDigits), Cell(sigma, kDigits), Cell(lo, kDigits),
+        Cell(hi, kDigits), rs.Valid() ? std::string(rs.In68() ? "1" : "0") : "",
         rs.Valid() ? std::string(rs.In95() ? "1" : "0") : ""}) {
     row.push_back(c);
   }
@@ -281,10 +306,11 @@ std::vector<std::string> RunTrial(Bench& b, int index, std::string* line) {
   const double trial_ms = watch.Ms();
   for (double ms : {render_ms, photo_ms, detect_ms, fit_ms, trial_ms}) row.push_back(Cell(ms));
   row.push_back(CellText(detail));
-  *line = fmt::format("{} #{}: R {:.2f} +- {:.2f} mm [{:.1f}, {:.1f}], truth {:.1f} ({:+.2f} sigma){}; {:.0f} ms",
-                      cell.Label(), k, radius, sigma, lo, hi, true_radius, (radius - true_radius) / sigma,
-                      outcome == TrialOutcome::kOk ? "" : fmt::format(" - {}: {}", TrialOutcomeName(outcome), detail),
-                      trial_ms);
+  *line = fmt::format(
+      "{} #{}: R {:.2f} +- {:.2f} mm [{:.1f}, {:.1f}], truth {:.1f} ({:+.2f} sigma){}; {:.0f} ms",
+      cell.Label(), k, radius, sigma, lo, hi, true_radius, (radius - true_radius) / sigma,
+      outcome == TrialOutcome::kOk ? "" : fmt::format(" - {}: {}", TrialOutcomeName(outcome), detail),
+      trial_ms);
   return row;
 }
 
@@ -320,9 +346,10 @@ CellStats CellOf(const SweepTable& t, const std::vector<size_t>& rows, const Gri
                       t.Num(r, "radius_ci95_lo_mm"), t.Num(r, "radius_ci95_hi_mm")});
     for (int f = 0; f < 2; ++f) {
       for (int a = 0; a < 3; ++a) {
-        camera[f][a].push_back(SymmetricSample(t.Num(r, fmt::format("cam_{}_{}_mm", kFrames[f], kAxes[a])),
-                                               t.Num(r, fmt::format("true_cam_{}_{}_mm", kFrames[f], kAxes[a])),
-                                               t.Num(r, fmt::format("cam_{}_{}_sigma_mm", kFrames[f], kAxes[a]))));
+        camera[f][a].push_back(
+            SymmetricSample(t.Num(r, fmt::format("cam_{}_{}_mm", kFrames[f], kAxes[a])),
+                            t.Num(r, fmt::format("true_cam_{}_{}_mm", kFrames[f], kAxes[a])),
+                            t.Num(r, fmt::format("cam_{}_{}_sigma_mm", kFrames[f], kAxes[a]))));
       }
     }
   }
@@ -341,8 +368,8 @@ CellStats CellOf(const SweepTable& t, const std::vector<size_t>& rows, const Gri
 }
 
 std::vector<std::string> CellColumns() {
-  std::vector<std::string> c = {"cell", "scale", "distance_mm", "yaw_deg", "realism", "radius_factor",
-                                "true_radius_mm", "trials", "ok", "failures"};
+  std::vector<std::string> c = {"cell",          "scale",          "distance_mm", "yaw_deg", "realism",
+                                "radius_factor", "true_radius_mm", "trials",      "ok",      "failures"};
   const auto stats = [&c](const std::string& p) {
     for (const char* s : {"n", "bias_sigma", "bias_sigma_se", "scatter_ratio", "mean_error_mm", "sd_error_mm",
                           "mean_sigma_mm", "cov68_k", "cov68", "cov68_lo", "cov68_hi", "cov95_k", "cov95",
@@ -361,17 +388,25 @@ std::vector<std::string> CellColumns() {
 
 std::vector<std::string> CellRow(const CellStats& s) {
   std::string failures;
-  for (const auto& [reason, n] : s.failures) failures += fmt::format("{}{} {}", failures.empty() ? "" : "; ", n, reason);
-  std::vector<std::string> row = {std::to_string(s.cell.index), Cell(s.cell.scale), Cell(s.cell.distance_mm),
-                                  Cell(s.cell.yaw_deg),         s.cell.realism,     Cell(s.cell.radius_factor),
-                                  Cell(s.true_radius_mm),       std::to_string(s.trials), std::to_string(s.ok),
+  for (const auto& [reason, n] : s.failures)
+    failures += fmt::format("{}{} {}", failures.empty() ? "" : "; ", n, reason);
+  std::vector<std::string> row = {std::to_string(s.cell.index),
+                                  Cell(s.cell.scale),
+                                  Cell(s.cell.distance_mm),
+                                  Cell(s.cell.yaw_deg),
+                                  s.cell.realism,
+                                  Cell(s.cell.radius_factor),
+                                  Cell(s.true_radius_mm),
+                                  std::to_string(s.trials),
+                                  std::to_string(s.ok),
                                   CellText(failures)};
   const auto stats = [&row](const CoverageStats& c) {
     for (const std::string& v :
-         {std::to_string(c.n), Cell(c.bias_sigma), Cell(c.bias_sigma_se), Cell(c.scatter_ratio), Cell(c.mean_error),
-          Cell(c.sd_error), Cell(c.mean_sigma), std::to_string(c.k68), Cell(c.Coverage68()),
-          Cell(c.n > 0 ? c.wilson68.lo : kNaN), Cell(c.n > 0 ? c.wilson68.hi : kNaN), std::to_string(c.k95),
-          Cell(c.Coverage95()), Cell(c.n > 0 ? c.wilson95.lo : kNaN), Cell(c.n > 0 ? c.wilson95.hi : kNaN)}) {
+         {std::to_string(c.n), Cell(c.bias_sigma), Cell(c.bias_sigma_se), Cell(c.scatter_ratio),
+          Cell(c.mean_error), Cell(c.sd_error), Cell(c.mean_sigma), std::to_string(c.k68),
+          Cell(c.Coverage68()), Cell(c.n > 0 ? c.wilson68.lo : kNaN), Cell(c.n > 0 ? c.wilson68.hi : kNaN),
+          std::to_string(c.k95), Cell(c.Coverage95()), Cell(c.n > 0 ? c.wilson95.lo : kNaN),
+          Cell(c.n > 0 ? c.wilson95.hi : kNaN)}) {
       row.push_back(v);
     }
   };
@@ -395,10 +430,16 @@ json CoverageJson(const CoverageStats& c) {
           {"mean_error_mm", num(c.mean_error)},
           {"sd_error_mm", num(c.sd_error)},
           {"mean_sigma_mm", num(c.mean_sigma)},
-          {"coverage68", {{"k", c.k68}, {"n", c.n}, {"rate", num(c.Coverage68())},
-                          {"wilson95", {c.wilson68.lo, c.wilson68.hi}}}},
-          {"coverage95", {{"k", c.k95}, {"n", c.n}, {"rate", num(c.Coverage95())},
-                          {"wilson95", {c.wilson95.lo, c.wilson95.hi}}}}};
+          {"coverage68",
+           {{"k", c.k68},
+            {"n", c.n},
+            {"rate", num(c.Coverage68())},
+            {"wilson95", {c.wilson68.lo, c.wilson68.hi}}}},
+          {"coverage95",
+           {{"k", c.k95},
+            {"n", c.n},
+            {"rate", num(c.Coverage95())},
+            {"wilson95", {c.wilson95.lo, c.wilson95.hi}}}}};
 }
 
 json CellJson(const CellStats& s) {
@@ -425,13 +466,14 @@ json CellJson(const CellStats& s) {
 
 std::string Pct(const CoverageStats& c, int k, const BinomialInterval& w) {
   if (c.n == 0) return "-";
-  return fmt::format("{:>2}/{:<2} {:3.0f}% [{:2.0f},{:3.0f}]", k, c.n, 100.0 * k / c.n, 100 * w.lo, 100 * w.hi);
+  return fmt::format("{:>2}/{:<2} {:3.0f}% [{:2.0f},{:3.0f}]", k, c.n, 100.0 * k / c.n, 100 * w.lo,
+                     100 * w.hi);
 }
 
 std::string TableText(const std::vector<CellStats>& cells, const ValidityRule& rule) {
   std::string s = fmt::format(
-      "{:>4} {:>5} {:>6} {:>4} {:>4} {:>5} {:>6} {:>14} {:>6} {:>20} {:>20} {:>4}  {:>20} {:>20} {:>4}\n", "cell",
-      "scale", "dist", "yaw", "real", "R/Rn", "ok/n", "bias/sig +- se", "scat", "cov68 [Wilson 95%]",
+      "{:>4} {:>5} {:>6} {:>4} {:>4} {:>5} {:>6} {:>14} {:>6} {:>20} {:>20} {:>4}  {:>20} {:>20} {:>4}\n",
+      "cell", "scale", "dist", "yaw", "real", "R/Rn", "ok/n", "bias/sig +- se", "scat", "cov68 [Wilson 95%]",
       "cov95 [Wilson 95%]", "rule", "cam centre: max|b|", "cam axis: max|b|", "cam");
   for (const CellStats& c : cells) {
     const auto cam = [&](int f) {
@@ -448,21 +490,28 @@ std::string TableText(const std::vector<CellStats>& cells, const ValidityRule& r
     };
     const CoverageStats& r = c.radius;
     s += fmt::format(
-        "{:>4} {:>5g} {:>6g} {:>4g} {:>4} {:>5g} {:>6} {:>14} {:>6} {:>20} {:>20} {:>4}  {:>20} {:>20} {:>4}\n",
+        "{:>4} {:>5g} {:>6g} {:>4g} {:>4} {:>5g} {:>6} {:>14} {:>6} {:>20} {:>20} {:>4}  {:>20} {:>20} "
+        "{:>4}\n",
         c.cell.index, c.cell.scale, c.cell.distance_mm, c.cell.yaw_deg, c.cell.realism, c.cell.radius_factor,
         fmt::format("{}/{}", c.ok, c.trials),
         r.n == 0 ? std::string("-") : fmt::format("{:+.2f} +- {:.2f}", r.bias_sigma, r.bias_sigma_se),
         std::isfinite(r.scatter_ratio) ? fmt::format("{:.2f}", r.scatter_ratio) : std::string("-"),
         Pct(r, r.k68, r.wilson68), Pct(r, r.k95, r.wilson95),
-        c.radius_pass ? "ok" : (c.radius_consistent && r.n > 0 && std::abs(r.bias_sigma) < rule.max_bias_sigma ? "ok?" : "FAIL"),
+        c.radius_pass
+            ? "ok"
+            : (c.radius_consistent && r.n > 0 && std::abs(r.bias_sigma) < rule.max_bias_sigma ? "ok?"
+                                                                                              : "FAIL"),
         cam(0), cam(1), c.camera_pass ? "ok" : "FAIL");
   }
   s += fmt::format(
-      "(cell: scale/distance mm/yaw deg/realism/true radius factor in validity.csv; ok/n: trials with a radius of "
+      "(cell: scale/distance mm/yaw deg/realism/true radius factor in validity.csv; ok/n: trials with a "
+      "radius of "
       "n; bias/sig: mean(R - R_true) / mean reported sigma, +- its standard error; scat: sd(R) / mean sigma; "
       "cov68: R +- sigma holds the truth; cov95: the reported 95% interval holds it; rule: 95% coverage in "
-      "{:.0f}-{:.0f}% and |bias| < {:g} sigma, ok? = fails on the point estimate but the Wilson interval overlaps "
-      "the band; cam: the camera position in the true screen's centre and axis frames, worst coordinate, same "
+      "{:.0f}-{:.0f}% and |bias| < {:g} sigma, ok? = fails on the point estimate but the Wilson interval "
+      "overlaps "
+      "the band; cam: the camera position in the true screen's centre and axis frames, worst coordinate, "
+      "same "
       "rule on all six)\n",
       100 * rule.coverage95_lo, 100 * rule.coverage95_hi, rule.max_bias_sigma);
   return s;
@@ -475,16 +524,17 @@ void WriteChart(const std::vector<CellStats>& cells, const ValidityRule& rule, c
   for (const CellStats& c : cells) {
     const CoverageStats& r = c.radius;
     dat += fmt::format("{} {} {} {} {} {} {}\n", c.cell.index, c.cell.Label(), Cell(r.Coverage95()),
-                       Cell(r.n > 0 ? r.wilson95.lo : kNaN), Cell(r.n > 0 ? r.wilson95.hi : kNaN), Cell(r.bias_sigma),
-                       Cell(r.bias_sigma_se));
+                       Cell(r.n > 0 ? r.wilson95.lo : kNaN), Cell(r.n > 0 ? r.wilson95.hi : kNaN),
+                       Cell(r.bias_sigma), Cell(r.bias_sigma_se));
   }
   WriteFileAtomic(dir / "validity.dat", dat);
   const double x0 = -0.5, x1 = cells.empty() ? 0.5 : cells.back().cell.index + 0.5;
   std::string script = fmt::format(
       "set datafile missing 'nan'\nset multiplot layout 2,1 title {}\nset xrange [{}:{}]\nset grid ytics\n"
       "set xtics rotate by 60 right font ',8'\nunset key\n",
-      GnuplotString("bench validity: is the radius interval honest? (cells: scale/distance mm/yaw deg/realism/R "
-                    "factor)"),
+      GnuplotString(
+          "bench validity: is the radius interval honest? (cells: scale/distance mm/yaw deg/realism/R "
+          "factor)"),
       x0, x1);
   script += fmt::format(
       "set title {}\nset ylabel '95% coverage'\nset yrange [0:1.05]\n"
@@ -498,9 +548,10 @@ void WriteChart(const std::vector<CellStats>& cells, const ValidityRule& rule, c
       "set object 2 rect from {},{} to {},{} fc rgb '#c7e9c0' fs solid 0.6 noborder behind\n"
       "plot 'validity.dat' using 1:6:7:xtic(2) with yerrorbars pt 7 lc rgb '#b2182b', 0 lc rgb 'gray'\n"
       "unset multiplot\n",
-      GnuplotString(fmt::format("bias of the radius in units of the mean reported sigma, +- its standard error; "
-                                "band +-{:g}",
-                                rule.max_bias_sigma)),
+      GnuplotString(
+          fmt::format("bias of the radius in units of the mean reported sigma, +- its standard error; "
+                      "band +-{:g}",
+                      rule.max_bias_sigma)),
       x0, -rule.max_bias_sigma, x1, rule.max_bias_sigma);
   // The script reads validity.dat from the folder it runs in (WriteGnuplotChart runs gnuplot there).
   WriteGnuplotChart(dir / "validity.png", script,
@@ -509,7 +560,8 @@ void WriteChart(const std::vector<CellStats>& cells, const ValidityRule& rule, c
 
 // Computes the cells from the trial rows and writes every output; returns whether every cell with trials
 // meets the rule. `meta` is validity.json without the cells and the summary.
-bool WriteOutputs(const fs::path& out, SweepTable& trials, json meta, const std::string& head, std::ostream& log) {
+bool WriteOutputs(const fs::path& out, SweepTable& trials, json meta, const std::string& head,
+                  std::ostream& log) {
   const Grid grid = Grid::FromJson(meta.at("grid"));
   const ValidityRule rule;
   std::map<int, std::vector<size_t>> by_cell;
@@ -525,7 +577,8 @@ bool WriteOutputs(const fs::path& out, SweepTable& trials, json meta, const std:
     CellStats s = CellOf(trials, it->second, grid.CellAt(c), rule);
     ++with_trials;
     pass += s.radius_pass ? 1 : 0;
-    consistent += s.radius_consistent && s.radius.n > 0 && std::abs(s.radius.bias_sigma) < rule.max_bias_sigma;
+    consistent +=
+        s.radius_consistent && s.radius.n > 0 && std::abs(s.radius.bias_sigma) < rule.max_bias_sigma;
     camera_pass += s.camera_pass ? 1 : 0;
     no_radius += s.radius.n == 0 ? 1 : 0;
     table.rows.push_back(CellRow(s));
@@ -535,17 +588,20 @@ bool WriteOutputs(const fs::path& out, SweepTable& trials, json meta, const std:
   const bool all = with_trials > 0 && pass == with_trials;
   std::string summary = TableText(cells, rule);
   summary += fmt::format(
-      "\nradius, issue 16's rule (95% coverage in {:.0f}-{:.0f}% and |bias| < {:g} sigma in every cell): {} - {} of {} "
+      "\nradius, issue 16's rule (95% coverage in {:.0f}-{:.0f}% and |bias| < {:g} sigma in every cell): {} "
+      "- {} of {} "
       "cells meet it{}; {} more are consistent with it within their Wilson interval; {} trials per cell\n",
       100 * rule.coverage95_lo, 100 * rule.coverage95_hi, rule.max_bias_sigma, all ? "PASS" : "FAIL", pass,
       with_trials, no_radius > 0 ? fmt::format(" ({} without any radius)", no_radius) : std::string(),
       consistent - pass, grid.trials);
-  summary += fmt::format("camera position (centre and axis frames, every coordinate, the same rule): {} of {} cells\n",
-                         camera_pass, with_trials);
+  summary += fmt::format(
+      "camera position (centre and axis frames, every coordinate, the same rule): {} of {} cells\n",
+      camera_pass, with_trials);
   log << "\n" << summary;
-  meta["rule"] = {{"coverage95", {rule.coverage95_lo, rule.coverage95_hi}}, {"max_abs_bias_sigma", rule.max_bias_sigma},
+  meta["rule"] = {{"coverage95", {rule.coverage95_lo, rule.coverage95_hi}},
+                  {"max_abs_bias_sigma", rule.max_bias_sigma},
                   {"binomial_interval", "Wilson score, 95%"}};
-  meta["summary"] = {{"cells", with_trials},      {"radius_pass", pass}, {"radius_consistent", consistent},
+  meta["summary"] = {{"cells", with_trials},       {"radius_pass", pass}, {"radius_consistent", consistent},
                      {"camera_pass", camera_pass}, {"all_pass", all},     {"trials", trials.rows.size()}};
   meta["cells"] = cells_json;
   WriteFileAtomic(out / "validity_trials.csv", trials.ToCsv());
@@ -561,10 +617,10 @@ bool WriteOutputs(const fs::path& out, SweepTable& trials, json meta, const std:
 }  // namespace
 
 std::vector<std::string> RealismOverrides(const std::string& level) {
-  // TODO(imaging chain, issue 16 item 1): "off" -> {"imaging.preset=clean"} and "on" -> {"imaging.preset=ilc24"}
-  // once synth/ knows the key imaging.preset. Until then "off" is the scene's own chain, and "on" dirties the
-  // photo with keys synth/ reads today: more optical blur, a quarter of the sensor's full well (more shot noise),
-  // and display pixels with gaps (fill 0.7: moire).
+  // TODO(imaging chain, issue 16 item 1): "off" -> {"imaging.preset=clean"} and "on" ->
+  // {"imaging.preset=ilc24"} once synth/ knows the key imaging.preset. Until then "off" is the scene's own
+  // chain, and "on" dirties the photo with keys synth/ reads today: more optical blur, a quarter of the
+  // sensor's full well (more shot noise), and display pixels with gaps (fill 0.7: moire).
   if (level == "off") return {};
   if (level == "on") return {"optics.blur_px=1.0", "sensor.full_well_e=5000", "display.fill_factor=0.7"};
   throw Error("--realism", fmt::format("'{}' is not a level", level), "give on, off or on,off");
@@ -611,7 +667,8 @@ bool RunBenchValidity(const BenchValidityOptions& o, const fs::path& out, std::o
   Bench b;
   b.options = o;
   b.grid = GridOf(o);
-  for (const std::string& level : o.realism) b.scenes[level] = LoadSceneWithOverrides(o.scene, RealismOverrides(level));
+  for (const std::string& level : o.realism)
+    b.scenes[level] = LoadSceneWithOverrides(o.scene, RealismOverrides(level));
   const SyntheticScene& first = b.scenes.begin()->second;
   if (first.monitor.curvature_per_mm == 0) {
     throw Error("--scene", fmt::format("'{}' has a flat monitor", o.scene),
@@ -629,20 +686,25 @@ bool RunBenchValidity(const BenchValidityOptions& o, const fs::path& out, std::o
   std::string levels;
   for (const std::string& level : o.realism) {
     const std::vector<std::string> set = RealismOverrides(level);
-    levels += fmt::format("{}{} = {}", levels.empty() ? "" : "; ", level,
-                          set.empty() ? std::string("the scene's own") : fmt::format("{}", fmt::join(set, " ")));
+    levels +=
+        fmt::format("{}{} = {}", levels.empty() ? "" : "; ", level,
+                    set.empty() ? std::string("the scene's own") : fmt::format("{}", fmt::join(set, " ")));
   }
   const std::string machine = DescribeMachine();
   const std::string head = fmt::format(
-      "{}\n{}\nbench validity: scene {} ({}, nominal R {:.0f} mm), camera {} {}x{} scaled by {}; distances {} mm; "
-      "yaws {} deg around the screen centre; realism {}; true radius x {}; {}x{} board, exact rendering for the "
-      "camera's position; camera jitter {:g} mm and {:g} deg per axis (1 sigma); the default analysis (the chosen "
-      "model's numbers); {} cells x {} trials = {} trials, shard {}/{} runs {}; seed {} (trial k: seed + k)\n",
+      "{}\n{}\nbench validity: scene {} ({}, nominal R {:.0f} mm), camera {} {}x{} scaled by {}; distances "
+      "{} mm; "
+      "yaws {} deg around the screen centre; realism {}; true radius x {}; {}x{} board, exact rendering for "
+      "the "
+      "camera's position; camera jitter {:g} mm and {:g} deg per axis (1 sigma); the default analysis (the "
+      "chosen "
+      "model's numbers); {} cells x {} trials = {} trials, shard {}/{} runs {}; seed {} (trial k: seed + "
+      "k)\n",
       o.command_line, machine, o.scene, first.monitor.name, 1 / first.monitor.curvature_per_mm,
       first.camera.lensmodel, first.camera.width, first.camera.height, fmt::join(o.scales, ","),
-      fmt::join(o.distances_mm, ","), fmt::join(o.yaws_deg, ","), levels, fmt::join(o.radius_factors, ","), o.cols,
-      o.rows, o.jitter_mm, o.jitter_deg, b.grid.Cells(), o.trials, total, o.shard.index, o.shard.count, mine.size(),
-      o.seed);
+      fmt::join(o.distances_mm, ","), fmt::join(o.yaws_deg, ","), levels, fmt::join(o.radius_factors, ","),
+      o.cols, o.rows, o.jitter_mm, o.jitter_deg, b.grid.Cells(), o.trials, total, o.shard.index,
+      o.shard.count, mine.size(), o.seed);
   log << head << std::flush;
 
   SweepTable trials;
@@ -667,8 +729,8 @@ bool RunBenchValidity(const BenchValidityOptions& o, const fs::path& out, std::o
   for (const std::string& level : o.realism) overrides[level] = RealismOverrides(level);
   grid["realism_overrides"] = overrides;
   grid["trials"] = total;
-  const std::string timing = fmt::format("{} trials in {:.1f} s wall: {:.2f} s per trial\n", mine.size(), wall_s,
-                                         mine.empty() ? 0.0 : wall_s / mine.size());
+  const std::string timing = fmt::format("{} trials in {:.1f} s wall: {:.2f} s per trial\n", mine.size(),
+                                         wall_s, mine.empty() ? 0.0 : wall_s / mine.size());
   log << timing;
   const json meta = {{"format", kFormat},
                      {"command", o.command_line},
@@ -679,13 +741,14 @@ bool RunBenchValidity(const BenchValidityOptions& o, const fs::path& out, std::o
   return WriteOutputs(out, trials, meta, head + timing, log);
 }
 
-bool MergeBenchValidity(const std::vector<fs::path>& dirs, const fs::path& out, const std::string& command_line,
-                        std::ostream& log) {
+bool MergeBenchValidity(const std::vector<fs::path>& dirs, const fs::path& out,
+                        const std::string& command_line, std::ostream& log) {
   MergedShards merged = ReadShards(dirs, ValidityShardFiles());
   const int total = merged.grid.at("trials").get<int>();
   const int missing = total - static_cast<int>(merged.table.rows.size());
   const std::string head = fmt::format(
-      "{}\nmerged {} folders: {} of {} trials{}\n", command_line, dirs.size(), merged.table.rows.size(), total,
+      "{}\nmerged {} folders: {} of {} trials{}\n", command_line, dirs.size(), merged.table.rows.size(),
+      total,
       missing > 0 ? fmt::format(" ({} missing: merge the remaining shards for the full grid)", missing)
                   : std::string());
   log << head;

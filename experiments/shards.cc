@@ -13,7 +13,8 @@ namespace fs = std::filesystem;
 
 void Shard::Check() const {
   if (count < 1 || index < 1 || index > count) {
-    throw Error("--shard", fmt::format("{}/{} is not i/n with 1 <= i <= n", index, count), "write e.g. --shard 2/4");
+    throw Error("--shard", fmt::format("{}/{} is not i/n with 1 <= i <= n", index, count),
+                "write e.g. --shard 2/4");
   }
 }
 

@@ -1,5 +1,5 @@
-// Shards of a grid run and their merge (shards.h), on hand-written shard folders: the --shard parser, which items
-// a shard runs, and ReadShards joining two shards and refusing mismatched or overlapping ones.
+// Shards of a grid run and their merge (shards.h), on hand-written shard folders: the --shard parser, which
+// items a shard runs, and ReadShards joining two shards and refusing mismatched or overlapping ones.
 #include "experiments/shards.h"
 
 #include <gmock/gmock.h>
@@ -36,7 +36,8 @@ class ShardsRead : public ::testing::Test {
  protected:
   void Write(const std::string& name, const nlohmann::json& grid, const std::string& csv) {
     fs::create_directories(folder_.path() / name);
-    WriteFileAtomic(folder_.path() / name / "t.json", nlohmann::json{{"format", "t/1"}, {"grid", grid}}.dump());
+    WriteFileAtomic(folder_.path() / name / "t.json",
+                    nlohmann::json{{"format", "t/1"}, {"grid", grid}}.dump());
     WriteFileAtomic(folder_.path() / name / "t.csv", csv);
   }
   fs::path Dir(const std::string& name) const { return folder_.path() / name; }

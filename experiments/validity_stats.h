@@ -1,8 +1,8 @@
-// The statistics of `bench validity` (bench_validity.h): is a reported interval honest? Over seeded trials of one
-// grid cell, each giving an estimate, its reported standard uncertainty sigma and 95% interval, and the truth:
-// bias in units of sigma, empirical scatter against sigma, and the coverage of the 68% and 95% intervals with
-// Wilson 95% intervals on the rates (metrology.md section 1: 95% intervals must hold the truth 90-98% of the
-// time, 68% ones 63-73%; bias is reported in sigmas).
+// The statistics of `bench validity` (bench_validity.h): is a reported interval honest? Over seeded trials of
+// one grid cell, each giving an estimate, its reported standard uncertainty sigma and 95% interval, and the
+// truth: bias in units of sigma, empirical scatter against sigma, and the coverage of the 68% and 95%
+// intervals with Wilson 95% intervals on the rates (metrology.md section 1: 95% intervals must hold the truth
+// 90-98% of the time, 68% ones 63-73%; bias is reported in sigmas).
 #pragma once
 
 #include <limits>
@@ -22,7 +22,8 @@ struct IntervalSample {
 
   // Usable: finite estimate, truth and sigma > 0, and lo95 <= hi95 (NaN bounds are not).
   bool Valid() const;
-  // The 68% interval is estimate +- sigma (coverage factor 1: 68.3% for a Gaussian); the 95% one [lo95, hi95].
+  // The 68% interval is estimate +- sigma (coverage factor 1: 68.3% for a Gaussian); the 95% one [lo95,
+  // hi95].
   bool In68() const;
   bool In95() const;
 };
@@ -41,7 +42,7 @@ struct CoverageStats {
   double bias_sigma = std::numeric_limits<double>::quiet_NaN();
   double bias_sigma_se = std::numeric_limits<double>::quiet_NaN();
   double scatter_ratio = std::numeric_limits<double>::quiet_NaN();
-  int k68 = 0, k95 = 0;          // samples whose 68% / 95% interval holds the truth
+  int k68 = 0, k95 = 0;                 // samples whose 68% / 95% interval holds the truth
   BinomialInterval wilson68, wilson95;  // Wilson 95% intervals of the coverage rates k / n
 
   double Coverage68() const;  // k68 / n, NaN for n = 0
@@ -58,9 +59,9 @@ struct ValidityRule {
   double max_bias_sigma = 0.5;
 
   bool Holds(const CoverageStats& s) const;
-  // Whether the Wilson interval of the 95% coverage overlaps [coverage95_lo, coverage95_hi]: a cell that fails the
-  // rule on its point estimate may still be consistent with it at this trial count (20 trials of a perfect 95%
-  // interval give 20/20 = 100% 36% of the time).
+  // Whether the Wilson interval of the 95% coverage overlaps [coverage95_lo, coverage95_hi]: a cell that
+  // fails the rule on its point estimate may still be consistent with it at this trial count (20 trials of a
+  // perfect 95% interval give 20/20 = 100% 36% of the time).
   bool CoverageConsistent(const CoverageStats& s) const;
 };
 

@@ -13,14 +13,14 @@ namespace {
 TEST(ValidityStats, CountsCoverageOfBothIntervalsAndLeavesInvalidSamplesOut) {
   // Truth 1000 mm, sigma 2 mm, the reported 95% interval asymmetric as a radius from a curvature interval is.
   const std::vector<IntervalSample> samples = {
-      {1001, 1000, 2, 997, 1005},        // error +1: inside both
-      {1003, 1000, 2, 999, 1007},        // +3: outside +-sigma, inside the 95% interval
-      {1006, 1000, 2, 1001.5, 1011},     // +6: outside both
-      {998, 1000, 2, 994, 1002},         // -2: exactly sigma away: inside the 68% interval (|e| <= sigma)
-      {995, 1000, 2, 991, INFINITY},     // -5: 95% interval reaching +inf holds the truth
-      {NAN, 1000, 2, 990, 1010},         // no estimate: left out
-      {1000, 1000, 0, 990, 1010},        // sigma 0: left out
-      {1000, 1000, 2, NAN, NAN},         // no interval: left out
+      {1001, 1000, 2, 997, 1005},     // error +1: inside both
+      {1003, 1000, 2, 999, 1007},     // +3: outside +-sigma, inside the 95% interval
+      {1006, 1000, 2, 1001.5, 1011},  // +6: outside both
+      {998, 1000, 2, 994, 1002},      // -2: exactly sigma away: inside the 68% interval (|e| <= sigma)
+      {995, 1000, 2, 991, INFINITY},  // -5: 95% interval reaching +inf holds the truth
+      {NAN, 1000, 2, 990, 1010},      // no estimate: left out
+      {1000, 1000, 0, 990, 1010},     // sigma 0: left out
+      {1000, 1000, 2, NAN, NAN},      // no interval: left out
   };
   const CoverageStats s = SummariseCoverage(samples);
   EXPECT_EQ(s.n, 5);
@@ -28,7 +28,8 @@ TEST(ValidityStats, CountsCoverageOfBothIntervalsAndLeavesInvalidSamplesOut) {
   EXPECT_EQ(s.k95, 4);
   EXPECT_DOUBLE_EQ(s.Coverage68(), 0.4);
   EXPECT_DOUBLE_EQ(s.Coverage95(), 0.8);
-  // errors +1, +3, +6, -2, -5: mean 0.6, sd sqrt(((0.4)^2 + 2.4^2 + 5.4^2 + 2.6^2 + 5.6^2) / 4) = sqrt(73.2 / 4).
+  // errors +1, +3, +6, -2, -5: mean 0.6, sd sqrt(((0.4)^2 + 2.4^2 + 5.4^2 + 2.6^2 + 5.6^2) / 4) = sqrt(73.2 /
+  // 4).
   EXPECT_DOUBLE_EQ(s.mean_error, 0.6);
   EXPECT_DOUBLE_EQ(s.mean_sigma, 2);
   EXPECT_DOUBLE_EQ(s.bias_sigma, 0.3);

@@ -1,11 +1,12 @@
-// `curvecheck bench validity` end to end, small and seeded (issue 16 item 4): the embedded default scene (49" 1000R),
-// the camera at quarter resolution 1.5 m in front of the screen centre, the scene's own imaging chain, true radius
-// 1000 mm and 1080 mm (x 1.08): 2 cells x 3 trials. Proves: the outputs exist with their columns; every trial
-// gives a radius within 15 mm of its truth and the camera within 10 mm of its true position in both frames (a wrong
-// frame or a wrong truth would be off by hundreds of mm); the cell statistics are what the trial rows imply (the
-// coverage counts, the bias in sigmas, the Wilson interval); seeds follow the trial index; shards 1/2 and 2/2
-// merged give the full run's rows; bad options fail with one line. Does not prove that the intervals are honest
-// (3 trials cannot): that is what the bench measures (docs/bench/validity_bench.txt).
+// `curvecheck bench validity` end to end, small and seeded (issue 16 item 4): the embedded default scene (49"
+// 1000R), the camera at quarter resolution 1.5 m in front of the screen centre, the scene's own imaging
+// chain, true radius 1000 mm and 1080 mm (x 1.08): 2 cells x 3 trials. Proves: the outputs exist with their
+// columns; every trial gives a radius within 15 mm of its truth and the camera within 10 mm of its true
+// position in both frames (a wrong frame or a wrong truth would be off by hundreds of mm); the cell
+// statistics are what the trial rows imply (the coverage counts, the bias in sigmas, the Wilson interval);
+// seeds follow the trial index; shards 1/2 and 2/2 merged give the full run's rows; bad options fail with one
+// line. Does not prove that the intervals are honest (3 trials cannot): that is what the bench measures
+// (docs/bench/validity_bench.txt).
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
@@ -21,8 +22,8 @@ namespace curvecheck {
 namespace {
 
 namespace fs = std::filesystem;
-using ::testing::HasSubstr;
 using testing::CliRun;
+using ::testing::HasSubstr;
 using testing::ReadCsv;
 using testing::Rows;
 using testing::RunBinary;
@@ -40,10 +41,28 @@ class BenchValidityCli : public ::testing::Test {
   static fs::path dir_;
   static CliRun full_, shard1_, shard2_, merge_;
 
-  static CliRun Curvecheck(const std::vector<std::string>& args) { return RunBinary(CURVECHECK_BINARY, args, dir_); }
+  static CliRun Curvecheck(const std::vector<std::string>& args) {
+    return RunBinary(CURVECHECK_BINARY, args, dir_);
+  }
   static std::vector<std::string> Args(const std::string& out) {
-    return {"bench", "validity", "--scales", "0.25", "--distances-mm", "1500", "--yaws-deg", "0", "--realism", "off",
-            "--radius-factors", "1,1.08", "--trials", "3", "--seed", "3", "-o", (dir_ / out).string()};
+    return {"bench",
+            "validity",
+            "--scales",
+            "0.25",
+            "--distances-mm",
+            "1500",
+            "--yaws-deg",
+            "0",
+            "--realism",
+            "off",
+            "--radius-factors",
+            "1,1.08",
+            "--trials",
+            "3",
+            "--seed",
+            "3",
+            "-o",
+            (dir_ / out).string()};
   }
   static void SetUpTestSuite() {
     dir_ = curvecheck::testing::FreshDir("bench_validity_cli_test");
@@ -54,20 +73,22 @@ class BenchValidityCli : public ::testing::Test {
     a = Args("shards/s2");
     a.insert(a.end(), {"--shard", "2/2"});
     shard2_ = Curvecheck(a);
-    merge_ = Curvecheck({"bench", "validity", "merge", (dir_ / "shards").string(), "-o", (dir_ / "merged").string()});
+    merge_ = Curvecheck(
+        {"bench", "validity", "merge", (dir_ / "shards").string(), "-o", (dir_ / "merged").string()});
   }
   static void TearDownTestSuite() { fs::remove_all(dir_); }
 };
 
 fs::path BenchValidityCli::dir_;
-CliRun BenchValidityCli::full_, BenchValidityCli::shard1_, BenchValidityCli::shard2_, BenchValidityCli::merge_;
+CliRun BenchValidityCli::full_, BenchValidityCli::shard1_, BenchValidityCli::shard2_,
+    BenchValidityCli::merge_;
 
 TEST_F(BenchValidityCli, TrialsMeetTheirTruthAndCellsAreWhatTheTrialsImply) {
   ASSERT_EQ(full_.code, 0) << full_.err << full_.out;
   std::cout << full_.out;
   const fs::path out = dir_ / "full";
-  for (const char* f : {"validity_trials.csv", "validity.csv", "validity.json", "validity.txt", "validity.png",
-                        "validity.gp", "validity.dat"}) {
+  for (const char* f : {"validity_trials.csv", "validity.csv", "validity.json", "validity.txt",
+                        "validity.png", "validity.gp", "validity.dat"}) {
     EXPECT_TRUE(fs::exists(out / f)) << f;
   }
   EXPECT_FALSE(fs::exists(out / ".validity-scratch-1"));
@@ -126,9 +147,10 @@ TEST_F(BenchValidityCli, TrialsMeetTheirTruthAndCellsAreWhatTheTrialsImply) {
     EXPECT_EQ(Num(cell, "radius_cov68_k"), k68);
     EXPECT_EQ(Num(cell, "radius_cov95_k"), k95);
     EXPECT_NEAR(Num(cell, "radius_cov95"), k95 / 3.0, 1e-5);
-    EXPECT_NEAR(Num(cell, "radius_bias_sigma"), sum_error / sum_sigma, 1e-3 * (1 + std::abs(sum_error / sum_sigma)));
-    // Wilson 95% interval of k95 / 3 (closed form, Python): 0/3 [0, 56.1%], 1/3 [6.1%, 79.2%], 2/3 [20.8%, 93.9%],
-    // 3/3 [43.9%, 100%].
+    EXPECT_NEAR(Num(cell, "radius_bias_sigma"), sum_error / sum_sigma,
+                1e-3 * (1 + std::abs(sum_error / sum_sigma)));
+    // Wilson 95% interval of k95 / 3 (closed form, Python): 0/3 [0, 56.1%], 1/3 [6.1%, 79.2%], 2/3
+    // [20.8%, 93.9%], 3/3 [43.9%, 100%].
     const double lo[] = {0, 0.06149, 0.20765, 0.43850}, hi[] = {0.56150, 0.79235, 0.93851, 1};
     EXPECT_NEAR(Num(cell, "radius_cov95_lo"), lo[k95], 1e-4);
     EXPECT_NEAR(Num(cell, "radius_cov95_hi"), hi[k95], 1e-4);
@@ -159,7 +181,8 @@ TEST_F(BenchValidityCli, ShardsMergeIntoTheFullRun) {
   for (const char* file : {"validity_trials.csv", "validity.csv"}) {
     const Rows full = ReadCsv(dir_ / "full" / file), merged = ReadCsv(dir_ / "merged" / file);
     ASSERT_EQ(merged.size(), full.size()) << file;
-    for (size_t i = 0; i < full.size(); ++i) EXPECT_EQ(WithoutTimes(merged[i]), WithoutTimes(full[i])) << file << i;
+    for (size_t i = 0; i < full.size(); ++i)
+      EXPECT_EQ(WithoutTimes(merged[i]), WithoutTimes(full[i])) << file << i;
   }
   EXPECT_TRUE(fs::exists(dir_ / "merged" / "validity.png"));
   // The same shard twice.

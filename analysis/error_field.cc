@@ -56,27 +56,30 @@ Eigen::VectorXd Basis(const Eigen::Vector2d& x, int du, int dv) {
 // One fit of the field at degrees (du, dv) over the rows of `use`.
 struct LevelFit {
   int du = 0, dv = 0, parameters = 0;
+  int extra = 0;  // pixel-locking coefficients after the field's (0 or 4)
   double rss = 0, dof = 0, effective = 0, bic = std::numeric_limits<double>::infinity();
-  Eigen::VectorXd coefficients;  // [c_x; c_y]
+  Eigen::VectorXd coefficients;  // [c_x; c_y; pixel-locking]
   Eigen::MatrixXd pinv;          // A^+ (parameters x rows)
   std::vector<Eigen::Vector2d> residual;  // per feature (all features), camera px
   bool ok = false;
 };
 
 LevelFit FitLevel(const ErrorFieldInput& in, const std::vector<Eigen::Vector2d>& xs, const std::vector<bool>& use,
-                  const Eigen::MatrixXd& q_nuisance, int du, int dv) {
+                  const Eigen::MatrixXd& q_nuisance, int du, int dv, bool pixel_locking = false) {
   LevelFit f;
   f.du = du;
   f.dv = dv;
   const int nb = (du + 1) * (dv + 1);
   f.parameters = 2 * nb;
+  f.extra = pixel_locking ? 4 : 0;
+  const int columns = f.parameters + f.extra;
   std::vector<int> rows;
   for (size_t i = 0; i < use.size(); ++i) {
     if (use[i]) rows.push_back(static_cast<int>(i));
   }
   const int m = 2 * static_cast<int>(rows.size());
-  if (3 * f.parameters > m) return f;
-  Eigen::MatrixXd a(m, f.parameters);
+  if (3 * columns > m) return f;
+  Eigen::MatrixXd a = Eigen::MatrixXd::Zero(m, columns);
   Eigen::VectorXd r(m);
   for (size_t k = 0; k < rows.size(); ++k) {
     const int i = rows[k];
@@ -86,6 +89,7 @@ LevelFit FitLevel(const ErrorFieldInput& in, const std::vector<Eigen::Vector2d>&
       a.block(2 * static_cast<int>(k) + row, 0, 1, nb) = j(row, 0) * b.transpose();
       a.block(2 * static_cast<int>(k) + row, nb, 1, nb) = j(row, 1) * b.transpose();
     }
+    if (f.extra > 0) a.block<2, 4>(2 * static_cast<Eigen::Index>(k), f.parameters) = PixelLocking::Basis(in.camera_px[static_cast<size_t>(i)]);
     r.segment<2>(2 * static_cast<Eigen::Index>(k)) = in.residual_px[static_cast<size_t>(i)];
   }
   const Eigen::CompleteOrthogonalDecomposition<Eigen::MatrixXd> cod(a);
@@ -112,8 +116,9 @@ LevelFit FitLevel(const ErrorFieldInput& in, const std::vector<Eigen::Vector2d>&
   f.residual.assign(in.display_px.size(), Eigen::Vector2d::Zero());
   for (size_t i = 0; i < in.display_px.size(); ++i) {
     const Eigen::VectorXd b = Basis(xs[i], du, dv);
-    const Eigen::Vector2d field(b.dot(f.coefficients.head(nb)), b.dot(f.coefficients.tail(nb)));
+    const Eigen::Vector2d field(b.dot(f.coefficients.head(nb)), b.dot(f.coefficients.segment(nb, nb)));
     f.residual[i] = in.residual_px[i] - in.jacobian[i] * field;
+    if (f.extra > 0) f.residual[i] -= PixelLocking::Basis(in.camera_px[i]) * f.coefficients.tail<4>();
   }
   f.ok = true;
   return f;
@@ -125,7 +130,7 @@ std::vector<Eigen::Vector2d> FieldValues(const std::vector<Eigen::Vector2d>& xs,
   std::vector<Eigen::Vector2d> v(xs.size());
   for (size_t i = 0; i < xs.size(); ++i) {
     const Eigen::VectorXd b = Basis(xs[i], f.du, f.dv);
-    v[i] = {b.dot(f.coefficients.head(nb)), b.dot(f.coefficients.tail(nb))};
+    v[i] = {b.dot(f.coefficients.head(nb)), b.dot(f.coefficients.segment(nb, nb))};
   }
   return v;
 }
@@ -142,7 +147,7 @@ std::pair<LevelFit, LevelFit> ChooseLevel(const ErrorFieldInput& in, const std::
     if (!fits.empty() && du == fits.back().du && dv == fits.back().dv) continue;
     LevelFit f = FitLevel(in, xs, use, q_nuisance, du, dv);
     if (!f.ok) {
-      if (3 * f.parameters > 2 * static_cast<int>(std::count(use.begin(), use.end(), true))) break;
+      if (3 * (f.parameters + f.extra) > 2 * static_cast<int>(std::count(use.begin(), use.end(), true))) break;
       continue;
     }
     fits.push_back(std::move(f));
@@ -161,11 +166,48 @@ double MaxDistance(const std::vector<Eigen::Vector2d>& a, const std::vector<Eige
   return m;
 }
 
+// Cov(c) / sigma^2 = A^+ A^+^T - (A^+ Q_H)(A^+ Q_H)^T, over the rows of `use`.
+Eigen::MatrixXd Covariance(const LevelFit& fit, const Eigen::MatrixXd& q_nuisance, const std::vector<bool>& use) {
+  const Eigen::Index m = fit.pinv.cols();
+  Eigen::MatrixXd qh(m, q_nuisance.cols());
+  for (size_t i = 0, k = 0; i < use.size(); ++i) {
+    if (!use[i]) continue;
+    qh.middleRows(2 * static_cast<Eigen::Index>(k), 2) = q_nuisance.middleRows(2 * static_cast<Eigen::Index>(i), 2);
+    ++k;
+  }
+  Eigen::MatrixXd cov = fit.pinv * fit.pinv.transpose();
+  if (qh.cols() > 0) {
+    const Eigen::HouseholderQR<Eigen::MatrixXd> qr_h(qh);
+    const Eigen::MatrixXd qh_orth = qr_h.householderQ() * Eigen::MatrixXd::Identity(m, qh.cols());
+    const Eigen::MatrixXd aq = fit.pinv * qh_orth;
+    cov -= aq * aq.transpose();
+  }
+  return cov;
+}
+
 }  // namespace
+
+Eigen::Matrix<double, 2, 4> PixelLocking::Basis(const Eigen::Vector2d& camera_px) {
+  constexpr double kTwoPi = 6.283185307179586;
+  Eigen::Matrix<double, 2, 4> b = Eigen::Matrix<double, 2, 4>::Zero();
+  b(0, 0) = std::sin(kTwoPi * camera_px.x());
+  b(0, 1) = std::cos(kTwoPi * camera_px.x());
+  b(1, 2) = std::sin(kTwoPi * camera_px.y());
+  b(1, 3) = std::cos(kTwoPi * camera_px.y());
+  return b;
+}
+
+Eigen::Vector2d PixelLocking::BiasAt(const Eigen::Vector2d& camera_px) const {
+  return estimated ? Eigen::Vector2d(Basis(camera_px) * coefficients) : Eigen::Vector2d::Zero();
+}
+
+Eigen::Vector2d PixelLocking::Amplitude() const {
+  return {std::hypot(coefficients(0), coefficients(1)), std::hypot(coefficients(2), coefficients(3))};
+}
 
 ErrorField EstimateErrorField(const ErrorFieldInput& in, const ErrorFieldOptions& options) {
   const size_t n = in.display_px.size();
-  if (in.jacobian.size() != n || in.residual_px.size() != n ||
+  if (in.jacobian.size() != n || in.residual_px.size() != n || (!in.camera_px.empty() && in.camera_px.size() != n) ||
       (in.nuisance.size() > 0 && in.nuisance.rows() != 2 * static_cast<Eigen::Index>(n))) {
     throw Error("error field", fmt::format("{} positions, {} Jacobians, {} residuals and {} nuisance rows do not match",
                                            n, in.jacobian.size(), in.residual_px.size(), in.nuisance.rows()));
@@ -225,21 +267,7 @@ ErrorField EstimateErrorField(const ErrorFieldInput& in, const ErrorFieldOptions
   out.outlier.resize(n);
   for (size_t i = 0; i < n; ++i) out.outlier[i] = !use[i];
 
-  // Cov(c) = sigma^2 (A^+ A^+^T - (A^+ Q_H)(A^+ Q_H)^T), over the rows used.
-  const Eigen::Index m = fit.pinv.cols();
-  Eigen::MatrixXd qh(m, q_nuisance.cols());
-  for (size_t i = 0, k = 0; i < n; ++i) {
-    if (!use[i]) continue;
-    qh.middleRows(2 * static_cast<Eigen::Index>(k), 2) = q_nuisance.middleRows(2 * static_cast<Eigen::Index>(i), 2);
-    ++k;
-  }
-  Eigen::MatrixXd cov = fit.pinv * fit.pinv.transpose();
-  if (qh.cols() > 0) {
-    const Eigen::HouseholderQR<Eigen::MatrixXd> qr_h(qh);
-    const Eigen::MatrixXd qh_orth = qr_h.householderQ() * Eigen::MatrixXd::Identity(m, qh.cols());
-    const Eigen::MatrixXd aq = fit.pinv * qh_orth;
-    cov -= aq * aq.transpose();
-  }
+  Eigen::MatrixXd cov = Covariance(fit, q_nuisance, use);
   cov *= out.noise_px * out.noise_px;
   const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(0.5 * (cov + cov.transpose()));
   const Eigen::MatrixXd root = eig.eigenvectors() * eig.eigenvalues().cwiseMax(0).cwiseSqrt().asDiagonal();
@@ -252,7 +280,7 @@ ErrorField EstimateErrorField(const ErrorFieldInput& in, const ErrorFieldOptions
   for (size_t i = 0; i < n; ++i) {
     basis[i] = Basis(xs[i], fit.du, fit.dv);
     const Eigen::VectorXd& b = basis[i];
-    out.value[i] = {b.dot(fit.coefficients.head(nb)), b.dot(fit.coefficients.tail(nb))};
+    out.value[i] = {b.dot(fit.coefficients.head(nb)), b.dot(fit.coefficients.segment(nb, nb))};
     Eigen::MatrixXd g = Eigen::MatrixXd::Zero(2, fit.parameters);
     g.block(0, 0, 1, nb) = b.transpose();
     g.block(1, nb, 1, nb) = b.transpose();
@@ -260,6 +288,20 @@ ErrorField EstimateErrorField(const ErrorFieldInput& in, const ErrorFieldOptions
     sum_var += out.covariance[i].trace();
   }
   out.rms_sigma_display_px = std::sqrt(sum_var / static_cast<double>(n));
+  // Pixel-locking: refitted at the chosen level with its four columns beside the field's, over the same
+  // features. The field, the noise and the band above stay those of the field alone: with the pixel-locking
+  // removed the scatter of a clean photo falls to a few thousandths of a pixel, and the degree chosen against
+  // it would then chase the detector's smaller biases (on an exact rendering at quarter resolution it chose
+  // degree 5 and e = 0.23 display px, against e = 0.002 at degree 1 without the term).
+  if (!in.camera_px.empty()) {
+    const LevelFit pl = FitLevel(in, xs, use, q_nuisance, fit.du, fit.dv, true);
+    if (pl.ok) {
+      out.pixel_locking.estimated = true;
+      out.pixel_locking.coefficients = pl.coefficients.tail<4>();
+      out.pixel_locking.covariance = Covariance(pl, q_nuisance, use).bottomRightCorner<4, 4>() * (pl.rss / pl.dof);
+      out.pixel_locking.noise_px = std::sqrt(pl.rss / pl.dof);
+    }
+  }
 
   // The simultaneous band by Monte Carlo.
   std::mt19937_64 rng(options.seed);
@@ -268,11 +310,11 @@ ErrorField EstimateErrorField(const ErrorFieldInput& in, const ErrorFieldOptions
   maxima.reserve(static_cast<size_t>(options.draws));
   Eigen::VectorXd w(fit.parameters);
   for (int d = 0; d < options.draws; ++d) {
-    for (int k = 0; k < fit.parameters; ++k) w(k) = normal(rng);
+    for (int k = 0; k < w.size(); ++k) w(k) = normal(rng);
     const Eigen::VectorXd z = root * w;
     double largest = 0;
     for (size_t i = 0; i < n; ++i) {
-      const double dx = basis[i].dot(z.head(nb)), dy = basis[i].dot(z.tail(nb));
+      const double dx = basis[i].dot(z.head(nb)), dy = basis[i].dot(z.segment(nb, nb));
       largest = std::max(largest, std::hypot(dx, dy));
     }
     maxima.push_back(largest);

@@ -64,6 +64,18 @@ nlohmann::json VerificationJson(const Verification& v) {
     j["display_px_per_camera_px"] = Num(v.display_px_per_camera_px);
     j["field_degree"] = v.field_degree;
     j["field_outliers"] = v.field_outliers;
+    if (v.pixel_locking.estimated) {
+      const PixelLocking& pl = v.pixel_locking;
+      const Eigen::Vector4d sigma = pl.covariance.diagonal().cwiseMax(0).cwiseSqrt();
+      j["pixel_locking"] = {
+          {"model", "detected - true = a sin(2 pi q) + b cos(2 pi q) per coordinate, q the detected camera px"},
+          {"a_x_px", Num(pl.coefficients(0))}, {"b_x_px", Num(pl.coefficients(1))},
+          {"a_y_px", Num(pl.coefficients(2))}, {"b_y_px", Num(pl.coefficients(3))},
+          {"sigma_px", {Num(sigma(0)), Num(sigma(1)), Num(sigma(2)), Num(sigma(3))}},
+          {"amplitude_px", {Num(pl.Amplitude().x()), Num(pl.Amplitude().y())}},
+          {"noise_without_px", Num(pl.noise_px)},
+          {"note", "fitted with the correction-error field; removed from the detections before the screen fit"}};
+    }
     j["reason"] = v.verdict_reason;
     if (!v.advice.empty()) j["advice"] = v.advice;
   } else {
@@ -252,7 +264,8 @@ AnalysisResult AnalyzeWith(const CameraModel& camera, const std::filesystem::pat
         for (const FeatureCheck& c : pa.verification.features) {
           obs.ids.push_back(c.id);
           obs.display_px.push_back(c.display_px);
-          obs.detected_px.push_back(c.detected_px);
+          // Less the detector's pixel-locking bias the verification estimated (zero when it did not).
+          obs.detected_px.push_back(c.detected_px - c.pixel_locking_px);
         }
         pa.fit_ids = obs.ids;
         pa.fit_index = static_cast<int>(observations.size());
@@ -283,8 +296,11 @@ AnalysisResult AnalyzeWith(const CameraModel& camera, const std::filesystem::pat
     if (fit_options.detection_noise_px == 0) {
       double sum = 0, weight = 0;
       for (const PhotoAnalysis& p : r.photos) {
-        if (!p.used || !(p.verification.noise_px > 0)) continue;
-        sum += p.verification.noise_px * p.verification.noise_px * static_cast<double>(p.verification.features.size());
+        // The fit sees detections less their pixel-locking: its noise is the scatter without that term.
+        const double noise =
+            p.verification.pixel_locking.estimated ? p.verification.pixel_locking.noise_px : p.verification.noise_px;
+        if (!p.used || !(noise > 0)) continue;
+        sum += noise * noise * static_cast<double>(p.verification.features.size());
         weight += static_cast<double>(p.verification.features.size());
       }
       if (weight > 0) fit_options.detection_noise_px = std::sqrt(sum / weight);
@@ -452,6 +468,7 @@ nlohmann::json ResultJson(const AnalysisResult& r, const std::string& command_li
         e["error_display_sigma_px"] = {Num(c->second->error_display_sigma_px.x()),
                                        Num(c->second->error_display_sigma_px.y())};
         if (c->second->field_outlier) e["field_outlier"] = true;
+        if (p.verification.pixel_locking.estimated) e["pixel_locking_px"] = Vec(c->second->pixel_locking_px);
         e["residual_arcmin"] = c->second->residual_arcmin;
       }
       const auto fr = fit_residual.find({p.fit_index, d.id});

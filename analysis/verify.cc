@@ -357,6 +357,7 @@ Verification VerifyCorrection(const PatternFile& pattern, const CameraModel& cam
       field_in.display_px.push_back(c.display_px);
       field_in.jacobian.push_back(j);
       field_in.residual_px.push_back(c.residual_px);
+      if (options.pixel_locking) field_in.camera_px.push_back(c.detected_px);
       field_feature.push_back(i);
       // The homography's directions at this feature: d q / d h8 (the residual's Jacobian, up to its sign).
       Eigen::Matrix<double, 2, 8> rows;
@@ -401,9 +402,11 @@ Verification VerifyCorrection(const PatternFile& pattern, const CameraModel& cam
     c.error_display_px = field.value[static_cast<size_t>(k)];
     c.error_display_sigma_px = field.covariance[static_cast<size_t>(k)].diagonal().cwiseMax(0).cwiseSqrt();
     c.field_outlier = field.outlier[static_cast<size_t>(k)];
+    c.pixel_locking_px = field.pixel_locking.BiasAt(c.detected_px);
     display_per_camera.push_back(std::sqrt(std::abs(j_inv.determinant())));
   }
   out.noise_px = field.noise_px;
+  out.pixel_locking = field.pixel_locking;
   out.field_degree = std::max(field.degree_u, field.degree_v);
   out.field_outliers = static_cast<int>(std::count(field.outlier.begin(), field.outlier.end(), true));
   out.display_px_per_camera_px = Median(display_per_camera);

@@ -26,6 +26,7 @@
 #include <string>
 #include <vector>
 
+#include "analysis/error_field.h"
 #include "core/camera_model.h"
 #include "core/correction.h"
 #include "pattern/pattern_json.h"
@@ -64,6 +65,10 @@ struct VerifyOptions {
   // Monte Carlo draws of the field's estimation error for the simultaneous 95% band (fixed seed: the same
   // photo gives the same verdict).
   int uncertainty_draws = 400;
+  // Fit the detector's pixel-locking (analysis/error_field.h) with the field: its coefficients are reported and
+  // each feature's predicted bias (FeatureCheck::pixel_locking_px) is what the analysis removes before the
+  // screen fit. Off: the field and the noise hold it.
+  bool pixel_locking = true;
 
   void Check(const std::string& where) const;
 };
@@ -88,6 +93,9 @@ struct FeatureCheck {
   // The correction-error field at this feature (display px) and its standard uncertainty (per axis).
   Eigen::Vector2d error_display_px = Eigen::Vector2d::Zero();
   Eigen::Vector2d error_display_sigma_px = Eigen::Vector2d::Zero();
+  // The detector's pixel-locking bias predicted at the detected position (detected - true, camera px; zero when
+  // not estimated).
+  Eigen::Vector2d pixel_locking_px = Eigen::Vector2d::Zero();
   double residual_arcmin = 0;
   bool field_outlier = false;  // left out of the field fit (residual far beyond the noise)
 };
@@ -128,6 +136,7 @@ struct Verification {
   double display_px_per_camera_px = 0;  // median over the features (the camera's resolving power on the display)
   int field_degree = 0;                 // total degree of the chosen field
   int field_outliers = 0;
+  PixelLocking pixel_locking;           // fitted with the field (VerifyOptions::pixel_locking)
   std::string verdict_reason;           // one line: why this verdict
   // When inconclusive: what would make it conclusive, with figures ("" otherwise).
   std::string advice;

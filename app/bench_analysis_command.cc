@@ -1,6 +1,7 @@
-// `curvecheck bench fit`, `bench models`, `bench analyze` and `bench verdict`: the screen fit, the whole analysis
-// and the verification's verdict on synthetic truth. Each parses and validates its options and calls its bench in
-// experiments/ (bench_fit.h, bench_models.h, bench_analyze.h, bench_verdict.h).
+// `curvecheck bench fit`, `bench models`, `bench analyze`, `bench verdict` and `bench validity`: the screen fit, the
+// whole analysis, the verification's verdict and the honesty of the radius interval on synthetic truth. Each parses
+// and validates its options and calls its bench in experiments/ (bench_fit.h, bench_models.h, bench_analyze.h,
+// bench_verdict.h, bench_validity.h).
 
 #include <filesystem>
 #include <iostream>
@@ -12,6 +13,7 @@
 #include "experiments/bench_analyze.h"
 #include "experiments/bench_fit.h"
 #include "experiments/bench_models.h"
+#include "experiments/bench_validity.h"
 #include "experiments/bench_verdict.h"
 
 namespace curvecheck::app {
@@ -138,6 +140,98 @@ void AddBenchVerdict(CLI::App& bench, std::function<int()>& run) {
   });
 }
 
+struct BenchValidityArgs {
+  experiments::BenchValidityOptions options;
+  std::string realism = "off,on";
+  std::string shard = "1/1";
+  std::string output = "bench-validity";
+};
+
+struct BenchValidityMergeArgs {
+  std::vector<std::string> dirs;
+  std::string output;
+};
+
+const std::vector<const char*> kValidityOutputs = {"validity_trials.csv", "validity.csv", "validity.json",
+                                                   "validity.txt"};
+
+void AddBenchValidity(CLI::App& bench, std::function<int()>& run) {
+  auto a = std::make_shared<BenchValidityArgs>();
+  auto m = std::make_shared<BenchValidityMergeArgs>();
+  experiments::BenchValidityOptions& o = a->options;
+  CLI::App* cmd = bench.add_subcommand(
+      "validity",
+      "Is the radius interval honest? Seeded trials of the whole chain over resolution scale, distance, yaw, "
+      "realistic imaging on/off and the true radius (+-8%); per cell bias in sigmas, scatter / sigma, coverage of "
+      "the 68% and 95% intervals (Wilson 95% intervals), for the radius and the camera position; CSV, JSON, table, "
+      "chart; shards and `bench validity merge`. Exit 0 when the bench ran, whatever the cells show");
+  cmd->add_option("--trials", o.trials, "Seeded trials per cell")->capture_default_str();
+  cmd->add_option("--seed", o.seed, "Seed of the first trial; trial k uses seed + k (noise and pose jitter)")
+      ->capture_default_str();
+  cmd->add_option("--scales", o.scales, "Resolution scales of the scene's camera, comma-separated, in (0, 1]")
+      ->delimiter(',')
+      ->capture_default_str();
+  cmd->add_option("--distances-mm", o.distances_mm, "Camera distances from the screen centre, mm, comma-separated")
+      ->delimiter(',')
+      ->capture_default_str();
+  cmd->add_option("--yaws-deg", o.yaws_deg,
+                  "Camera yaws around the screen centre, deg, comma-separated (positive: to the right)")
+      ->delimiter(',')
+      ->capture_default_str();
+  cmd->add_option("--realism", a->realism, "Imaging chain: off (the scene's own), on (realistic effects), or off,on")
+      ->capture_default_str();
+  cmd->add_option("--radius-factors", o.radius_factors,
+                  "True radius as factors of the nominal, comma-separated (the pattern is rendered for the nominal)")
+      ->delimiter(',')
+      ->capture_default_str();
+  cmd->add_option("--scene", o.scene,
+                  "Scene YAML, or the name of an embedded scene (its monitor, lens, optics, sensor; the bench places "
+                  "the camera)")
+      ->capture_default_str();
+  cmd->add_option("--jitter-mm", o.jitter_mm, "Camera position jitter per trial, mm per axis (1 sigma)")
+      ->capture_default_str();
+  cmd->add_option("--jitter-deg", o.jitter_deg, "Camera aim jitter per trial, deg per axis (1 sigma)")
+      ->capture_default_str();
+  cmd->add_option("--shard", a->shard, "Run only shard i of n (trials k with k mod n = i - 1)")->capture_default_str();
+  cmd->add_option("-o,--output", a->output,
+                  "Output folder (validity_trials.csv, validity.csv, .json, .txt, .png)")
+      ->capture_default_str();
+  CLI::App* merge =
+      cmd->add_subcommand("merge", "Merge validity bench shards (folders, or one folder holding them) into one");
+  merge->add_option("dirs", m->dirs, "Shard output folders, or a folder whose subfolders are shards")->required();
+  merge->add_option("-o,--output", m->output, "Output folder of the merged bench")->required();
+  merge->callback([&run, m] {
+    run = [m] {
+      const std::vector<std::filesystem::path> dirs =
+          experiments::ShardDirs(m->dirs, experiments::ValidityShardFiles());
+      std::vector<std::filesystem::path> inputs;
+      for (const std::filesystem::path& d : dirs) {
+        for (const char* name : kValidityOutputs) inputs.push_back(d / name);
+      }
+      PrepareOutputDir(m->output, "-o");
+      for (const char* name : kValidityOutputs) CheckNotAnInput(std::filesystem::path(m->output) / name, inputs);
+      experiments::MergeBenchValidity(dirs, m->output, CommandLine(), std::cout);
+      return 0;
+    };
+  });
+  cmd->callback([&run, a, merge] {
+    if (merge->parsed()) return;
+    run = [a] {
+      a->options.realism = SplitList(a->realism);
+      a->options.shard = experiments::ParseShard(a->shard);
+      a->options.command_line = CommandLine();
+      a->options.Check();
+      std::vector<std::filesystem::path> inputs;
+      std::error_code ec;
+      if (std::filesystem::exists(a->options.scene, ec)) inputs.emplace_back(a->options.scene);
+      PrepareOutputDir(a->output, "-o");
+      for (const char* name : kValidityOutputs) CheckNotAnInput(std::filesystem::path(a->output) / name, inputs);
+      experiments::RunBenchValidity(a->options, a->output, std::cout);
+      return 0;
+    };
+  });
+}
+
 }  // namespace
 
 void AddBenchAnalysisCommands(CLI::App& bench, std::function<int()>& run) {
@@ -145,6 +239,7 @@ void AddBenchAnalysisCommands(CLI::App& bench, std::function<int()>& run) {
   AddBenchModels(bench, run);
   AddBenchAnalyze(bench, run);
   AddBenchVerdict(bench, run);
+  AddBenchValidity(bench, run);
 }
 
 }  // namespace curvecheck::app

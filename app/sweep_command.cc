@@ -7,7 +7,6 @@
 #include <filesystem>
 #include <iostream>
 #include <memory>
-#include <tuple>
 
 #include "app/cli.h"
 #include "app/output_paths.h"
@@ -34,20 +33,6 @@ struct MergeArgs {
   std::string output;
 };
 
-std::pair<int, int> ParseShard(const std::string& text) {
-  const std::vector<std::string> p = SplitList(text, '/');
-  int i = 0, n = 0;
-  try {
-    if (p.size() == 2) i = std::stoi(p[0]), n = std::stoi(p[1]);
-  } catch (const std::exception&) {
-    n = 0;
-  }
-  if (n < 1 || i < 1 || i > n || fmt::format("{}/{}", i, n) != text) {
-    throw Error("--shard", fmt::format("'{}' is not i/n with 1 <= i <= n", text), "write e.g. --shard 2/4");
-  }
-  return {i, n};
-}
-
 const std::vector<const char*> kOutputs = {"sweep.csv", "sweep.json", "sweep.txt"};
 
 void CheckOutputs(const fs::path& out, const std::vector<fs::path>& inputs) {
@@ -72,7 +57,9 @@ int RunSweep(const SweepArgs& a) {
   }
   if (o.methods.empty())
     throw Error("--method", "no method given", "give exact, none, strips, warp, mesh or all");
-  std::tie(o.shard_index, o.shard_count) = ParseShard(a.shard);
+  const experiments::Shard shard = experiments::ParseShard(a.shard);
+  o.shard_index = shard.index;
+  o.shard_count = shard.count;
   o.models = SplitList(a.models);
   o.command_line = CommandLine();
   o.Check();
@@ -88,7 +75,7 @@ int RunSweep(const SweepArgs& a) {
 }
 
 int RunMerge(const MergeArgs& a) {
-  const std::vector<fs::path> dirs = experiments::ShardDirs(a.dirs);
+  const std::vector<fs::path> dirs = experiments::ShardDirs(a.dirs, experiments::SweepShardFiles());
   const fs::path out = a.output;
   std::vector<fs::path> inputs;
   for (const fs::path& d : dirs) {

@@ -20,6 +20,7 @@
 #include "core/stopwatch.h"
 #include "experiments/machine_info.h"
 #include "experiments/scene_lookup.h"
+#include "experiments/shards.h"
 #include "experiments/sweep_table.h"
 #include "experiments/trial.h"
 #include "experiments/trial_outcome.h"
@@ -297,10 +298,7 @@ void SweepOptions::Check() const {
   if (jobs < 1 || jobs > 256) throw Error("--jobs", fmt::format("is {}", jobs), "give 1 to 256 workers");
   if (!(tolerance_display_px > 0)) throw Error("--tolerance", "must be positive", "give display px, e.g. 0.5");
   if (seed < 0) throw Error("--seed", "must be 0 or more", "");
-  if (shard_count < 1 || shard_index < 1 || shard_index > shard_count) {
-    throw Error("--shard", fmt::format("{}/{} is not i/n with 1 <= i <= n", shard_index, shard_count),
-                "write e.g. --shard 2/4");
-  }
+  Shard{shard_index, shard_count}.Check();
   AnalyzeOptions analyze;
   analyze.fit.models = ParseScreenModels(models, "--models");
   analyze.Check("--models");
@@ -320,7 +318,7 @@ void RunSweep(const SweepOptions& o, const fs::path& out, std::ostream& log) {
   const int total = sw->points_per_method * static_cast<int>(o.methods.size());
   std::vector<int> mine;
   for (int k = 0; k < total; ++k) {
-    if (k % o.shard_count == o.shard_index - 1) mine.push_back(k);
+    if (Shard{o.shard_index, o.shard_count}.Has(k)) mine.push_back(k);
   }
 
   std::string grid_text;
@@ -392,85 +390,19 @@ void RunSweep(const SweepOptions& o, const fs::path& out, std::ostream& log) {
   WriteOutputs(out, table, meta, head + timing, log);
 }
 
-std::vector<fs::path> ShardDirs(const std::vector<std::string>& dirs) {
-  std::vector<fs::path> found;
-  std::error_code ec;
-  for (const std::string& d : dirs) {
-    if (fs::exists(fs::path(d) / "sweep.json", ec)) {
-      found.emplace_back(d);
-      continue;
-    }
-    std::vector<fs::path> sub;
-    if (fs::is_directory(d, ec)) {
-      for (const auto& e : fs::directory_iterator(d, ec)) {
-        if (e.is_directory() && fs::exists(e.path() / "sweep.json", ec)) sub.push_back(e.path());
-      }
-    }
-    if (sub.empty()) {
-      throw Error(d, "holds no sweep.json, nor do its subfolders",
-                  "give the output folders of `curvecheck sweep`");
-    }
-    std::sort(sub.begin(), sub.end());
-    found.insert(found.end(), sub.begin(), sub.end());
-  }
-  return found;
+const ShardFiles& SweepShardFiles() {
+  static const ShardFiles files{"sweep.json",      "sweep.csv", "curvecheck.sweep/1", "curvecheck sweep",
+                                "sweep",           "same factors, methods, scene, scale, seed, models",
+                                {"method", "reason"}};
+  return files;
 }
 
 void MergeSweeps(const std::vector<fs::path>& dirs, const fs::path& out, const std::string& command_line,
                  std::ostream& log) {
-  nlohmann::json grid;
-  fs::path first;
-  SweepTable table;
-  std::map<long, fs::path> owner;
-  nlohmann::json from = nlohmann::json::array();
-  for (const fs::path& d : dirs) {
-    const fs::path json_path = d / "sweep.json";
-    nlohmann::json meta;
-    try {
-      meta = nlohmann::json::parse(ReadFileToString(json_path));
-    } catch (const nlohmann::json::exception& e) {
-      throw Error(json_path.string(), std::string("is not valid JSON: ") + e.what(),
-                  "give sweep outputs, unedited");
-    }
-    if (meta.value("format", "") != "curvecheck.sweep/1" || !meta.contains("grid")) {
-      throw Error(json_path.string(), "is not a curvecheck.sweep/1 file",
-                  "give the output folders of `curvecheck sweep`");
-    }
-    if (first.empty()) {
-      grid = meta["grid"];
-      first = d;
-    } else if (meta["grid"] != grid) {
-      std::string what;
-      for (const auto& [key, value] : grid.items()) {
-        if (!meta["grid"].contains(key) || meta["grid"][key] != value) {
-          what += fmt::format("{}{}: {} here, {} in {}", what.empty() ? "" : "; ", key,
-                              meta["grid"].contains(key) ? meta["grid"][key].dump() : "missing", value.dump(),
-                              first.string());
-        }
-      }
-      throw Error(
-          json_path.string(), "is a shard of a different sweep (" + what + ")",
-          "merge only the shards of one sweep command (same factors, methods, scene, scale, seed, models)");
-    }
-    const fs::path csv_path = d / "sweep.csv";
-    SweepTable t = SweepTable::FromCsv(ReadFileToString(csv_path), csv_path.string());
-    if (table.header.empty()) table.header = t.header;
-    if (t.header != table.header) {
-      throw Error(csv_path.string(), "has other columns than " + (first / "sweep.csv").string(),
-                  "merge only the shards of one sweep command");
-    }
-    for (auto& row : t.rows) {
-      const long index = std::stol(row[0]);
-      const auto [it, inserted] = owner.emplace(index, d);
-      if (!inserted) {
-        throw Error(csv_path.string(),
-                    fmt::format("point {} is also in {}: the shards overlap", index, it->second.string()),
-                    "merge each shard once (--shard i/n with the same n, each i once)");
-      }
-      table.rows.push_back(std::move(row));
-    }
-    from.push_back(d.string());
-  }
+  MergedShards merged = ReadShards(dirs, SweepShardFiles());
+  const nlohmann::json& grid = merged.grid;
+  SweepTable& table = merged.table;
+  const nlohmann::json& from = merged.merged_from;
   const int total = grid.at("points").get<int>();
   const int missing = total - static_cast<int>(table.rows.size());
   const std::string head = fmt::format(

@@ -7,7 +7,7 @@
 //
 // Determinism: point k of the grid (methods outermost, then factor 1, then factor 2) always uses noise seed
 // `seed` + k, and nothing else is random, so a shard (the points k with k mod n = i - 1) computes exactly the
-// rows of an unsharded run, and MergeSweeps puts them back together.
+// rows of an unsharded run, and MergeSweeps puts them back together (shards.h: the same for `bench validity`).
 //
 // Parallelism: points run on `jobs` worker threads; the Vulkan renderer is one instance shared by the workers
 // and serialised by a mutex (lavapipe itself uses every core for a frame), with the last few renders cached
@@ -20,6 +20,7 @@
 #include <string>
 #include <vector>
 
+#include "experiments/shards.h"
 #include "experiments/sweep_factor.h"
 
 namespace curvecheck::experiments {
@@ -48,9 +49,8 @@ struct SweepOptions {
 // unknown scene.
 void RunSweep(const SweepOptions& options, const std::filesystem::path& out, std::ostream& log);
 
-// The folders to merge: each given folder with a sweep.json, or, for a folder without one, its subfolders
-// that have one. Throws Error for a folder that has neither.
-std::vector<std::filesystem::path> ShardDirs(const std::vector<std::string>& dirs);
+// What a sweep's shard folder holds (shards.h): sweep.json, sweep.csv. For ShardDirs and ReadShards.
+const ShardFiles& SweepShardFiles();
 
 // Merges the shards in `dirs` (ShardDirs) into `out` as one sweep (the same outputs as RunSweep). Throws
 // Error naming the file for an unreadable shard, shards of different sweeps, or overlapping shards.

@@ -130,8 +130,10 @@ std::string SweepTable::ToCsv() const {
   return s;
 }
 
-SweepTable SweepTable::FromCsv(const std::string& text, const std::string& path) {
+SweepTable SweepTable::FromCsv(const std::string& text, const std::string& path,
+                               const std::vector<std::string>& required, const std::string& producer) {
   SweepTable t;
+  const std::string file = std::filesystem::path(path).filename().string();
   std::istringstream in(text);
   std::string line;
   int number = 0;
@@ -141,19 +143,23 @@ SweepTable SweepTable::FromCsv(const std::string& text, const std::string& path)
     std::vector<std::string> cells = SplitCsvLine(line);
     if (t.header.empty()) {
       t.header = std::move(cells);
-      if (t.Col("index") != 0 || t.Col("method") < 0 || t.Col("reason") < 0) {
-        throw Error(path, "is not a sweep.csv: its header lacks index, method or reason",
-                    "give the sweep.csv that `curvecheck sweep` wrote");
+      bool complete = t.Col("index") == 0;
+      for (const std::string& c : required) complete = complete && t.Col(c) >= 0;
+      if (!complete) {
+        std::string names = "index";
+        for (const std::string& c : required) names += ", " + c;
+        throw Error(path, fmt::format("is not a {}: its header lacks one of {}", file, names),
+                    fmt::format("give the {} that `{}` wrote", file, producer));
       }
       continue;
     }
     if (cells.size() != t.header.size()) {
       throw Error(path, fmt::format("line {} has {} cells for {} columns", number, cells.size(), t.header.size()),
-                  "give the sweep.csv that `curvecheck sweep` wrote, unedited");
+                  fmt::format("give the {} that `{}` wrote, unedited", file, producer));
     }
     t.rows.push_back(std::move(cells));
   }
-  if (t.header.empty()) throw Error(path, "is empty", "give the sweep.csv that `curvecheck sweep` wrote");
+  if (t.header.empty()) throw Error(path, "is empty", fmt::format("give the {} that `{}` wrote", file, producer));
   return t;
 }
 
@@ -171,10 +177,10 @@ std::vector<std::string> SweepColumns(const std::vector<std::string>& factor_nam
   return c;
 }
 
-std::string Cell(double v) {
+std::string Cell(double v, int digits) {
   if (std::isnan(v)) return "nan";
   if (std::isinf(v)) return v > 0 ? "inf" : "-inf";
-  return fmt::format("{:.6g}", v);
+  return fmt::format("{:.{}g}", v, digits);
 }
 
 std::string CellText(const std::string& text) {

@@ -1,5 +1,5 @@
 // The table of a stability sweep (`curvecheck sweep`, issue 7 items 3-4) and what is derived from it: sweep.csv
-// reading and writing, the failure boundaries as text, and the per-method failure-map charts. Shared by a sweep
+// reading and writing (SweepTable, Cell, CellText: also the tables of `bench validity`), the failure boundaries as text, and the per-method failure-map charts. Shared by a sweep
 // run and `sweep merge`, so that a merged sweep reports exactly what an unsharded run would.
 //
 // sweep.csv: one row per grid point, columns `index, method, <factor 1>[, <factor 2>], seed, success, reason,
@@ -32,15 +32,18 @@ struct SweepTable {
   double Num(size_t row, const std::string& name) const;  // NaN when absent or not a number
 
   std::string ToCsv() const;
-  // Throws Error naming `path` for a malformed file.
-  static SweepTable FromCsv(const std::string& text, const std::string& path);
+  // Throws Error naming `path` for a malformed file: a header without "index" first and every `required` column,
+  // or a row of another length. `producer` names the command that writes such files, for the fix.
+  static SweepTable FromCsv(const std::string& text, const std::string& path,
+                            const std::vector<std::string>& required = {"method", "reason"},
+                            const std::string& producer = "curvecheck sweep");
 };
 
 // The columns of sweep.csv for these factor names.
 std::vector<std::string> SweepColumns(const std::vector<std::string>& factor_names);
 
-// A number for a cell: "%.6g", "nan" for NaN, "inf"/"-inf".
-std::string Cell(double v);
+// A number for a cell: `digits` significant digits ("%.6g" by default), "nan" for NaN, "inf"/"-inf".
+std::string Cell(double v, int digits = 6);
 // Free text for a cell: commas become ';', quotes and line breaks become spaces.
 std::string CellText(const std::string& text);
 

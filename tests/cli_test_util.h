@@ -10,6 +10,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -87,6 +88,40 @@ inline std::filesystem::path FreshDir(const std::string& name, bool per_test = f
   std::filesystem::remove_all(d);
   std::filesystem::create_directories(d);
   return d;
+}
+
+// A CSV file written by curvecheck (no quoted cells) as rows of column name -> cell; a row of another length than
+// the header fails the test.
+using Rows = std::vector<std::map<std::string, std::string>>;
+
+inline Rows ReadCsv(const std::filesystem::path& p) {
+  std::istringstream in(Slurp(p));
+  std::string line;
+  std::vector<std::string> header;
+  Rows rows;
+  while (std::getline(in, line)) {
+    std::vector<std::string> cells;
+    std::stringstream ss(line);
+    for (std::string c; std::getline(ss, c, ',');) cells.push_back(c);
+    if (!line.empty() && line.back() == ',') cells.emplace_back();
+    if (header.empty()) {
+      header = cells;
+      continue;
+    }
+    EXPECT_EQ(cells.size(), header.size()) << line;
+    std::map<std::string, std::string> row;
+    for (size_t i = 0; i < header.size() && i < cells.size(); ++i) row[header[i]] = cells[i];
+    rows.push_back(row);
+  }
+  return rows;
+}
+
+// The row without its wall-time columns (*_ms), which differ between runs.
+inline std::map<std::string, std::string> WithoutTimes(std::map<std::string, std::string> row) {
+  for (auto it = row.begin(); it != row.end();) {
+    it = it->first.ends_with("_ms") ? row.erase(it) : std::next(it);
+  }
+  return row;
 }
 
 #ifdef CURVECHECK_BINARY

@@ -31,37 +31,9 @@ using testing::CliRun;
 using testing::RunBinary;
 using testing::Slurp;
 
-using Rows = std::vector<std::map<std::string, std::string>>;
-
-Rows ReadCsv(const fs::path& p) {
-  std::istringstream in(Slurp(p));
-  std::string line;
-  std::vector<std::string> header;
-  Rows rows;
-  while (std::getline(in, line)) {
-    std::vector<std::string> cells;
-    std::stringstream ss(line);
-    for (std::string c; std::getline(ss, c, ',');) cells.push_back(c);
-    if (!line.empty() && line.back() == ',') cells.emplace_back();
-    if (header.empty()) {
-      header = cells;
-      continue;
-    }
-    EXPECT_EQ(cells.size(), header.size()) << line;
-    std::map<std::string, std::string> row;
-    for (size_t i = 0; i < header.size() && i < cells.size(); ++i) row[header[i]] = cells[i];
-    rows.push_back(row);
-  }
-  return rows;
-}
-
-// The row without its wall-time columns (*_ms), which differ between runs.
-std::map<std::string, std::string> WithoutTimes(std::map<std::string, std::string> row) {
-  for (auto it = row.begin(); it != row.end();) {
-    it = it->first.ends_with("_ms") ? row.erase(it) : std::next(it);
-  }
-  return row;
-}
+using testing::ReadCsv;
+using testing::Rows;
+using testing::WithoutTimes;
 
 class SweepCli : public ::testing::Test {
  protected:

@@ -1,0 +1,83 @@
+// `curvecheck bench validity` (issue 16 item 4): is the reported radius interval honest under imaging
+// conditions the project was not tuned on? Seeded trials of the whole chain over a grid of conditions; per
+// cell the bias in sigmas, the scatter against the reported sigma and the coverage of the 68% and 95%
+// intervals (validity_stats.h), for the radius and for the camera position.
+//
+// Grid (canonical order, outermost first): resolution scale of the scene's camera (ScaledCamera) x camera
+// distance from the screen centre x yaw (the camera moved horizontally around the screen centre, looking at
+// it; positive to the right) x realism (the imaging chain: `off` the scene's own, `on` realistic effects, as
+// scene overrides: RealismOverrides) x true radius factor (the true monitor's radius = factor x the
+// nominal's; the pattern is always rendered for the nominal monitor, as a user would) x trials. Trial k of
+// the grid (in this order) uses noise seed `seed` + k and a camera pose jitter drawn from a generator seeded
+// with it: the position moved by N(0, jitter_mm) per axis, the aim turned by a rotation vector with N(0,
+// jitter_deg) per axis, so that the features' subpixel phases differ between trials as between real photos
+// (without it every trial of a cell would photograph the same phases and a detector's systematic error would
+// look like bias, not scatter). The pattern is rendered for the jittered camera position (exact method),
+// photographed by the synthetic camera and analysed from pixels with the default analysis (every screen
+// model; the chosen one's numbers are used, as a user sees).
+//
+// Truth (never from the analysis): the radius 1 / scene.truth.curvature_per_mm; the camera position in the
+// true screen's centre frame (the true monitor's translation and rigid rotation removed; a lean is not
+// modelled here) and in its axis frame (centre frame shifted by -R_true in z), against the chosen fit's
+// CameraEstimate in the same frames with their sigmas. Radius: 68% interval R +- radius_sigma_mm, 95%
+// interval radius_ci95_mm (as the fit reports them); camera coordinates: +- sigma and +- 1.96 sigma. Coverage
+// rates carry Wilson 95% intervals.
+//
+// Shards (shards.h): trials k with k mod n = i - 1; validity_trials.csv has one row per trial, and every cell
+// statistic is computed from those rows, so `bench validity merge` of all shards reproduces an unsharded run.
+// Outputs in the output folder: validity_trials.csv, validity.csv (one row per cell), validity.json,
+// validity.txt (the table and the acceptance summary: ValidityRule), validity.png (+ .gp, .dat: the 95%
+// coverage per cell with its Wilson interval and the 90-98% band; bias in sigmas per cell with its standard
+// error and the +-0.5 band).
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <ostream>
+#include <string>
+#include <vector>
+
+#include "experiments/shards.h"
+
+namespace curvecheck::experiments {
+
+struct BenchValidityOptions {
+  std::vector<double> scales = {0.25, 0.5, 1.0};           // of the scene camera's imager, (0, 1]
+  std::vector<double> distances_mm = {1000, 2000, 3000};   // camera to screen centre, 300..20000
+  std::vector<double> yaws_deg = {0, 20, 40};              // around the screen centre, |yaw| < 80
+  std::vector<std::string> realism = {"off", "on"};        // imaging chain levels (RealismOverrides)
+  std::vector<double> radius_factors = {0.92, 1.0, 1.08};  // true radius / nominal, 0.5..2
+  int trials = 20;                                         // per cell, 1..10000
+  int64_t seed = 1;                                        // trial k uses seed + k
+  std::string scene = "default";  // its monitor, lens, optics, sensor; the bench places the camera
+  double jitter_mm = 3;           // camera position jitter, per axis (1 sigma), mm
+  double jitter_deg = 0.2;        // camera aim jitter, per axis (1 sigma), deg
+  int cols = 32, rows = 9;        // checkerboard squares
+  Shard shard;
+  std::string command_line;  // provenance
+
+  // Throws Error naming the option for an empty list or a value out of range, an unknown realism level, a
+  // negative seed or jitter, or a bad shard.
+  void Check() const;
+};
+
+// The scene overrides ("key=value", synth/scene.h LoadScene) of a realism level: "off" and "on".
+std::vector<std::string> RealismOverrides(const std::string& level);
+
+// What a validity bench's shard folder holds (validity.json, validity_trials.csv).
+const ShardFiles& ValidityShardFiles();
+
+// Runs this shard of the bench, printing a line per trial and the table to `log`, and writes the outputs into
+// `out` (an existing writable folder; scratch files in out/.validity-scratch-<i>, removed). Returns true when
+// every cell with trials meets ValidityRule (the exit code does not depend on it: a failing cell is a
+// result). Throws Error for an unknown scene or invalid options.
+bool RunBenchValidity(const BenchValidityOptions& options, const std::filesystem::path& out,
+                      std::ostream& log);
+
+// Merges the shards in `dirs` (ShardDirs with ValidityShardFiles) into `out`: the same outputs as an
+// unsharded run. Returns as RunBenchValidity. Throws Error naming the file for shards of different grids or
+// overlapping ones.
+bool MergeBenchValidity(const std::vector<std::filesystem::path>& dirs, const std::filesystem::path& out,
+                        const std::string& command_line, std::ostream& log);
+
+}  // namespace curvecheck::experiments

@@ -1,0 +1,68 @@
+// The statistics of `bench validity` (bench_validity.h): is a reported interval honest? Over seeded trials of
+// one grid cell, each giving an estimate, its reported standard uncertainty sigma and 95% interval, and the
+// truth: bias in units of sigma, empirical scatter against sigma, and the coverage of the 68% and 95%
+// intervals with Wilson 95% intervals on the rates (metrology.md section 1: 95% intervals must hold the truth
+// 90-98% of the time, 68% ones 63-73%; bias is reported in sigmas).
+#pragma once
+
+#include <limits>
+#include <vector>
+
+#include "experiments/verdict_tally.h"
+
+namespace curvecheck::experiments {
+
+// One trial's estimate of a scalar against its truth, with what the method reported for it.
+struct IntervalSample {
+  double estimate = std::numeric_limits<double>::quiet_NaN();
+  double truth = std::numeric_limits<double>::quiet_NaN();
+  double sigma = std::numeric_limits<double>::quiet_NaN();  // reported standard uncertainty, > 0
+  // The reported 95% interval (may be asymmetric, or reach +inf: a radius from a curvature interval).
+  double lo95 = std::numeric_limits<double>::quiet_NaN(), hi95 = std::numeric_limits<double>::quiet_NaN();
+
+  // Usable: finite estimate, truth and sigma > 0, and lo95 <= hi95 (NaN bounds are not).
+  bool Valid() const;
+  // The 68% interval is estimate +- sigma (coverage factor 1: 68.3% for a Gaussian); the 95% one [lo95,
+  // hi95].
+  bool In68() const;
+  bool In95() const;
+};
+
+// A sample whose 95% interval is estimate +- 1.959964 sigma (a camera position coordinate).
+IntervalSample SymmetricSample(double estimate, double truth, double sigma);
+
+struct CoverageStats {
+  int n = 0;  // valid samples: everything below is over them
+  // error = estimate - truth. bias_sigma = mean(error) / mean(sigma); its standard error
+  // sd(error) / sqrt(n) / mean(sigma) (NaN for n < 2). scatter_ratio = sd(error) / mean(sigma): 1 when the
+  // reported sigma is the real scatter (NaN for n < 2). sd with n - 1.
+  double mean_error = std::numeric_limits<double>::quiet_NaN();
+  double sd_error = std::numeric_limits<double>::quiet_NaN();
+  double mean_sigma = std::numeric_limits<double>::quiet_NaN();
+  double bias_sigma = std::numeric_limits<double>::quiet_NaN();
+  double bias_sigma_se = std::numeric_limits<double>::quiet_NaN();
+  double scatter_ratio = std::numeric_limits<double>::quiet_NaN();
+  int k68 = 0, k95 = 0;                 // samples whose 68% / 95% interval holds the truth
+  BinomialInterval wilson68, wilson95;  // Wilson 95% intervals of the coverage rates k / n
+
+  double Coverage68() const;  // k68 / n, NaN for n = 0
+  double Coverage95() const;
+};
+
+// The statistics of the valid samples (invalid ones are left out: the caller counts them as failed trials).
+CoverageStats SummariseCoverage(const std::vector<IntervalSample>& samples);
+
+// The issue's acceptance rule for a cell (issue 16, "Done when"): the 95% coverage within [coverage95_lo,
+// coverage95_hi] and |bias| below max_bias_sigma, on point estimates, with at least one valid sample.
+struct ValidityRule {
+  double coverage95_lo = 0.90, coverage95_hi = 0.98;
+  double max_bias_sigma = 0.5;
+
+  bool Holds(const CoverageStats& s) const;
+  // Whether the Wilson interval of the 95% coverage overlaps [coverage95_lo, coverage95_hi]: a cell that
+  // fails the rule on its point estimate may still be consistent with it at this trial count (20 trials of a
+  // perfect 95% interval give 20/20 = 100% 36% of the time).
+  bool CoverageConsistent(const CoverageStats& s) const;
+};
+
+}  // namespace curvecheck::experiments

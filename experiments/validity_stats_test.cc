@@ -1,0 +1,126 @@
+// The statistics of `bench validity` (validity_stats.h) on hand-made samples whose answers are known, and on
+// seeded Gaussian samples whose sigma is right, too small, or hides a bias.
+#include "experiments/validity_stats.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+
+namespace curvecheck::experiments {
+namespace {
+
+TEST(ValidityStats, CountsCoverageOfBothIntervalsAndLeavesInvalidSamplesOut) {
+  // Truth 1000 mm, sigma 2 mm, the reported 95% interval asymmetric as a radius from a curvature interval is.
+  const std::vector<IntervalSample> samples = {
+      {1001, 1000, 2, 997, 1005},     // error +1: inside both
+      {1003, 1000, 2, 999, 1007},     // +3: outside +-sigma, inside the 95% interval
+      {1006, 1000, 2, 1001.5, 1011},  // +6: outside both
+      {998, 1000, 2, 994, 1002},      // -2: exactly sigma away: inside the 68% interval (|e| <= sigma)
+      {995, 1000, 2, 991, INFINITY},  // -5: 95% interval reaching +inf holds the truth
+      {NAN, 1000, 2, 990, 1010},      // no estimate: left out
+      {1000, 1000, 0, 990, 1010},     // sigma 0: left out
+      {1000, 1000, 2, NAN, NAN},      // no interval: left out
+  };
+  const CoverageStats s = SummariseCoverage(samples);
+  EXPECT_EQ(s.n, 5);
+  EXPECT_EQ(s.k68, 2);
+  EXPECT_EQ(s.k95, 4);
+  EXPECT_DOUBLE_EQ(s.Coverage68(), 0.4);
+  EXPECT_DOUBLE_EQ(s.Coverage95(), 0.8);
+  // errors +1, +3, +6, -2, -5: mean 0.6, sd sqrt(((0.4)^2 + 2.4^2 + 5.4^2 + 2.6^2 + 5.6^2) / 4) = sqrt(73.2 /
+  // 4).
+  EXPECT_DOUBLE_EQ(s.mean_error, 0.6);
+  EXPECT_DOUBLE_EQ(s.mean_sigma, 2);
+  EXPECT_DOUBLE_EQ(s.bias_sigma, 0.3);
+  EXPECT_NEAR(s.sd_error, std::sqrt(73.2 / 4), 1e-12);
+  EXPECT_NEAR(s.scatter_ratio, std::sqrt(73.2 / 4) / 2, 1e-12);
+  EXPECT_NEAR(s.bias_sigma_se, std::sqrt(73.2 / 4) / std::sqrt(5.0) / 2, 1e-12);
+  // Wilson 95% of 4/5, by the closed form evaluated independently (Python): [0.37553, 0.96378].
+  EXPECT_NEAR(s.wilson95.lo, 0.37553, 1e-5);
+  EXPECT_NEAR(s.wilson95.hi, 0.96378, 1e-5);
+}
+
+TEST(ValidityStats, EmptyAndSingleSamples) {
+  CoverageStats s = SummariseCoverage({});
+  EXPECT_EQ(s.n, 0);
+  EXPECT_TRUE(std::isnan(s.Coverage95()));
+  EXPECT_TRUE(std::isnan(s.bias_sigma));
+  EXPECT_EQ(s.wilson95.lo, 0);
+  EXPECT_EQ(s.wilson95.hi, 1);
+  EXPECT_FALSE(ValidityRule().Holds(s));
+  EXPECT_FALSE(ValidityRule().CoverageConsistent(s));
+  s = SummariseCoverage({SymmetricSample(10.5, 10, 1)});
+  EXPECT_EQ(s.n, 1);
+  EXPECT_EQ(s.k68, 1);
+  EXPECT_EQ(s.k95, 1);
+  EXPECT_DOUBLE_EQ(s.bias_sigma, 0.5);
+  EXPECT_TRUE(std::isnan(s.scatter_ratio));  // no spread from one sample
+  EXPECT_TRUE(std::isnan(s.bias_sigma_se));
+}
+
+TEST(ValidityStats, SymmetricSampleUsesTheNormalQuantile) {
+  const IntervalSample x = SymmetricSample(0, 1.959, 1);
+  EXPECT_TRUE(x.In95());
+  EXPECT_FALSE(SymmetricSample(0, 1.961, 1).In95());
+  EXPECT_FALSE(x.In68());
+}
+
+// Seeded Gaussian errors: an honest sigma covers 95% and 68% (within the binomial scatter of 4000 samples:
+// +-0.7% and +-1.5% at 2 sigma), scatter ratio 1, no bias; a sigma half the real scatter covers about 68% at
+// "95%" (P(|z| < 0.98)) and shows a scatter ratio of 2; a bias of 1 sigma shows as 1 sigma.
+TEST(ValidityStats, GaussianSamplesGiveTheExpectedRates) {
+  std::mt19937_64 rng(42);
+  std::normal_distribution<double> z(0, 1);
+  const auto run = [&](double scatter, double reported, double offset) {
+    std::vector<IntervalSample> samples;
+    for (int i = 0; i < 4000; ++i) {
+      samples.push_back(SymmetricSample(1000 + offset + scatter * z(rng), 1000, reported));
+    }
+    return SummariseCoverage(samples);
+  };
+  CoverageStats s = run(2, 2, 0);
+  EXPECT_EQ(s.n, 4000);
+  EXPECT_NEAR(s.Coverage95(), 0.95, 0.007);  // +-1.959964 sigma: exactly 95%
+  EXPECT_NEAR(s.Coverage68(), 0.6827, 0.015);
+  EXPECT_NEAR(s.scatter_ratio, 1, 0.03);
+  EXPECT_NEAR(s.bias_sigma, 0, 3 * s.bias_sigma_se);
+  EXPECT_NEAR(s.bias_sigma_se, 1 / std::sqrt(4000.0), 0.001);
+  EXPECT_TRUE(ValidityRule().Holds(s));
+  s = run(2, 1, 0);
+  EXPECT_NEAR(s.Coverage95(), 0.6729, 0.015);
+  EXPECT_NEAR(s.scatter_ratio, 2, 0.06);
+  EXPECT_FALSE(ValidityRule().Holds(s));
+  EXPECT_FALSE(ValidityRule().CoverageConsistent(s));
+  s = run(2, 2, 2);
+  EXPECT_NEAR(s.bias_sigma, 1, 0.05);
+  EXPECT_FALSE(ValidityRule().Holds(s));
+}
+
+TEST(ValidityStats, RuleOnPointEstimatesAndOnTheWilsonInterval) {
+  // 19 of 20 covered, bias 0: holds. 20 of 20: 100% is above 98%, so the rule fails, but the Wilson interval
+  // [83.9%, 100%] overlaps the band: consistent. 15 of 20 (75%, Wilson [53.1%, 88.8%]): neither.
+  const auto cell = [](int covered, int n) {
+    std::vector<IntervalSample> samples;
+    for (int i = 0; i < n; ++i) {
+      const double e = (i % 2 ? 1 : -1) * (i < covered ? 0.5 : 3.0);
+      samples.push_back(SymmetricSample(100 + e, 100, 1));
+    }
+    return SummariseCoverage(samples);
+  };
+  const ValidityRule rule;
+  CoverageStats s = cell(19, 20);
+  EXPECT_EQ(s.k95, 19);
+  EXPECT_TRUE(rule.Holds(s)) << s.bias_sigma;
+  s = cell(20, 20);
+  EXPECT_FALSE(rule.Holds(s));
+  EXPECT_TRUE(rule.CoverageConsistent(s));
+  EXPECT_NEAR(s.wilson95.lo, 0.83887, 1e-5);
+  s = cell(15, 20);
+  EXPECT_FALSE(rule.Holds(s));
+  EXPECT_FALSE(rule.CoverageConsistent(s));
+  EXPECT_NEAR(s.wilson95.hi, 0.88814, 1e-5);
+}
+
+}  // namespace
+}  // namespace curvecheck::experiments

@@ -1,0 +1,209 @@
+// `curvecheck bench validity` end to end, small and seeded (issue 16 item 4): the embedded default scene (49"
+// 1000R), the camera at quarter resolution 1.5 m in front of the screen centre, the scene's own imaging
+// chain, true radius 1000 mm and 1080 mm (x 1.08): 2 cells x 3 trials. Proves: the outputs exist with their
+// columns; every trial gives a radius within 15 mm of its truth and the camera within 10 mm of its true
+// position in both frames (a wrong frame or a wrong truth would be off by hundreds of mm); the cell
+// statistics are what the trial rows imply (the coverage counts, the bias in sigmas, the Wilson interval);
+// seeds follow the trial index; shards 1/2 and 2/2 merged give the full run's rows; bad options fail with one
+// line. Does not prove that the intervals are honest (3 trials cannot): that is what the bench measures
+// (docs/bench/validity_bench.txt).
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "tests/cli_test_util.h"
+
+namespace curvecheck {
+namespace {
+
+namespace fs = std::filesystem;
+using testing::CliRun;
+using ::testing::HasSubstr;
+using testing::ReadCsv;
+using testing::Rows;
+using testing::RunBinary;
+using testing::Slurp;
+using testing::WithoutTimes;
+
+double Num(const std::map<std::string, std::string>& row, const std::string& column) {
+  const auto it = row.find(column);
+  EXPECT_NE(it, row.end()) << "no column " << column;
+  return it == row.end() ? NAN : std::stod(it->second);
+}
+
+class BenchValidityCli : public ::testing::Test {
+ protected:
+  static fs::path dir_;
+  static CliRun full_, shard1_, shard2_, merge_;
+
+  static CliRun Curvecheck(const std::vector<std::string>& args) {
+    return RunBinary(CURVECHECK_BINARY, args, dir_);
+  }
+  static std::vector<std::string> Args(const std::string& out) {
+    return {"bench",
+            "validity",
+            "--scales",
+            "0.25",
+            "--distances-mm",
+            "1500",
+            "--yaws-deg",
+            "0",
+            "--realism",
+            "off",
+            "--radius-factors",
+            "1,1.08",
+            "--trials",
+            "3",
+            "--seed",
+            "3",
+            "-o",
+            (dir_ / out).string()};
+  }
+  static void SetUpTestSuite() {
+    dir_ = curvecheck::testing::FreshDir("bench_validity_cli_test");
+    full_ = Curvecheck(Args("full"));
+    std::vector<std::string> a = Args("shards/s1");
+    a.insert(a.end(), {"--shard", "1/2"});
+    shard1_ = Curvecheck(a);
+    a = Args("shards/s2");
+    a.insert(a.end(), {"--shard", "2/2"});
+    shard2_ = Curvecheck(a);
+    merge_ = Curvecheck(
+        {"bench", "validity", "merge", (dir_ / "shards").string(), "-o", (dir_ / "merged").string()});
+  }
+  static void TearDownTestSuite() { fs::remove_all(dir_); }
+};
+
+fs::path BenchValidityCli::dir_;
+CliRun BenchValidityCli::full_, BenchValidityCli::shard1_, BenchValidityCli::shard2_,
+    BenchValidityCli::merge_;
+
+TEST_F(BenchValidityCli, TrialsMeetTheirTruthAndCellsAreWhatTheTrialsImply) {
+  ASSERT_EQ(full_.code, 0) << full_.err << full_.out;
+  std::cout << full_.out;
+  const fs::path out = dir_ / "full";
+  for (const char* f : {"validity_trials.csv", "validity.csv", "validity.json", "validity.txt",
+                        "validity.png", "validity.gp", "validity.dat"}) {
+    EXPECT_TRUE(fs::exists(out / f)) << f;
+  }
+  EXPECT_FALSE(fs::exists(out / ".validity-scratch-1"));
+  const Rows trials = ReadCsv(out / "validity_trials.csv");
+  ASSERT_EQ(trials.size(), 6u);
+  for (const auto& t : trials) {
+    const std::string what = "trial " + t.at("index") + ": " + t.at("detail");
+    EXPECT_EQ(t.at("reason"), "") << what;
+    EXPECT_EQ(std::stoi(t.at("seed")), 3 + std::stoi(t.at("index"))) << what;
+    EXPECT_EQ(std::stoi(t.at("cell")), std::stoi(t.at("index")) / 3) << what;
+    EXPECT_EQ(t.at("camera_px"), "1500x1000");
+    const double truth = 1000 * Num(t, "radius_factor");
+    EXPECT_NEAR(Num(t, "true_radius_mm"), truth, 1e-3) << what;
+    EXPECT_NEAR(Num(t, "radius_mm"), truth, 15) << what;
+    EXPECT_GT(Num(t, "radius_sigma_mm"), 0) << what;
+    EXPECT_LT(Num(t, "radius_sigma_mm"), 10) << what;
+    EXPECT_LT(Num(t, "radius_ci95_lo_mm"), Num(t, "radius_mm")) << what;
+    EXPECT_GT(Num(t, "radius_ci95_hi_mm"), Num(t, "radius_mm")) << what;
+    // The jitter moved the camera (a few mm) from 1500 mm in front of the centre: the truth knows it.
+    const double jitter = std::hypot(Num(t, "jitter_x_mm"), Num(t, "jitter_y_mm"), Num(t, "jitter_z_mm"));
+    EXPECT_GT(jitter, 0) << what;
+    EXPECT_LT(jitter, 20) << what;
+    EXPECT_NEAR(Num(t, "true_cam_centre_z_mm"), 1500 + Num(t, "jitter_z_mm"), 1e-3) << what;
+    EXPECT_NEAR(Num(t, "true_cam_axis_z_mm"), 1500 + Num(t, "jitter_z_mm") - truth, 1e-3) << what;
+    for (const char* f : {"centre", "axis"}) {
+      for (const char* a : {"x", "y", "z"}) {
+        const std::string c = std::string("cam_") + f + "_" + a;
+        EXPECT_NEAR(Num(t, c + "_mm"), Num(t, "true_" + c + "_mm"), 10) << what << " " << c;
+        EXPECT_GT(Num(t, c + "_sigma_mm"), 0) << what << " " << c;
+      }
+    }
+  }
+
+  const Rows cells = ReadCsv(out / "validity.csv");
+  ASSERT_EQ(cells.size(), 2u);
+  for (size_t c = 0; c < 2; ++c) {
+    const auto& cell = cells[c];
+    EXPECT_EQ(Num(cell, "radius_factor"), c == 0 ? 1.0 : 1.08);
+    EXPECT_EQ(Num(cell, "trials"), 3);
+    EXPECT_EQ(Num(cell, "ok"), 3);
+    int k68 = 0, k95 = 0;
+    double sum_error = 0, sum_sigma = 0;
+    for (size_t i = 3 * c; i < 3 * c + 3; ++i) {
+      const auto& t = trials[i];
+      const double e = Num(t, "radius_mm") - Num(t, "true_radius_mm"), sigma = Num(t, "radius_sigma_mm");
+      const bool in68 = std::abs(e) <= sigma;
+      const bool in95 = Num(t, "true_radius_mm") >= Num(t, "radius_ci95_lo_mm") &&
+                        Num(t, "true_radius_mm") <= Num(t, "radius_ci95_hi_mm");
+      EXPECT_EQ(t.at("radius_in68"), in68 ? "1" : "0");
+      EXPECT_EQ(t.at("radius_in95"), in95 ? "1" : "0");
+      k68 += in68;
+      k95 += in95;
+      sum_error += e;
+      sum_sigma += sigma;
+    }
+    EXPECT_EQ(Num(cell, "radius_cov68_k"), k68);
+    EXPECT_EQ(Num(cell, "radius_cov95_k"), k95);
+    EXPECT_NEAR(Num(cell, "radius_cov95"), k95 / 3.0, 1e-5);
+    EXPECT_NEAR(Num(cell, "radius_bias_sigma"), sum_error / sum_sigma,
+                1e-3 * (1 + std::abs(sum_error / sum_sigma)));
+    // Wilson 95% interval of k95 / 3 (closed form, Python): 0/3 [0, 56.1%], 1/3 [6.1%, 79.2%], 2/3
+    // [20.8%, 93.9%], 3/3 [43.9%, 100%].
+    const double lo[] = {0, 0.06149, 0.20765, 0.43850}, hi[] = {0.56150, 0.79235, 0.93851, 1};
+    EXPECT_NEAR(Num(cell, "radius_cov95_lo"), lo[k95], 1e-4);
+    EXPECT_NEAR(Num(cell, "radius_cov95_hi"), hi[k95], 1e-4);
+    const bool pass = k95 / 3.0 >= 0.9 && k95 / 3.0 <= 0.98 && std::abs(sum_error / sum_sigma) < 0.5;
+    EXPECT_EQ(cell.at("radius_pass"), pass ? "1" : "0");  // 3 trials: 3/3 = 100% is above 98%, so never
+    EXPECT_GT(Num(cell, "cam_axis_z_n"), 0);
+  }
+
+  const nlohmann::json j = nlohmann::json::parse(Slurp(out / "validity.json"));
+  EXPECT_EQ(j["format"], "curvecheck.bench.validity/1");
+  EXPECT_THAT(j["command"].get<std::string>(), HasSubstr("bench validity --scales 0.25"));
+  EXPECT_EQ(j["cells"].size(), 2u);
+  EXPECT_EQ(j["summary"]["trials"], 6);
+  EXPECT_EQ(j["summary"]["all_pass"], false);
+  EXPECT_EQ(j["rule"]["binomial_interval"], "Wilson score, 95%");
+  const std::string text = Slurp(out / "validity.txt");
+  for (const char* piece : {"bench validity --scales 0.25", "cores", "cov95 [Wilson 95%]",
+                            "radius, issue 16's rule", "FAIL - 0 of 2 cells meet it", "camera position"}) {
+    EXPECT_THAT(text, HasSubstr(piece));
+  }
+}
+
+TEST_F(BenchValidityCli, ShardsMergeIntoTheFullRun) {
+  ASSERT_EQ(shard1_.code, 0) << shard1_.err << shard1_.out;
+  ASSERT_EQ(shard2_.code, 0) << shard2_.err << shard2_.out;
+  ASSERT_EQ(merge_.code, 0) << merge_.err << merge_.out;
+  EXPECT_EQ(ReadCsv(dir_ / "shards/s1/validity_trials.csv").size(), 3u);  // trials 0, 2, 4
+  for (const char* file : {"validity_trials.csv", "validity.csv"}) {
+    const Rows full = ReadCsv(dir_ / "full" / file), merged = ReadCsv(dir_ / "merged" / file);
+    ASSERT_EQ(merged.size(), full.size()) << file;
+    for (size_t i = 0; i < full.size(); ++i)
+      EXPECT_EQ(WithoutTimes(merged[i]), WithoutTimes(full[i])) << file << i;
+  }
+  EXPECT_TRUE(fs::exists(dir_ / "merged" / "validity.png"));
+  // The same shard twice.
+  testing::ExpectOneLineFailure(Curvecheck({"bench", "validity", "merge", (dir_ / "shards/s1").string(),
+                                            (dir_ / "shards/s1").string(), "-o", (dir_ / "m2").string()}),
+                                {"point 0 is also in", "the shards overlap"});
+}
+
+TEST_F(BenchValidityCli, BadOptionsFailWithOneLine) {
+  const std::string o = (dir_ / "bad").string();
+  testing::ExpectOneLineFailure(Curvecheck({"bench", "validity", "--scales", "0.5,1.5", "-o", o}),
+                                {"--scales", "1.5 is outside (0, 1]"});
+  testing::ExpectOneLineFailure(Curvecheck({"bench", "validity", "--realism", "sometimes", "-o", o}),
+                                {"--realism", "'sometimes' is not a level"});
+  testing::ExpectOneLineFailure(Curvecheck({"bench", "validity", "--radius-factors", "3", "-o", o}),
+                                {"--radius-factors", "3 is outside"});
+  testing::ExpectOneLineFailure(Curvecheck({"bench", "validity", "--shard", "3/2", "-o", o}),
+                                {"--shard", "'3/2' is not i/n"});
+  testing::ExpectOneLineFailure(Curvecheck({"bench", "validity", "merge", o, "-o", (dir_ / "m").string()}),
+                                {"holds no validity.json"});
+}
+
+}  // namespace
+}  // namespace curvecheck

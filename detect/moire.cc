@@ -43,9 +43,10 @@ MoireMeasure MeasureMoire(const cv::Mat& photo_gray, const MoireOptions& o) {
   cv::Mat photo;
   photo_gray.convertTo(photo, CV_32F);
 
-  // Bright areas: the photo averaged over blocks of n/8 px (INTER_AREA), the patch's minimum there against
-  // 0.7 x the 99th percentile.
-  const int block = std::max(1, n / 8);
+  // Bright areas: the photo averaged over blocks of n/4 px (INTER_AREA: long enough to average strong moire
+  // away), the patch's minimum there against 0.6 x the 99th percentile (an edge through a block takes it to
+  // about half the white level).
+  const int block = std::max(1, n / 4);
   cv::Mat coarse;
   cv::resize(photo, coarse, cv::Size(photo.cols / block, photo.rows / block), 0, 0, cv::INTER_AREA);
   std::vector<float> levels(coarse.begin<float>(), coarse.end<float>());
@@ -60,7 +61,7 @@ MoireMeasure MeasureMoire(const cv::Mat& photo_gray, const MoireOptions& o) {
       if ((cell & cv::Rect(0, 0, coarse.cols, coarse.rows)) != cell) continue;
       double lo = 0;
       cv::minMaxLoc(coarse(cell), &lo);
-      if (lo > 0.7 * white) corners.emplace_back(x, y);
+      if (lo > 0.6 * white) corners.emplace_back(x, y);
     }
   }
   if (corners.empty()) return m;

@@ -7,18 +7,21 @@
 // adds a periodic pattern of the same size as the refinement window, which pulls the corner off the saddle.
 //
 // Measurement (MeasureMoire): square patches of `patch_px` on a grid over the photo; a patch is taken if it
-// lies inside a bright area (its Gaussian-smoothed minimum, sigma patch/8, above 0.7 x the photo's white level:
-// the 99th percentile of the smoothed photo), so that no edge of the pattern enters it. Each patch, minus its
+// lies inside a bright area (its minimum over blocks of patch/4 px, averaged, above 0.6 x the photo's white
+// level: the 99th percentile of the block means), so that no edge of the pattern crosses it. Each patch, minus its
 // mean, times a 2-D Hann window, is transformed (cv::dft) and the power spectra are averaged over the patches
-// (phases differ between patches; power adds). The strongest peak outside the lowest frequencies (more than
-// 2 bins from DC in either axis: the window's main lobe and the patches' shading) is the moire. Its amplitude
+// (phases differ between patches; power adds). Every local maximum outside the lowest frequencies (more than
+// 2 bins from DC in either axis: the window's main lobe and the patches' shading) is a component of the moire. Its amplitude
 // A comes from the energy E in the 5 x 5 bins around the peak (the Hann main lobe, no scalloping loss) minus the
 // noise floor there (the median bin power): for A cos(2 pi f.x) over N pixels with window w, one lobe holds
 // N A^2 sum(w^2) / 4 of the unnormalized DFT's energy, so A = 2 sqrt(E / (N sum(w^2))). Contrast = A / the
-// patches' mean level. Only the strongest component is reported (of the grid's two fundamentals, x and y).
+// patches' mean level. A grid of display pixels gives several components (its two fundamentals, their
+// harmonics and beats, aliased); the strongest is reported, and the filter is set by all of them. Not seen: a
+// display pitch within a few percent of 1 camera px (or of 1/2), where the grid aliases to a beat longer than a
+// patch; it can still bias corners (docs/bench/moire.txt).
 //
 // Adaptation (MoireFilterSigmaPx): a Gaussian low-pass whose transfer function exp(-2 pi^2 sigma^2 f^2) brings
-// the measured moire's contrast down to `residual_contrast`: sigma = sqrt(ln(contrast / residual) / 2) / (pi f).
+// each measured component's contrast down to `residual_contrast` (the largest sigma of them): sigma = sqrt(ln(contrast / residual) / 2) / (pi f).
 // Why it does not move a corner: an X-junction of two straight edges is point-symmetric about its saddle
 // (I(c + d) = I(c - d)), and a rotationally symmetric kernel keeps that symmetry, so the saddle of the smoothed
 // image is still c; cornerSubPix's fixed point (sum of g g^T (x - q) = 0 over a window centred on q) is c by the

@@ -44,8 +44,8 @@ struct MoireOptions {
   int max_patches = 64;
   // Moire is "present" (and filtered against in DetectFeatures' auto mode) when its contrast is above this and
   // its peak stands above the spectrum's noise floor by `min_peak_to_floor`. 0.02 = 2% of the white level;
-  // measured on synthetic photos: 0.2-0.6% with fill factor 1 (the checker edges' staircase and noise), 4-30%
-  // with fill 0.5-0.85 where the display's structure is resolved (docs/bench/moire.txt).
+  // measured on synthetic photos (docs/bench/moire.txt): 0.1-0.3% with fill factor 1 and no stripes, 9-55%
+  // with fill 0.5-0.85 or RGB stripes at 0.67 and 1.67 camera px per display px.
   double min_contrast = 0.02;
   double min_peak_to_floor = 10;
   // The prefilter brings the moire down to this contrast (0.5% of the white level).

@@ -463,6 +463,11 @@ nlohmann::json ResultJson(const AnalysisResult& r, const std::string& command_li
                         {"flagged", flagged},
                         {"notes", p.detection.notes},
                         {"time_ms", p.detection.time_ms}};
+      const MoireMeasure& m = p.detection.moire;  // detect/moire.h; periods and sigmas in camera px
+      e["detection"]["moire"] = {{"patches", m.patches},         {"present", m.present},
+                                 {"period_px", m.period_px},     {"contrast", m.contrast},
+                                 {"peak_to_floor", m.peak_to_floor}, {"display_pitch_px", m.display_pitch_px},
+                                 {"filter_sigma_px", m.filter_sigma_px}};
     }
     if (p.used) e["verification"] = VerificationJson(p.verification);
     photos.push_back(e);

@@ -64,6 +64,7 @@
 #include <string_view>
 #include <vector>
 
+#include "detect/moire.h"
 #include "pattern/pattern_json.h"
 
 namespace curvecheck {
@@ -91,12 +92,15 @@ struct DetectOptions {
   // opencv-sb: add CALIB_CB_ACCURACY (upsampling; ~5x slower, a little more accurate).
   bool sb_accuracy = false;
   // Gaussian smoothing (sigma, px) of the neighbourhood of each feature before its full-resolution refinement, and
-  // of the whole photo before opencv-sb and mrgingham when set explicitly. -1 = auto: 2 x the display's pixel
-  // pitch in the photo (estimated from the coarse detections and pattern.json's display positions) when that
-  // pitch exceeds 0.5 camera px, i.e. when the camera resolves the screen-door grid of the display; else 0.
-  // Measured on the default 24 MP scene (0.8 camera px per display pixel, strong moire): opencv-classic RMS vs
-  // truth 7.0 px at sigma 0.63, 1.5 px at 1.5, 0.9 px at 3. A symmetric blur moves neither straight edges nor
-  // X-corners. opencv-sb and mrgingham get no smoothing in auto.
+  // of the whole photo before opencv-sb and mrgingham. -1 = auto: (1) from the moire measured in the photo
+  // (moire.h): when moire is present, the sigma that brings each of its components down to
+  // moire.residual_contrast (at most 10 px), applied to the whole photo before the coarse detector (any) and to
+  // the refinement; (2) for the refinement, at least 2 x the display's pixel pitch in the photo (estimated from the
+  // coarse detections and pattern.json's display positions) when that pitch exceeds 0.5 camera px: the camera then
+  // resolves the display's pixels, and the pattern's edges are staircases of them. A photo with neither is
+  // detected unfiltered. A symmetric blur moves neither straight edges nor X-corners (moire.h). Measured
+  // (docs/bench/moire.txt, 1.67 camera px per display px, sharp lens): fill 0.7 0.51 px RMS unfiltered, 0.024 px
+  // with the prefilter; fill 1 0.137 px unfiltered, 0.019 px. Detection.moire reports what was seen and used.
   double prefilter_sigma_px = -1;
   // Orientation rule (2): largest angle between the board's up and the image's up, deg, in (0, 45].
   double upright_max_deg = 40;
@@ -106,6 +110,8 @@ struct DetectOptions {
   double outlier_min_px = 0.5;
   // Features closer than this to the image edge (px) are flagged: their refinement window is cut.
   double border_px = 4;
+  // The moire measurement and the auto prefilter's thresholds (moire.h).
+  MoireOptions moire;
 
   void Check(const std::string& where) const;  // throws Error naming `where`
 };
@@ -146,6 +152,9 @@ struct Detection {
   DetectionFailure failure_kind = DetectionFailure::kNone;  // set together with `failure`
   std::vector<std::string> notes;  // e.g. "orientation from the square colours", "12 of 144 corners not found"
   double time_ms = 0;              // wall time of DetectFeatures
+  // The display-pixel moire measured in the photo (moire.h), the display's pitch in the photo and the prefilter
+  // applied (filter_sigma_px: 0 = none); measured on every call, also when the detection fails.
+  MoireMeasure moire;
 };
 
 // Photo file -> gray image, 8-bit (CV_8U) or 16-bit (CV_16U, precision kept). Colour photos are converted

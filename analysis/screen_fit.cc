@@ -543,7 +543,7 @@ std::vector<QuantityVariance> Budget(const Setup& setup, ModelWork& w, BuiltProb
       }
     }
     bud.pixel_locking = EstimatePixelLocking(det, res);
-    const PixelLocking& pl = bud.pixel_locking;
+    const ResidualPixelLocking& pl = bud.pixel_locking;
     double upper = 0;
     for (int c = 0; c < 2; ++c) {
       if (std::isfinite(pl.amplitude_px[c])) upper = std::max(upper, pl.amplitude_px[c] + 2 * pl.sigma_px[c]);

@@ -166,9 +166,10 @@ struct BudgetComponent {
   double dof = std::numeric_limits<double>::infinity();  // degrees of freedom (infinity for type B)
 };
 
-// The pixel-locking estimate: per coordinate, the fit's residuals regressed on (1, sin 2 pi phi, cos 2 pi phi)
+// The pixel-locking left in the fit's residuals (after the verification's estimate was removed from the
+// detections, analysis/error_field.h): per coordinate, the fit's residuals regressed on (1, sin 2 pi phi, cos 2 pi phi)
 // with phi the subpixel phase of the detected coordinate (EstimatePixelLocking).
-struct PixelLocking {
+struct ResidualPixelLocking {
   Eigen::Vector2d amplitude_px = Eigen::Vector2d::Zero();  // sqrt(a_sin^2 + a_cos^2), x and y
   Eigen::Vector2d sigma_px = Eigen::Vector2d::Zero();      // its standard uncertainty
   int observations = 0;
@@ -184,7 +185,7 @@ struct UncertaintyBudget {
   double coverage_probability = 0.95;
   std::string dominant;  // the component with the largest u(k)
   std::array<std::string, 3> dominant_position;  // per axis (axis frame)
-  PixelLocking pixel_locking;
+  ResidualPixelLocking pixel_locking;
   double systematic_bound_px = 0;  // b = max(amplitude + 2 sigma, noise floor), RMS per coordinate of the fields
   std::string systematic_bound_reason;
   // The detector-systematic row's two parts, u(k) (1/mm): the smooth fields and the pixel-locking signature.
@@ -323,7 +324,7 @@ double RadiusCramerRaoBoundMm(const Monitor& true_monitor, const CameraModel& ca
 // by least squares on (1, sin 2 pi phi, cos 2 pi phi), phi = the subpixel phase of the detected coordinate
 // (q - floor(q)); amplitude sqrt(a_s^2 + a_c^2) with its standard uncertainty from the regression's residual
 // scatter (delta method; near zero amplitude the coefficients' RMS sigma). Non-finite entries are skipped.
-PixelLocking EstimatePixelLocking(const std::vector<Eigen::Vector2d>& detected_px,
+ResidualPixelLocking EstimatePixelLocking(const std::vector<Eigen::Vector2d>& detected_px,
                                   const std::vector<Eigen::Vector2d>& residual_px);
 
 // The two-sided quantile of Student's t for coverage probability p (e.g. 0.95) at dof degrees of freedom

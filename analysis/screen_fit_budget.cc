@@ -44,12 +44,12 @@ double Legendre(int n, double x) {
 
 }  // namespace
 
-PixelLocking EstimatePixelLocking(const std::vector<Eigen::Vector2d>& detected_px,
+ResidualPixelLocking EstimatePixelLocking(const std::vector<Eigen::Vector2d>& detected_px,
                                   const std::vector<Eigen::Vector2d>& residual_px) {
   if (detected_px.size() != residual_px.size()) {
     throw Error("pixel-locking estimate", "detections and residuals differ in number", "");
   }
-  PixelLocking out;
+  ResidualPixelLocking out;
   for (int c = 0; c < 2; ++c) {
     std::vector<Eigen::Vector3d> rows;
     std::vector<double> y;

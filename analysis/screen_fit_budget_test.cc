@@ -220,7 +220,7 @@ TEST(UncertaintyBudgetTest, PixelLockingAmplitudeIsRecovered) {
     res.emplace_back(kAx * std::sin(2 * kPi * (q.x() - std::floor(q.x()))) + noise(rng),
                      kAy * std::cos(2 * kPi * (q.y() - std::floor(q.y())) + 0.7) + noise(rng));
   }
-  const PixelLocking pl = EstimatePixelLocking(det, res);
+  const ResidualPixelLocking pl = EstimatePixelLocking(det, res);
   EXPECT_NEAR(pl.sigma_px.x(), 0.02 * std::sqrt(2.0 / 400), 0.3 * 0.02 * std::sqrt(2.0 / 400));
   EXPECT_NEAR(pl.amplitude_px.x(), kAx, 2 * pl.sigma_px.x());
   EXPECT_NEAR(pl.amplitude_px.y(), kAy, 2 * pl.sigma_px.y());
@@ -236,7 +236,7 @@ TEST(UncertaintyBudgetTest, PixelLockingAmplitudeIsRecovered) {
   FitOptions o = CylinderOnly();
   o.noise_floor_px = 0.01;
   const ModelFit f = FitScreen(scene.monitor, scene.camera, {photo}, o).Chosen();
-  const PixelLocking& got = f.budget.pixel_locking;
+  const ResidualPixelLocking& got = f.budget.pixel_locking;
   std::cout << "pixel-locking through the fit: " << got.amplitude_px.transpose() << " +- " << got.sigma_px.transpose()
             << " px (injected " << kAx << ")\n";
   // The fit absorbs part of the signature before the regression sees it (the 279 features' phases are not

@@ -76,7 +76,8 @@ nlohmann::json VerificationJson(const Verification& v) {
           {"sigma_px", {Num(sigma(0)), Num(sigma(1)), Num(sigma(2)), Num(sigma(3))}},
           {"amplitude_px", {Num(pl.Amplitude().x()), Num(pl.Amplitude().y())}},
           {"noise_without_px", Num(pl.noise_px)},
-          {"note", "fitted with the correction-error field; removed from the detections before the screen fit"}};
+          {"note", "fitted beside the correction-error field; removed from the detections before the screen fit only with "
+                   "analyze --correct-pixel-locking"}};
     }
     j["reason"] = v.verdict_reason;
     if (!v.advice.empty()) j["advice"] = v.advice;
@@ -344,8 +345,8 @@ AnalysisResult AnalyzeWith(const CameraModel& camera, const std::filesystem::pat
         for (const FeatureCheck& c : pa.verification.features) {
           obs.ids.push_back(c.id);
           obs.display_px.push_back(c.display_px);
-          // Less the detector's pixel-locking bias the verification estimated (zero when it did not).
-          obs.detected_px.push_back(c.detected_px - c.pixel_locking_px);
+          // Less the detector's pixel-locking bias the verification estimated, when asked to (AnalyzeOptions).
+          obs.detected_px.push_back(options.correct_pixel_locking ? c.detected_px - c.pixel_locking_px : c.detected_px);
         }
         pa.fit_ids = obs.ids;
         pa.fit_index = static_cast<int>(observations.size());
@@ -392,8 +393,9 @@ AnalysisResult AnalyzeWith(const CameraModel& camera, const std::filesystem::pat
       double sum = 0, weight = 0;
       for (const PhotoAnalysis& p : r.photos) {
         // The fit sees detections less their pixel-locking: its noise is the scatter without that term.
-        const double noise =
-            p.verification.pixel_locking.estimated ? p.verification.pixel_locking.noise_px : p.verification.noise_px;
+        const double noise = options.correct_pixel_locking && p.verification.pixel_locking.estimated
+                                 ? p.verification.pixel_locking.noise_px
+                                 : p.verification.noise_px;
         if (!p.used || !(noise > 0)) continue;
         sum += noise * noise * static_cast<double>(p.verification.features.size());
         weight += static_cast<double>(p.verification.features.size());

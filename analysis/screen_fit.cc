@@ -548,15 +548,11 @@ std::vector<QuantityVariance> Budget(const Setup& setup, ModelWork& w, BuiltProb
     for (int c = 0; c < 2; ++c) {
       if (std::isfinite(pl.amplitude_px[c])) upper = std::max(upper, pl.amplitude_px[c] + 2 * pl.sigma_px[c]);
     }
-    bud.systematic_bound_px = std::max(upper, o.noise_floor_px);
-    bud.systematic_bound_reason =
-        upper >= o.noise_floor_px
-            ? fmt::format("the pixel-locking estimate plus 2 sigma, {:.4f} px (x {:.4f} +- {:.4f}, y {:.4f} +- {:.4f} px)",
-                          upper, pl.amplitude_px.x(), pl.sigma_px.x(), pl.amplitude_px.y(), pl.sigma_px.y())
-            : fmt::format("the floor noise_floor_px = {:.3f} px (the pixel-locking estimate plus 2 sigma is {:.4f} px: "
-                          "x {:.4f} +- {:.4f}, y {:.4f} +- {:.4f} px)",
-                          o.noise_floor_px, upper, pl.amplitude_px.x(), pl.sigma_px.x(), pl.amplitude_px.y(),
-                          pl.sigma_px.y());
+    bud.systematic_bound_px = o.smooth_bias_px;
+    bud.systematic_bound_reason = fmt::format(
+        "the stated smooth detector bias FitOptions::smooth_bias_px (type B, not measured); the pixel-locking "
+        "signature's amplitude is its estimate plus 2 sigma, {:.4f} px (x {:.4f} +- {:.4f}, y {:.4f} +- {:.4f} px)",
+        upper, pl.amplitude_px.x(), pl.sigma_px.x(), pl.amplitude_px.y(), pl.sigma_px.y());
     BudgetComponent c;
     c.name = "detector systematic";
     c.type = "B";
@@ -574,7 +570,7 @@ std::vector<QuantityVariance> Budget(const Setup& setup, ModelWork& w, BuiltProb
         o.systematic_field_degree, o.systematic_field_draws);
     bud.components.push_back(c);
     QuantityVariance v(setup.photos);
-    if (lin && bud.systematic_bound_px > 0) {
+    if (lin && (bud.systematic_bound_px > 0 || upper > 0)) {
       // Two parts in quadrature: smooth bias fields of RMS b, and the pixel-locking signature in its own shape.
       Eigen::Vector2d pl_bound = pl.amplitude_px + 2 * pl.sigma_px;
       const QuantityVariance smooth = SystematicVariance(setup, *lin, bud.systematic_bound_px);
@@ -1140,6 +1136,9 @@ void FitOptions::Check(const std::string& where) const {
   if (!(adequacy_noise_ratio >= 1) || !std::isfinite(adequacy_noise_ratio)) {
     throw Error(where, fmt::format("adequacy_noise_ratio is {}, but must be 1 or more", adequacy_noise_ratio),
                 "give e.g. 1.5");
+  }
+  if (!(smooth_bias_px >= 0) || !std::isfinite(smooth_bias_px)) {
+    throw Error(where, fmt::format("smooth_bias_px is {}, but must be 0 or a positive number", smooth_bias_px), "");
   }
   if (!(noise_floor_px >= 0) || !std::isfinite(noise_floor_px)) {
     throw Error(where, fmt::format("noise_floor_px is {}, but must be 0 or a positive number", noise_floor_px), "");

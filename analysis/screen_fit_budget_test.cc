@@ -169,7 +169,7 @@ TEST(UncertaintyBudgetTest, SystematicRowMatchesTheRadiusShiftOfInjectedFields) 
   const PhotoObservations photo = Clean(scene);
   constexpr double kBiasPx = 0.05;
   FitOptions o = CylinderOnly();
-  o.noise_floor_px = kBiasPx;  // noise-free: the bound is the floor, the injected field's RMS
+  o.smooth_bias_px = kBiasPx;  // the stated smooth bias: the injected fields' RMS
   const ModelFit f = FitScreen(scene.monitor, scene.camera, {photo}, o).Chosen();
   const BudgetComponent& sys = Row(f, "detector systematic");
   EXPECT_NEAR(f.budget.systematic_bound_px, kBiasPx, 1e-12) << f.budget.systematic_bound_reason;
@@ -244,7 +244,9 @@ TEST(UncertaintyBudgetTest, PixelLockingAmplitudeIsRecovered) {
   // in y for this seed. Hence 3 sigma here (2 for the regression alone, above), and the bound, estimate + 2
   // sigma, reaches the injected amplitude.
   for (int c = 0; c < 2; ++c) EXPECT_NEAR(got.amplitude_px[c], kAx, 3 * got.sigma_px[c]) << c;
-  EXPECT_GE(f.budget.systematic_bound_px, kAx);
+  // The row's pixel-locking part is built on that estimate (plus 2 sigma); the smooth part on the stated bias.
+  EXPECT_GT(f.budget.pixel_locking_share_curvature_per_mm, 0);
+  EXPECT_EQ(f.budget.systematic_bound_px, o.smooth_bias_px);
 }
 
 // The pixel-locking part of the systematic row: A sin(2 pi phase + psi) injected (noise-free) at four phase

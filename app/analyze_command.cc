@@ -159,6 +159,9 @@ void AddAnalyzeCommand(CLI::App& app, std::function<int()>& run) {
                   "Tolerance of the datasheet's pixel pitch, percent (half-width of a rectangular distribution; "
                   "its u = tolerance/sqrt(3) is the budget's pixel-pitch row: u(R)/R = u(p)/p)")
       ->capture_default_str();
+  cmd->add_flag("--correct-pixel-locking", args->options.correct_pixel_locking,
+                "Remove the detector's pixel-locking (estimated with the verification's error field, reported in "
+                "result.json either way) from the detections before the screen fit (experimental: see README)");
   cmd->add_flag("--no-fit", args->no_fit, "Detection and verification only");
   cmd->add_flag("--no-overlays", args->no_overlays, "Do not write overlay images");
   cmd->add_flag("--no-report", args->no_report, "Do not write report.html (the HTML page; see `curvecheck report`)");

@@ -617,12 +617,10 @@ bool WriteOutputs(const fs::path& out, SweepTable& trials, json meta, const std:
 }  // namespace
 
 std::vector<std::string> RealismOverrides(const std::string& level) {
-  // TODO(imaging chain, issue 16 item 1): "off" -> {"imaging.preset=clean"} and "on" ->
-  // {"imaging.preset=ilc24"} once synth/ knows the key imaging.preset. Until then "off" is the scene's own
-  // chain, and "on" dirties the photo with keys synth/ reads today: more optical blur, a quarter of the
-  // sensor's full well (more shot noise), and display pixels with gaps (fill 0.7: moire).
-  if (level == "off") return {};
-  if (level == "on") return {"optics.blur_px=1.0", "sensor.full_well_e=5000", "display.fill_factor=0.7"};
+  // The synthetic camera's imaging chain (synth/imaging.h): "off" is the clean monochrome chain, "on" the
+  // realistic 24 MP interchangeable-lens camera (Bayer, demosaic, JPEG, defocus, panel fall-off, glare).
+  if (level == "off") return {"imaging.preset=clean"};
+  if (level == "on") return {"imaging.preset=ilc24"};
   throw Error("--realism", fmt::format("'{}' is not a level", level), "give on, off or on,off");
 }
 

@@ -5,7 +5,7 @@
 //
 // Grid (canonical order, outermost first): resolution scale of the scene's camera (ScaledCamera) x camera
 // distance from the screen centre x yaw (the camera moved horizontally around the screen centre, looking at
-// it; positive to the right) x realism (the imaging chain: `off` the scene's own, `on` realistic effects, as
+// it; positive to the right) x realism (the imaging chain: `off` imaging.preset=clean, `on` imaging.preset=ilc24, as
 // scene overrides: RealismOverrides) x true radius factor (the true monitor's radius = factor x the
 // nominal's; the pattern is always rendered for the nominal monitor, as a user would) x trials. Trial k of
 // the grid (in this order) uses noise seed `seed` + k and a camera pose jitter drawn from a generator seeded

@@ -57,9 +57,10 @@ struct Shot {
 // not of the scene: the test display is therefore uniform within each pixel (blur, vignetting and noise stay).
 // Supersampling 4 x 4: the photo's own sampling of the display pixels limits how well any detector can agree
 // with the truth (measured, opencv-classic RMS: 0.17 px at 2 x 2, 0.089 at 4 x 4, 0.060 at 8 x 8).
-// The 24 MP benchmark (curvecheck bench detect) uses the scenes as they are.
+// The clean imaging chain (imaging.preset=clean): these tests measure the detectors, not the camera. The 24 MP
+// benchmark (curvecheck bench detect) uses the scenes as they are.
 SyntheticScene SmallCameraScene(const std::string& name) {
-  SyntheticScene s = LoadScene(Datasets() / "scenes" / (name + ".yaml"));
+  SyntheticScene s = LoadScene(Datasets() / "scenes" / (name + ".yaml"), {"imaging.preset=clean"});
   s.display.fill_factor = 1.0;
   s.display.rgb_stripes = false;
   s.optics.supersample = 4;
@@ -563,7 +564,7 @@ struct MoireCase {
 };
 
 Shot MoirePhoto(const MoireCase& c) {
-  SyntheticScene s = LoadScene(Datasets() / "scenes" / "close.yaml");
+  SyntheticScene s = LoadScene(Datasets() / "scenes" / "close.yaml", {"imaging.preset=clean"});
   s.display.fill_factor = c.fill;
   s.display.rgb_stripes = c.stripes;
   s.optics.blur_px = c.blur_px;

@@ -78,13 +78,14 @@ TEST_F(SweepCli, OnAxisSucceedsWithTheTrueRadiusAndFarOffsetFailsVerification) {
   const double radius = std::stod(on_axis.at("radius_mm")), sigma = std::stod(on_axis.at("radius_sigma_mm"));
   EXPECT_EQ(std::stod(on_axis.at("true_radius_mm")), 1000);
   EXPECT_NEAR(std::stod(on_axis.at("radius_error_mm")), radius - 1000, 1e-3);
-  // Within 0.6% of the truth with a sigma below 1 mm. NOT within its 95% interval: on the camera scaled to
-  // 1500 x 1000 px the radius is 995.5 +- 0.8 mm on every seed (at scale 0.5: 998.8 +- 0.4 mm), a systematic
-  // error of the detections that the noise-derived sigma does not cover (measured 2026-11-22; see the README's
-  // sweep section). truth_in_ci95 records it per point.
+  // Within 0.6% of the truth, and within its 95% interval: before issue 16 the radius at this scale was
+  // 998.8 +- 0.4 mm on every seed (995.5 +- 0.8 at 1500 x 1000 px), a systematic error of the detections (the
+  // detector's pixel-locking) that the noise-derived sigma did not cover; the uncertainty budget's
+  // detector-systematic row now holds it (sigma 1.2 mm here, measured 2026-12-02).
   EXPECT_LT(std::abs(radius - 1000), 6);
-  EXPECT_LT(sigma, 1);
+  EXPECT_LT(sigma, 3);
   EXPECT_EQ(on_axis.at("truth_in_ci95"), std::abs(radius - 1000) <= 1.96 * sigma ? "1" : "0");
+  EXPECT_EQ(on_axis.at("truth_in_ci95"), "1") << radius << " +- " << sigma;
   EXPECT_EQ(on_axis.at("fit_status"), "ok");
 
   const auto& far = rows[2];

@@ -229,7 +229,11 @@ std::vector<std::string> RunTrial(Bench& b, int index, std::string* line) {
     if (display) {
       const TrialAnalysis t =
           PhotographAndAnalyse(scene, display->image, {fmt::format("trial-{}", index), pattern_json},
-                               "scaled camera", AnalyzeOptions{});
+                               "scaled camera", [&] {
+                                 AnalyzeOptions a;
+                                 a.correct_pixel_locking = o.correct_pixel_locking;
+                                 return a;
+                               }());
       const AnalysisResult& r = t.analysis;
       const PhotoAnalysis& photo = r.photos.front();
       photo_ms = t.photo_ms;
@@ -722,6 +726,7 @@ bool RunBenchValidity(const BenchValidityOptions& o, const fs::path& out, std::o
   grid["scene"] = o.scene;
   grid["seed"] = o.seed;
   grid["jitter"] = {{"position_mm", o.jitter_mm}, {"aim_deg", o.jitter_deg}};
+  grid["correct_pixel_locking"] = o.correct_pixel_locking;
   grid["board"] = {o.cols, o.rows};
   json overrides = json::object();
   for (const std::string& level : o.realism) overrides[level] = RealismOverrides(level);

@@ -52,6 +52,7 @@ struct BenchValidityOptions {
   std::string scene = "default";  // its monitor, lens, optics, sensor; the bench places the camera
   double jitter_mm = 3;           // camera position jitter, per axis (1 sigma), mm
   double jitter_deg = 0.2;        // camera aim jitter, per axis (1 sigma), deg
+  bool correct_pixel_locking = false;  // AnalyzeOptions::correct_pixel_locking (analyze --correct-pixel-locking)
   int cols = 32, rows = 9;        // checkerboard squares
   Shard shard;
   std::string command_line;  // provenance

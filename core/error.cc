@@ -1,5 +1,8 @@
 #include "core/error.h"
 
+#include <fmt/format.h>
+
+#include <cmath>
 #include <utility>
 
 namespace curvecheck {
@@ -22,5 +25,11 @@ Error::Error(std::string where, std::string problem, std::string fix)
       where_(std::move(where)),
       problem_(std::move(problem)),
       fix_(std::move(fix)) {}
+
+void RequireInRange(const std::string& where, const char* name, double v, double lo, double hi, const char* fix) {
+  if (!(std::isfinite(v) && v >= lo && v <= hi)) {
+    throw Error(where, fmt::format("{} is {}, but must be in [{}, {}]", name, v, lo, hi), fix);
+  }
+}
 
 }  // namespace curvecheck

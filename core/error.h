@@ -25,4 +25,8 @@ class Error : public std::runtime_error {
   std::string where_, problem_, fix_;
 };
 
+// Throws Error(where, "NAME is V, but must be in [LO, HI]", fix) unless v is finite and within [lo, hi]: the
+// options' range checks.
+void RequireInRange(const std::string& where, const char* name, double v, double lo, double hi, const char* fix);
+
 }  // namespace curvecheck

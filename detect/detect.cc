@@ -608,9 +608,7 @@ Detector ParseDetector(const std::string& name, const std::string& where) {
 
 void DetectOptions::Check(const std::string& where) const {
   const auto range = [&](const char* name, double v, double lo, double hi, const char* fix) {
-    if (!(std::isfinite(v) && v >= lo && v <= hi)) {
-      throw Error(where, fmt::format("{} is {}, but must be in [{}, {}]", name, v, lo, hi), fix);
-    }
+    RequireInRange(where, name, v, lo, hi, fix);
   };
   range("apriltag_decimate", apriltag_decimate, 1, 8, "use 1 (full resolution) to 8; 2 is the default");
   range("apriltag_max_hamming", apriltag_max_hamming, 0, 2, "use 0, 1 or 2 (larger needs gigabytes of tables)");

@@ -13,9 +13,7 @@ namespace curvecheck {
 
 void MoireOptions::Check(const std::string& where) const {
   const auto range = [&](const char* name, double v, double lo, double hi, const char* fix) {
-    if (!(std::isfinite(v) && v >= lo && v <= hi)) {
-      throw Error(where, fmt::format("{} is {}, but must be in [{}, {}]", name, v, lo, hi), fix);
-    }
+    RequireInRange(where, name, v, lo, hi, fix);
   };
   range("patch_px", patch_px, 16, 256, "use 16..256 px, e.g. 32");
   range("max_patches", max_patches, 1, 1e6, "use at least 1, e.g. 64");

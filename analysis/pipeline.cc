@@ -195,6 +195,16 @@ nlohmann::json BudgetJson(const ModelFit& f, const std::string& first_photo) {
       {"smooth_fields_curvature_per_mm", Num(b.smooth_share_curvature_per_mm)},
       {"pixel_locking_shape_curvature_per_mm", Num(b.pixel_locking_share_curvature_per_mm)},
       {"bound_reason", b.systematic_bound_reason}};
+  j["lens_model_misfit"] = {
+      {"neighbour_pairs", b.misfit_pairs},
+      {"statistic_px2", Num(b.misfit_statistic_px2)},
+      {"noise_share_px2", Num(b.misfit_noise_share_px2)},
+      {"kappa", Num(b.misfit_kappa)},
+      {"estimate_px", Num(b.misfit_estimate_px)},
+      {"bound_px", Num(b.misfit_bound_px)},
+      {"method", "each detection paired with its nearest neighbour in the same photo; statistic = mean of r_i . r_j "
+                 "/ 2 over the pairs; RMS = sqrt((statistic - noise share) / kappa), kappa the share a unit-RMS "
+                 "field of the assumed family leaves after the fit; bound adds 2 sigma of the statistic under noise"}};
   j["correlations"] = "rows are independent of one another and combined in quadrature; within a row the curvature "
                       "and the camera positions are correlated (their covariance is carried into the axis-frame z)";
   if (!b.note.empty()) j["note"] = b.note;

@@ -359,6 +359,8 @@ struct QuantityVariance {
 struct Linearization {
   Eigen::MatrixXd g;             // (1 + 3 P) x (2 n_obs)
   std::vector<size_t> obs;       // Setup::obs index of each column pair
+  Eigen::MatrixXd j_obs;         // (2 n_obs) x t: the observations' rows of J (tangent space)
+  Eigen::MatrixXd normal_pinv;   // (J^T J)^+, t x t
 };
 
 std::optional<Linearization> Linearize(const Setup& setup, const ModelWork& w, BuiltProblem& b, std::string* note) {
@@ -415,18 +417,20 @@ std::optional<Linearization> Linearize(const Setup& setup, const ModelWork& w, B
   const size_t n_obs = b.obs_index.size();
   lin.g = g_all.leftCols(static_cast<long>(2 * n_obs));
   lin.obs = b.obs_index;
+  lin.j_obs = j.topRows(static_cast<long>(2 * n_obs));
+  lin.normal_pinv = eig.eigenvectors() * inv.asDiagonal() * eig.eigenvectors().transpose();
   return lin;
 }
 
-// Detector systematic: bias fields over the image of RMS `bound_px` per coordinate (FitOptions, the same field in
-// every photo), propagated through G; the covariance of q over seeded draws.
-QuantityVariance SystematicVariance(const Setup& setup, const Linearization& lin, double bound_px) {
+// Bias fields over the image of RMS `bound_px` per coordinate (Legendre polynomials of total degree <= `degree`,
+// the same field in every photo), propagated through G; the covariance of q over seeded draws. The detector
+// systematic's smooth part and the lens model misfit.
+QuantityVariance SystematicVariance(const Setup& setup, const Linearization& lin, double bound_px, int degree) {
   const FitOptions& o = *setup.options;
   const int n = static_cast<int>(lin.obs.size()), nq = static_cast<int>(lin.g.rows());
   std::vector<Eigen::Vector2d> points;
   for (size_t i : lin.obs) points.push_back(setup.obs[i].detected);
-  const Eigen::MatrixXd basis =
-      LegendreFieldBasis(points, setup.camera->width, setup.camera->height, o.systematic_field_degree);
+  const Eigen::MatrixXd basis = LegendreFieldBasis(points, setup.camera->width, setup.camera->height, degree);
   const long terms = basis.cols();
   // A detection bias delta shifts the residual q - detected by -delta, and q by -G (-delta) = G delta.
   Eigen::MatrixXd gx(nq, n), gy(nq, n);
@@ -445,6 +449,83 @@ QuantityVariance SystematicVariance(const Setup& setup, const Linearization& lin
     cov += dq * dq.transpose();
   }
   return QuantityVariance::FromCovariance(cov / o.systematic_field_draws, setup.photos);
+}
+
+// The lens model misfit's RMS, measured from the residuals (UncertaintyBudget::misfit_*). Each detection is paired
+// with its nearest neighbour in the same photo; the statistic S is the mean of r_i . r_j / 2 over the pairs. A
+// field smooth on the scale of the feature spacing is nearly equal at both, independent noise is not, so
+// E[S] = s^2 kappa + sigma^2 nu: kappa is the mean of S over unit-RMS fields of the assumed family after the
+// linearized refit, r = (I - J (J^T J)^+ J^T) dr (seeded draws), and nu the noise's own share, the mean over the
+// pairs of -(J (J^T J)^+ J^T)_ij (the refit correlates the residuals slightly). Under noise alone S has a standard
+// deviation of about sigma^2 / sqrt(pairs) (products of independent Gaussians, pairs counted once); the bound
+// is (S - sigma^2 nu + 2 sd) / kappa.
+void EstimateMisfit(const Setup& setup, const Linearization& lin, const std::vector<Eigen::Vector2d>& residual,
+                    double sigma_px, UncertaintyBudget* bud) {
+  const FitOptions& o = *setup.options;
+  const int n = static_cast<int>(lin.obs.size());
+  if (n < 8 || static_cast<int>(residual.size()) != n) return;
+  std::vector<std::pair<int, int>> pairs;
+  for (int a = 0; a < n; ++a) {
+    const Obs& oa = setup.obs[lin.obs[static_cast<size_t>(a)]];
+    int best = -1;
+    double best_d2 = kInf;
+    for (int b = 0; b < n; ++b) {
+      const Obs& ob = setup.obs[lin.obs[static_cast<size_t>(b)]];
+      if (b == a || ob.photo != oa.photo) continue;
+      const double d2 = (ob.detected - oa.detected).squaredNorm();
+      if (d2 < best_d2) best_d2 = d2, best = b;
+    }
+    if (best >= 0) pairs.emplace_back(a, best);
+  }
+  if (pairs.size() < 8) return;
+  const double np = static_cast<double>(pairs.size());
+  double stat = 0, nu = 0;
+  for (const auto& [a, b] : pairs) {
+    stat += 0.5 * residual[static_cast<size_t>(a)].dot(residual[static_cast<size_t>(b)]) / np;
+    for (int c = 0; c < 2; ++c) {
+      nu -= 0.5 * lin.j_obs.row(2 * a + c).dot(lin.normal_pinv * lin.j_obs.row(2 * b + c).transpose()) / np;
+    }
+  }
+  // kappa over seeded unit-RMS fields of the family, through the refit.
+  std::vector<Eigen::Vector2d> points;
+  for (size_t i : lin.obs) points.push_back(setup.obs[i].detected);
+  const Eigen::MatrixXd basis =
+      LegendreFieldBasis(points, setup.camera->width, setup.camera->height, o.misfit_field_degree);
+  const long terms = basis.cols();
+  Eigen::MatrixXd dx = Eigen::MatrixXd::Zero(2 * n, terms), dy = Eigen::MatrixXd::Zero(2 * n, terms);
+  for (int i = 0; i < n; ++i) dx.row(2 * i) = basis.row(i), dy.row(2 * i + 1) = basis.row(i);
+  const Eigen::MatrixXd rx = dx - lin.j_obs * (lin.normal_pinv * (lin.j_obs.transpose() * dx));
+  const Eigen::MatrixXd ry = dy - lin.j_obs * (lin.normal_pinv * (lin.j_obs.transpose() * dy));
+  const Eigen::MatrixXd gram = basis.transpose() * basis;
+  std::mt19937_64 rng(o.systematic_field_seed + 1);
+  std::normal_distribution<double> unit(0, 1);
+  double kappa = 0;
+  const int draws = 400;
+  int used = 0;
+  for (int d = 0; d < draws; ++d) {
+    Eigen::VectorXd ax(terms), ay(terms);
+    for (long i = 0; i < terms; ++i) ax[i] = unit(rng), ay[i] = unit(rng);
+    const double ms = (ax.dot(gram * ax) + ay.dot(gram * ay)) / (2.0 * n);
+    if (!(ms > 0)) continue;
+    const Eigen::VectorXd e = rx * ax + ry * ay;
+    double sd = 0;
+    for (const auto& [a, b] : pairs) {
+      sd += 0.5 * (e[2 * a] * e[2 * b] + e[2 * a + 1] * e[2 * b + 1]) / np;
+    }
+    kappa += sd / ms;
+    ++used;
+  }
+  if (used == 0) return;
+  kappa /= used;
+  const double noise_share = sigma_px * sigma_px * nu;
+  const double sd_stat = sigma_px * sigma_px / std::sqrt(np);
+  bud->misfit_statistic_px2 = stat;
+  bud->misfit_noise_share_px2 = noise_share;
+  bud->misfit_kappa = kappa;
+  bud->misfit_pairs = static_cast<int>(pairs.size());
+  if (!(kappa > 1e-6)) return;  // the family is invisible in the residuals: nothing can be measured
+  bud->misfit_estimate_px = std::sqrt(std::max(0.0, stat - noise_share) / kappa);
+  bud->misfit_bound_px = std::sqrt(std::max(0.0, stat - noise_share + 2 * sd_stat) / kappa);
 }
 
 // Pixel-locking itself, propagated in its own shape: per coordinate c a bias A_c sin(2 pi phi_i + psi) with phi_i
@@ -573,7 +654,7 @@ std::vector<QuantityVariance> Budget(const Setup& setup, ModelWork& w, BuiltProb
     if (lin && (bud.systematic_bound_px > 0 || upper > 0)) {
       // Two parts in quadrature: smooth bias fields of RMS b, and the pixel-locking signature in its own shape.
       Eigen::Vector2d pl_bound = pl.amplitude_px + 2 * pl.sigma_px;
-      const QuantityVariance smooth = SystematicVariance(setup, *lin, bud.systematic_bound_px);
+      const QuantityVariance smooth = SystematicVariance(setup, *lin, bud.systematic_bound_px, o.systematic_field_degree);
       const QuantityVariance locking = PixelLockingVariance(setup, *lin, pl_bound);
       v.var_k = smooth.var_k + locking.var_k;
       for (int p = 0; p < setup.photos; ++p) {
@@ -607,7 +688,46 @@ std::vector<QuantityVariance> Budget(const Setup& setup, ModelWork& w, BuiltProb
     }
     bud.components.push_back(c);
   }
-  // 4. Pixel pitch: the scene scales with the pitch (R and every position proportional to it, k inversely).
+  // 4. Lens model misfit, measured from the residuals' correlation between neighbours.
+  {
+    BudgetComponent c;
+    c.name = "lens model misfit";
+    c.type = "A";
+    QuantityVariance v(setup.photos);
+    if (lin && o.measure_lens_misfit) {
+      std::vector<Eigen::Vector2d> res;
+      for (size_t i : lin->obs) {
+        res.push_back(fit->residual_px[static_cast<size_t>(setup.obs[i].photo)][static_cast<size_t>(setup.obs[i].index)]);
+      }
+      EstimateMisfit(setup, *lin, res, fit->noise_px, &bud);
+    }
+    if (std::isfinite(bud.misfit_bound_px)) {
+      c.source = fmt::format(
+          "the residuals' correlation between nearest neighbours ({} pairs): statistic {:.3g} px^2, of which the "
+          "noise's expected share {:.3g}; a unit-RMS field leaves {:.3g} of its variance there after the fit; RMS "
+          "estimate {:.4f} px, bound {:.4f} px per coordinate (estimate + 2 sigma), propagated through the fit's "
+          "linearization",
+          bud.misfit_pairs, bud.misfit_statistic_px2, bud.misfit_noise_share_px2, bud.misfit_kappa,
+          bud.misfit_estimate_px, bud.misfit_bound_px);
+      if (bud.misfit_bound_px > 0) v = SystematicVariance(setup, *lin, bud.misfit_bound_px, o.misfit_field_degree);
+    } else if (!o.measure_lens_misfit) {
+      c.source = "none: not measured (FitOptions::measure_lens_misfit off; the lens taken as exact beyond its "
+                 "calibration)";
+    } else {
+      c.source = "not measurable here (too few features, or the fit absorbs every field of the family)";
+    }
+    c.assumption = fmt::format(
+        "the true lens departs from its model by a field smooth over the image and common to every photo "
+        "(Legendre polynomials of total degree <= {}, independent N(0,1) coefficients per coordinate, each draw "
+        "scaled to the bound's RMS, {} seeded draws); the part that the fit absorbs into the poses and the screen "
+        "is inferred from the part it leaves, in the same family. Any other smooth common error (detector bias "
+        "that varies with the image position) is measured here too, so it may be counted twice with the detector "
+        "row: conservative",
+        o.misfit_field_degree, o.systematic_field_draws);
+    bud.components.push_back(c);
+    vars.push_back(v);
+  }
+  // 5. Pixel pitch: the scene scales with the pitch (R and every position proportional to it, k inversely).
   {
     const double u = o.pitch_tolerance_relative / std::sqrt(3.0);
     QuantityVariance v(setup.photos);
@@ -1169,6 +1289,9 @@ void FitOptions::Check(const std::string& where) const {
   }
   if (systematic_field_degree < 0 || systematic_field_degree > 8) {
     throw Error(where, fmt::format("systematic_field_degree is {}", systematic_field_degree), "give 0 to 8 (3)");
+  }
+  if (misfit_field_degree < 1 || misfit_field_degree > 12) {
+    throw Error(where, fmt::format("misfit_field_degree is {}", misfit_field_degree), "give 1 to 12 (6)");
   }
   if (systematic_field_draws < 10) throw Error(where, "systematic_field_draws below 10", "give e.g. 2000");
   if (!(coverage_probability > 0 && coverage_probability < 1)) {

@@ -138,6 +138,17 @@ struct FitOptions {
   double smooth_bias_px = 0.02;
   int systematic_field_draws = 2000;
   unsigned systematic_field_seed = 20261201;
+  // Lens model misfit (the true lens's departure from the camera model, and any other error that is smooth over
+  // the image and common to the photos): its RMS is measured from the residuals (their correlation between
+  // neighbouring features, which independent noise does not have), under the assumption that it is a field of
+  // Legendre polynomials of total degree <= misfit_field_degree over the image with independent N(0, 1)
+  // coefficients per coordinate; the fraction of such a field that the fit leaves in the residuals is computed
+  // from the fit's own linearization. 6: structure down to about a sixth of the image, finer than the
+  // detector-systematic fields and coarser than the feature spacing (it must vary little between neighbours).
+  int misfit_field_degree = 6;
+  // false: no lens-model-misfit row (the lens taken as exact beyond its calibration covariance), for tests of
+  // other rows and for a lens known to be modelled exactly (the clean synthetic camera).
+  bool measure_lens_misfit = true;
   // Coverage probability of the interval (the coverage factor is Student's t at the effective degrees of freedom).
   double coverage_probability = 0.95;
 
@@ -197,6 +208,16 @@ struct UncertaintyBudget {
   std::string systematic_bound_reason;
   // The detector-systematic row's two parts, u(k) (1/mm): the smooth fields and the pixel-locking signature.
   double smooth_share_curvature_per_mm = 0, pixel_locking_share_curvature_per_mm = 0;
+  // The lens-model-misfit row: the neighbour statistic (mean over neighbour pairs of r_i . r_j / 2, px^2), the
+  // independent noise's expected share of it, the fraction kappa of a unit-RMS misfit field that the statistic
+  // sees after the fit, and the field's RMS estimate and upper bound (estimate + 2 sigma of the statistic under
+  // noise), px per coordinate. NaN when not computed.
+  double misfit_statistic_px2 = std::numeric_limits<double>::quiet_NaN();
+  double misfit_noise_share_px2 = std::numeric_limits<double>::quiet_NaN();
+  double misfit_kappa = std::numeric_limits<double>::quiet_NaN();
+  double misfit_estimate_px = std::numeric_limits<double>::quiet_NaN();
+  double misfit_bound_px = std::numeric_limits<double>::quiet_NaN();
+  int misfit_pairs = 0;
 };
 
 struct ModelFit {

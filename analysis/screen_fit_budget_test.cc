@@ -20,6 +20,7 @@
 #include "analysis/screen_fit.h"
 #include "analysis/screen_fit_test_util.h"
 #include "core/test_util.h"
+#include "synth/lens_misfit.h"
 #include "synth/synthetic_camera.h"
 
 namespace curvecheck {
@@ -67,7 +68,7 @@ TEST(UncertaintyBudgetTest, RowsArePresentAndCombineInQuadrature) {
   const ScreenFitResult r = FitScreen(scene.monitor, scene.camera, {Clean(scene, 0.05)}, CylinderOnly());
   const ModelFit& f = r.Chosen();
   ASSERT_TRUE(f.budget.computed) << f.budget.note;
-  ASSERT_EQ(f.budget.components.size(), 4u);
+  ASSERT_EQ(f.budget.components.size(), 5u);
   double sum = 0;
   for (const BudgetComponent& c : f.budget.components) sum += c.radius_mm * c.radius_mm;
   EXPECT_NEAR(f.budget.combined.radius_mm, std::sqrt(sum), 1e-9 * std::sqrt(sum));
@@ -205,6 +206,55 @@ TEST(UncertaintyBudgetTest, SystematicRowMatchesTheRadiusShiftOfInjectedFields) 
   const double shift = *FitScreen(scene.monitor, scene.camera, {radial}, o).Chosen().radius_mm - *f.radius_mm;
   std::cout << "radial field: shift " << shift << " mm\n";
   EXPECT_LT(std::abs(shift), 2 * sys.radius_mm);
+}
+
+// The lens-model-misfit row: with independent noise only, the measured misfit is near 0 and the row small; with
+// a smooth field added (the row's family, and a field of another family: the synthetic camera's random-cosine
+// lens misfit), the RMS is recovered and the row covers the radius shift the fields cause.
+TEST(UncertaintyBudgetTest, LensMisfitIsMeasuredFromTheResidualsAndCoversItsShift) {
+  const SyntheticScene scene = DefaultScene();
+  constexpr double kNoise = 0.05, kField = 0.1;
+  FitOptions o = CylinderOnly();
+  const PhotoObservations noisy = Clean(scene, kNoise, 5);
+  const ModelFit f0 = FitScreen(scene.monitor, scene.camera, {noisy}, o).Chosen();
+  std::cout << "noise only: misfit estimate " << f0.budget.misfit_estimate_px << " px, bound "
+            << f0.budget.misfit_bound_px << " px, kappa " << f0.budget.misfit_kappa << ", row u(R) "
+            << Row(f0, "lens model misfit").radius_mm << " mm\n";
+  EXPECT_LT(f0.budget.misfit_estimate_px, 0.3 * kField);
+  EXPECT_GE(f0.budget.misfit_bound_px, f0.budget.misfit_estimate_px);
+  const double r0 = *FitScreen(scene.monitor, scene.camera, {Clean(scene)}, o).Chosen().radius_mm;
+  for (int family = 0; family < 2; ++family) {
+    std::mt19937_64 rng(17);
+    double est = 0, shift2 = 0, row2 = 0;
+    constexpr int kFields = 12;
+    for (int d = 0; d < kFields; ++d) {
+      PhotoObservations biased = Clean(scene, kNoise, 100 + static_cast<uint64_t>(d));
+      PhotoObservations clean = Clean(scene);
+      std::vector<Eigen::Vector2d> field;
+      if (family == 0) {
+        field = Field(scene.camera, clean.detected_px, o.misfit_field_degree, kField, rng);
+      } else {
+        Imaging g = ImagingFromPreset(ImagingPreset::kIlc24);
+        g.lens_misfit_px = kField;
+        g.lens_seed = static_cast<uint64_t>(d + 1);
+        const LensMisfit m(g, scene.camera.width, scene.camera.height);
+        for (const Eigen::Vector2d& q : clean.detected_px) field.push_back(m.At(q));
+      }
+      for (size_t i = 0; i < field.size(); ++i) biased.detected_px[i] += field[i];
+      const ModelFit g = FitScreen(scene.monitor, scene.camera, {biased}, o).Chosen();
+      est += g.budget.misfit_estimate_px / kFields;
+      shift2 += (*g.radius_mm - r0) * (*g.radius_mm - r0) / kFields;
+      row2 += Row(g, "lens model misfit").radius_mm * Row(g, "lens model misfit").radius_mm / kFields;
+    }
+    std::cout << (family == 0 ? "Legendre fields" : "random-cosine fields (synth)") << " of RMS " << kField
+              << " px: mean estimate " << est << " px; RMS radius shift " << std::sqrt(shift2) << " mm, row u(R) "
+              << std::sqrt(row2) << " mm (RMS over " << kFields << " fields)\n";
+    if (family == 0) {
+      EXPECT_NEAR(est, kField, 0.25 * kField);
+    }
+    // The shift includes the noise's own (about the noise row); the row must not fall short of the shift.
+    EXPECT_GT(std::sqrt(row2) + Row(f0, "detection noise").radius_mm, 0.7 * std::sqrt(shift2));
+  }
 }
 
 TEST(UncertaintyBudgetTest, PixelLockingAmplitudeIsRecovered) {

@@ -176,6 +176,7 @@ std::vector<std::string> RunTrial(Bench& b, int index, std::string* line) {
   SyntheticScene scene = base;
   scene.camera = ScaledCamera(base.camera, cell.scale);
   scene.sensor.seed = seed;
+  scene.imaging.lens_seed = seed;  // a different lens (misfit) per trial: coverage over lenses, not one lens
   scene.truth.curvature_per_mm = base.monitor.curvature_per_mm / cell.radius_factor;
   const double true_radius = 1 / scene.truth.curvature_per_mm;
 

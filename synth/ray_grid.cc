@@ -23,7 +23,7 @@ Eigen::Vector4d CubicWeights(double f) {
 
 }  // namespace
 
-RayGrid::RayGrid(const CameraModel& camera, double spacing_px, double dense_px)
+RayGrid::RayGrid(const CameraModel& camera, double spacing_px, double dense_px, const LensMisfit* misfit)
     : spacing_(spacing_px), dense_spacing_(dense_px) {
   // Nodes from -2 spacings to beyond the far edge so that every pixel has its 4 x 4 neighbourhood.
   nx_ = static_cast<int>(std::ceil((camera.width + 1) / spacing_)) + 4;
@@ -32,7 +32,7 @@ RayGrid::RayGrid(const CameraModel& camera, double spacing_px, double dense_px)
   // mrcal's unprojection is iterative for most models: one row per call, all cores.
   synth_internal::ParallelRows(ny_, [&](int j) {
     std::vector<Eigen::Vector2d> q;
-    for (int i = 0; i < nx_; ++i) q.push_back(Node(i, j));
+    for (int i = 0; i < nx_; ++i) q.push_back(misfit ? misfit->ModelPixelOf(Node(i, j)) : Node(i, j));
     const std::vector<Eigen::Vector3d> v = UnprojectPixels(camera, q);
     for (int i = 0; i < nx_; ++i) {
       const Eigen::Vector3d& r = v[static_cast<size_t>(i)];
@@ -99,7 +99,8 @@ Eigen::Vector2d RayGrid::Bicubic(const Eigen::Vector2d& q) const {
   return n;
 }
 
-double RayGrid::MeasureErrorPx(const CameraModel& camera, int samples, uint64_t seed) const {
+double RayGrid::MeasureErrorPx(const CameraModel& camera, int samples, uint64_t seed,
+                               const LensMisfit* misfit) const {
   std::mt19937_64 rng(seed);
   std::uniform_real_distribution<double> ux(-0.5, camera.width - 0.5), uy(-0.5, camera.height - 0.5);
   std::vector<Eigen::Vector2d> q;
@@ -110,15 +111,20 @@ double RayGrid::MeasureErrorPx(const CameraModel& camera, int samples, uint64_t 
   }
   const std::vector<Eigen::Vector2d> back = ProjectPoints(camera, p);
   double worst = 0;
-  for (int k = 0; k < samples; ++k) worst = std::max(worst, (back[static_cast<size_t>(k)] - q[static_cast<size_t>(k)]).norm());
+  for (int k = 0; k < samples; ++k) {
+    const Eigen::Vector2d b = misfit ? misfit->TrueImageOf(back[static_cast<size_t>(k)]) : back[static_cast<size_t>(k)];
+    worst = std::max(worst, (b - q[static_cast<size_t>(k)]).norm());
+  }
   return worst;
 }
 
-std::shared_ptr<const RayGrid> SharedRayGrid(const CameraModel& camera, double spacing_px, bool* from_cache) {
+std::shared_ptr<const RayGrid> SharedRayGrid(const CameraModel& camera, double spacing_px, bool* from_cache,
+                                             const LensMisfit* misfit) {
   static std::mutex mutex;
   static std::vector<std::pair<std::string, std::shared_ptr<const RayGrid>>> cache;  // most recent last
   std::string key = fmt::format("{} {}x{} {:a}", camera.lensmodel, camera.width, camera.height, spacing_px);
   for (double p : camera.intrinsics) key += fmt::format(" {:a}", p);
+  if (misfit) key += " " + misfit->Key();
   if (from_cache) *from_cache = false;
   {
     const std::lock_guard<std::mutex> lock(mutex);
@@ -133,7 +139,7 @@ std::shared_ptr<const RayGrid> SharedRayGrid(const CameraModel& camera, double s
     }
   }
   // Built outside the lock (it takes all cores); two threads asking for a new lens at once both build it.
-  auto grid = std::make_shared<const RayGrid>(camera, spacing_px);
+  auto grid = std::make_shared<const RayGrid>(camera, spacing_px, 4, misfit);
   const std::lock_guard<std::mutex> lock(mutex);
   cache.emplace_back(key, grid);
   if (cache.size() > 4) cache.erase(cache.begin());

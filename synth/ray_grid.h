@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "core/camera_model.h"
+#include "synth/lens_misfit.h"
 
 namespace curvecheck {
 
@@ -16,8 +17,10 @@ namespace curvecheck {
 // bilinearly (4 taps per ray instead of 16; the error of both steps is measured by MeasureErrorPx).
 class RayGrid {
  public:
-  // Throws Error if the lens sees rays at more than 87 deg from its axis.
-  RayGrid(const CameraModel& camera, double spacing_px, double dense_px = 4);
+  // Throws Error if the lens sees rays at more than 87 deg from its axis. `misfit` (optional, kept only during
+  // construction): the true lens's departure from the model; the ray through pixel p is then the model's ray
+  // through misfit->ModelPixelOf(p).
+  RayGrid(const CameraModel& camera, double spacing_px, double dense_px = 4, const LensMisfit* misfit = nullptr);
   // Ray direction (camera frame, z = 1, not unit length) through pixel coordinates q.
   Eigen::Vector3d Ray(const Eigen::Vector2d& q) const;
   // Row-coherent form of Ray(): the dense nodes' (x/z, y/z) interpolated to row y_px, one per dense column.
@@ -25,8 +28,10 @@ class RayGrid {
   void RowNodes(double y_px, std::vector<Eigen::Vector2d>* nodes) const;
   // Dense column i (clamped so that i + 1 exists) and fraction f for pixel x coordinate x_px.
   void DenseColumn(double x_px, int* i, double* f) const;
-  // Worst reprojection error (px) of interpolated rays over `samples` random pixels, against mrcal's projection.
-  double MeasureErrorPx(const CameraModel& camera, int samples, uint64_t seed) const;
+  // Worst reprojection error (px) of interpolated rays over `samples` random pixels, against mrcal's projection
+  // (followed by the misfit's, if given).
+  double MeasureErrorPx(const CameraModel& camera, int samples, uint64_t seed,
+                        const LensMisfit* misfit = nullptr) const;
 
  private:
   double spacing_;
@@ -43,6 +48,6 @@ class RayGrid {
 // last 4 lenses), so that a sweep of photos through one lens pays for mrcal's unprojection once. Thread-safe.
 // `from_cache` (optional) is set to whether the table was built by an earlier call.
 std::shared_ptr<const RayGrid> SharedRayGrid(const CameraModel& camera, double spacing_px,
-                                             bool* from_cache = nullptr);
+                                             bool* from_cache = nullptr, const LensMisfit* misfit = nullptr);
 
 }  // namespace curvecheck

@@ -103,11 +103,13 @@ const char* ImagingPresetName(ImagingPreset preset) {
 }
 
 Imaging ImagingFromPreset(ImagingPreset preset) {
-  Imaging g;  // the defaults are ilc24's
+  Imaging g;  // the defaults are ilc24's (but for the lens misfit, set below)
   g.preset = preset;
   switch (preset) {
-    case ImagingPreset::kClean:
+    case ImagingPreset::kClean:  // the clean chain's lens is its model exactly
+      break;
     case ImagingPreset::kIlc24:
+      g.lens_misfit_px = 0.1;
       break;
     case ImagingPreset::kPhone:  // 4080 x 3072 binned, 2.4 um, f/1.8; vignetting after the ISP's shading
       g.full_well_e = 12000;
@@ -118,6 +120,7 @@ Imaging ImagingFromPreset(ImagingPreset preset) {
       g.f_number = 1.8;
       g.pixel_pitch_um = 2.4;
       g.vignetting_ev = 0.5;
+      g.lens_misfit_px = 0.15;
       break;
     case ImagingPreset::kWebcam:  // C920 class: 1080p MJPEG, bilinear demosaic, 8-bit
       g.full_well_e = 8000;
@@ -129,6 +132,7 @@ Imaging ImagingFromPreset(ImagingPreset preset) {
       g.pixel_pitch_um = 2.7;
       g.demosaic = Demosaic::kBilinear;
       g.vignetting_ev = 0.7;
+      g.lens_misfit_px = 0.2;
       break;
   }
   return g;
@@ -186,7 +190,8 @@ void ReadSensor(const ConfigMap& n, Sensor* sensor) {
 void ReadImaging(const ConfigMap& m, Imaging* imaging) {
   m.RejectUnknownKeys({"preset", "cfa", "demosaic", "full_well_e", "read_noise_e", "prnu", "raw_bits", "tone",
                        "jpeg_quality", "blur_px", "f_number", "focus_mm", "pixel_pitch_um", "panel", "glare",
-                       "reflection", "vignetting_ev", "vignetting_model", "exposure"});
+                       "reflection", "vignetting_ev", "vignetting_model", "exposure", "lens_misfit_px",
+                       "lens_misfit_length", "lens_seed"});
   // The preset first, then the keys that override it; keys without a preset override ilc24 (the realistic
   // default).
   ImagingPreset preset = ImagingPreset::kIlc24;
@@ -229,6 +234,23 @@ void ReadImaging(const ConfigMap& m, Imaging* imaging) {
     g.vignetting_model = static_cast<VignettingModel>(Choice(m, "vignetting_model", {"cos4", "quadratic"}));
   }
   if (m.Has("exposure")) g.exposure = m.PositiveNumber("exposure");
+  if (m.Has("lens_misfit_px")) g.lens_misfit_px = m.Number("lens_misfit_px");
+  if (m.Has("lens_misfit_length")) g.lens_misfit_length = m.PositiveNumber("lens_misfit_length");
+  if (m.Has("lens_seed")) {
+    const double seed = m.Number("lens_seed");
+    if (!(seed >= 0 && seed <= 9007199254740992.0 && seed == std::floor(seed))) {
+      m.Fail("lens_seed", fmt::format("is {}", seed), "give a whole number from 0 to 2^53");
+    }
+    g.lens_seed = static_cast<uint64_t>(seed);
+  }
+  if (!(g.lens_misfit_px >= 0 && g.lens_misfit_px <= 10)) {
+    m.Fail("lens_misfit_px", fmt::format("is {}", g.lens_misfit_px),
+           "give the RMS of the true lens's departure from its model, 0..10 camera px");
+  }
+  if (!(g.lens_misfit_length >= 0.02 && g.lens_misfit_length <= 10)) {
+    m.Fail("lens_misfit_length", fmt::format("is {}", g.lens_misfit_length),
+           "give the correlation length as a fraction of the image width, 0.02..10");
+  }
   if (g.read_noise_e < 0) m.Fail("read_noise_e", "is below zero", "give 0 or more electrons");
   if (!(g.prnu >= 0 && g.prnu < 0.2)) m.Fail("prnu", fmt::format("is {}", g.prnu), "give a fraction 0..0.2");
   if (g.raw_bits < 8 || g.raw_bits > 16) m.Fail("raw_bits", "is not within 8..16", "give the ADC's bits");
@@ -319,6 +341,7 @@ SyntheticScene ReadScene(const ConfigMap& c, const std::filesystem::path* scene_
   if (c.Has("optics")) ReadOptics(c.Map("optics"), &s.optics);
   if (c.Has("sensor")) ReadSensor(c.Map("sensor"), &s.sensor);
   if (c.Has("imaging")) ReadImaging(c.Map("imaging"), &s.imaging);
+  s.imaging.lens_misfit_reference_width = s.camera.width;  // the misfit's RMS is stated for the scene's own camera
   CheckViewpoint(s.monitor, s.screen_from_cam.translation, c.source() + " (camera.position_mm)");
   return s;
 }

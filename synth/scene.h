@@ -98,11 +98,21 @@ struct Imaging {
   double vignetting_ev = 0.3;  // light loss at the image corner, EV (stops)
   VignettingModel vignetting_model = VignettingModel::kCos4;
   double exposure = 0.9;       // white display -> this fraction of the full well (above 1: whites clip)
+  // The true lens's departure from its camera model (synth/lens_misfit.h): the part of a real lens's distortion
+  // that a calibrated model does not follow. A smooth random field of RMS lens_misfit_px per coordinate (camera
+  // px at lens_misfit_reference_width; it scales with the imager, as ScaledCamera does), correlation length
+  // lens_misfit_length (fraction of the image width), fixed per lens_seed (the lens, not the photo).
+  double lens_misfit_px = 0;    // ilc24 0.1, phone 0.15, webcam 0.2 (estimates, [E])
+  double lens_misfit_length = 0.2;
+  uint64_t lens_seed = 1;
+  int lens_misfit_reference_width = 0;  // camera px width the RMS is stated at; 0 = the scene camera's (set by the reader)
 };
 
 // The preset's numbers (cameras.md): phone (f/1.8, 12k e, 1 e, 10 bit, q95, blur 0.55 px), ilc24 (f/5.6, 45k e,
 // 4.5 e, 14 bit, q92, blur 0.65 px), webcam (f/2.4, 8k e, 6 e, 8 bit, q85, blur 0.8 px, bilinear); clean:
-// the struct's defaults with preset kClean.
+// the struct's defaults with preset kClean (no lens misfit). Lens misfit RMS: ilc24 0.1 px at 6000 px width,
+// phone 0.15 px, webcam 0.2 px: estimates [E] below the end-to-end 0.3-0.8 px that real calibrations report once
+// the lens model enters (cameras.md), with a normal rather than a fisheye lens.
 Imaging ImagingFromPreset(ImagingPreset preset);
 
 struct SyntheticScene {
@@ -127,7 +137,8 @@ struct SyntheticScene {
 //   imaging: { preset: clean | phone | ilc24 | webcam, then any field of Imaging to override the preset's:
 //              cfa, demosaic, full_well_e, read_noise_e, prnu, raw_bits, tone, jpeg_quality, blur_px, f_number,
 //              focus_mm, pixel_pitch_um, panel, glare, reflection: {u, v, sigma_mm, strength}, vignetting_ev,
-//              vignetting_model, exposure }       optional; default clean (a key without a preset: ilc24's)
+//              vignetting_model, exposure, lens_misfit_px, lens_misfit_length, lens_seed }
+//                                              optional; default clean (a key without a preset: ilc24's)
 SyntheticScene SceneFromConfig(const ConfigMap& config, const std::filesystem::path& scene_dir);
 // As above, for a scene that is in no folder (the embedded datasets: experiments/scene_lookup.h): the monitor is a
 // preset name (or a path as given), and `read_camera(model)` reads the camera model the scene names (camera.model

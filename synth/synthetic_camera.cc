@@ -105,7 +105,9 @@ SyntheticPhoto RenderSyntheticPhoto(const SyntheticScene& s, const Image8& displ
   PhotoTiming& timing = photo.timing;
   timing.threads = synth_internal::ThreadCount();
   StageTimer timer;
-  const std::shared_ptr<const RayGrid> rays = SharedRayGrid(s.camera, ray_grid_px, &timing.rays_cached);
+  const LensMisfit misfit(s.imaging, s.camera.width, s.camera.height);
+  const std::shared_ptr<const RayGrid> rays =
+      SharedRayGrid(s.camera, ray_grid_px, &timing.rays_cached, misfit.active() ? &misfit : nullptr);
   timer.Lap(&timing.rays_ms, &timing.rays_cpu_ms);
   timing.rays = static_cast<int64_t>(photo.width) * photo.height * s.optics.supersample * s.optics.supersample;
   if (s.imaging.preset != ImagingPreset::kClean) {

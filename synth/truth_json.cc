@@ -2,6 +2,7 @@
 
 #include "core/screen_geometry.h"
 #include "pattern/pattern.h"
+#include "synth/lens_misfit.h"
 #include "synth/true_monitor.h"
 
 namespace curvecheck {
@@ -30,6 +31,13 @@ nlohmann::json TruthJson(const SyntheticScene& s, const std::vector<Feature>& fe
                  {"imagersize", {s.camera.width, s.camera.height}},
                  {"position_mm", {c.x(), c.y(), c.z()}},
                  {"screen_from_cam", rot}};
+  // The true lens: the model above plus this misfit (image_px below are the true lens's).
+  const LensMisfit misfit(s.imaging, s.camera.width, s.camera.height);
+  j["camera"]["lens_misfit"] = {{"rms_px", misfit.rms_px()},
+                                {"length_fraction_of_width", s.imaging.lens_misfit_length},
+                                {"seed", s.imaging.lens_seed},
+                                {"definition", "image_px = model projection q + delta(q), delta a smooth random field "
+                                               "(synth/lens_misfit.h); absent from the camera model"}};
   nlohmann::json out = nlohmann::json::array();
   const Pose cam_from_screen = s.screen_from_cam.Inverse();
   for (const Feature& f : features) {
@@ -43,7 +51,7 @@ nlohmann::json TruthJson(const SyntheticScene& s, const std::vector<Feature>& fe
       e["point_mm"] = {p.x(), p.y(), p.z()};
       visible = visible && p_cam.z() > 0 && normal.dot(c - p) > 0;
       if (p_cam.z() > 0) {
-        const Eigen::Vector2d q = ProjectPoint(s.camera, p_cam);
+        const Eigen::Vector2d q = misfit.TrueImageOf(ProjectPoint(s.camera, p_cam));
         e["image_px"] = {q.x(), q.y()};
         visible = visible && q.x() >= -0.5 && q.y() >= -0.5 && q.x() <= s.camera.width - 0.5 &&
                   q.y() <= s.camera.height - 0.5;

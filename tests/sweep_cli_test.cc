@@ -81,9 +81,11 @@ TEST_F(SweepCli, OnAxisSucceedsWithTheTrueRadiusAndFarOffsetFailsVerification) {
   // Within 0.6% of the truth, and within its 95% interval: before issue 16 the radius at this scale was
   // 998.8 +- 0.4 mm on every seed (995.5 +- 0.8 at 1500 x 1000 px), a systematic error of the detections (the
   // detector's pixel-locking) that the noise-derived sigma did not cover; the uncertainty budget's
-  // detector-systematic row now holds it (sigma 1.2 mm here, measured 2026-12-02).
+  // detector-systematic row now holds it (sigma 1.2 mm here, measured 2026-12-02). Since the default scene's
+  // lens departs from its model (imaging.lens_misfit_px 0.1 px at 6000 px), the budget's lens-model-misfit row,
+  // measured from the residuals, widens it: sigma 3.64 mm (measured 2026-12-02).
   EXPECT_LT(std::abs(radius - 1000), 6);
-  EXPECT_LT(sigma, 3);
+  EXPECT_LT(sigma, 6);
   EXPECT_EQ(on_axis.at("truth_in_ci95"), std::abs(radius - 1000) <= 1.96 * sigma ? "1" : "0");
   EXPECT_EQ(on_axis.at("truth_in_ci95"), "1") << radius << " +- " << sigma;
   EXPECT_EQ(on_axis.at("fit_status"), "ok");

@@ -36,12 +36,27 @@ int RunSynth(const SynthArgs& a) {
     throw Error("-o", fmt::format("'{}' does not end in .png or .jpg", a.output),
                 "write e.g. -o photo.png (or photo.jpg: the realistic chain's JPEG itself)");
   }
-  const fs::path truth_path = fs::path(out).replace_extension(".truth.json");
-  CheckNotAnInput(out, {a.scene, a.display});
-  CheckNotAnInput(truth_path, {a.scene, a.display});
+  fs::path truth_path = fs::path(out).replace_extension(".truth.json");
+  const fs::path pattern_json = fs::path(a.display).replace_extension(".json");
   SyntheticScene scene = LoadScene(a.scene, a.overrides);
   if (a.scale) scene.camera = ScaledCamera(scene.camera, *a.scale);
-  const fs::path pattern_json = fs::path(a.display).replace_extension(".json");
+  // Every file read (the scene's camera model too) against every file written, and the outputs writable, before
+  // the ray tracing. `--display X.truth.png -o X.png` names the display's pattern.json (X.truth.json) as the
+  // photo's truth: the truth then takes the photo's whole file name, X.png.truth.json (said on stdout).
+  std::vector<fs::path> inputs = {a.scene, a.display, pattern_json};
+  if (!scene.camera_model_path.empty()) {
+    const fs::path model = scene.camera_model_path;
+    inputs.push_back(model.is_relative() ? fs::path(a.scene).parent_path() / model : model);
+  }
+  std::string truth_note;
+  if (IsAnInput(truth_path, inputs)) {
+    truth_note = fmt::format("note: {} is an input of this command, so the truth is written as {}\n",
+                             truth_path.string(), out.string() + ".truth.json");
+    truth_path = out.string() + ".truth.json";
+  }
+  const std::vector<NamedOutput> outputs = {{"-o", out}, {"the truth beside -o", truth_path}};
+  CheckOutputs(outputs, inputs);
+  for (const NamedOutput& o : outputs) CheckWritable(o.path);
   const PatternFile pattern = ReadPatternJson(pattern_json);
   if (pattern.monitor.width_px != scene.monitor.width_px || pattern.monitor.height_px != scene.monitor.height_px) {
     throw Error(pattern_json.string(),
@@ -64,8 +79,12 @@ int RunSynth(const SynthArgs& a) {
   truth["photo"] = out.filename().string();
   truth["scene_overrides"] = a.overrides;
   truth["imager_scale"] = a.scale.value_or(1.0);
-  WriteSyntheticPhoto(out, photo);
-  WriteFileAtomic(truth_path, truth.dump(1) + "\n");
+  // The photo and its truth as one set (core/file_io.h OutputSet): never a new photo beside an old truth.
+  OutputSet set;
+  WriteSyntheticPhoto(set.Stage(out), photo);
+  set.Write(truth_path, truth.dump(1) + "\n");
+  set.Publish();
+  std::cout << truth_note;
   int visible = 0;
   for (const auto& f : truth["features"]) visible += f["visible"].get<bool>() ? 1 : 0;
   const PhotoTiming& t = photo.timing;

@@ -42,8 +42,12 @@ int RunRender(const RenderArgs& a) {
   const fs::path png = a.output;
   if (png.extension() != ".png") throw Error("-o", fmt::format("'{}' does not end in .png", a.output), "write e.g. -o out.png");
   const fs::path json = fs::path(png).replace_extension(".json");
-  CheckNotAnInput(png, Inputs(a));
-  CheckNotAnInput(json, Inputs(a));
+  // Outputs against the inputs and one another (`--error-map x.png -o x.png`, or `--error-map x.json` beside
+  // x.png's pattern.json, would lose one of them), and writable, before the render.
+  std::vector<NamedOutput> outputs = {{"-o", png}, {"the pattern.json beside -o", json}};
+  if (a.error_map) outputs.push_back({"--error-map", *a.error_map});
+  CheckOutputs(outputs, Inputs(a));
+  for (const NamedOutput& o : outputs) CheckWritable(o.path);
   const Scene scene = ResolveScene(a.scene, Eigen::Vector3d(0, 0, 1500));
   const RenderOptions options = ResolveMethod(a.method);
   const Pattern pattern = BuildPattern(scene.spec, scene.monitor, scene.viewpoint_in_screen,
@@ -60,6 +64,7 @@ int RunRender(const RenderArgs& a) {
                    {"setup_ms", renderer.setup_ms()},
                    {"image", png.filename().string()},
                    {"command", "curvecheck render"}};
+  OutputSet set;  // the PNG, its pattern.json and the error map: all new or all old
   if (a.accuracy || a.error_map) {
     const CoordinateImage coords =
         renderer.RenderCoordinates(scene.monitor, scene.viewpoint_in_screen, pattern, options);
@@ -71,13 +76,14 @@ int RunRender(const RenderArgs& a) {
                              err.missing_pixels ? fmt::format(" ({} px not drawn)", err.missing_pixels) : "");
     if (a.error_map) {
       const double scale = std::max(1e-3, err.max_finite_px);
-      WriteHeatmapPng(*a.error_map, scene.monitor.width_px, scene.monitor.height_px, err.map_px, scale);
+      WriteHeatmapPng(set.Stage(*a.error_map), scene.monitor.width_px, scene.monitor.height_px, err.map_px, scale);
       std::cout << fmt::format("error map (0 .. {:.3g} px, viridis; pixels not drawn in magenta) -> {}\n", scale,
                                *a.error_map);
     }
   }
-  WritePng8(png, image.width, image.height, 1, image.pixels.data());
-  WriteFileAtomic(json, doc.dump(1) + "\n");
+  WritePng8(set.Stage(png), image.width, image.height, 1, image.pixels.data());
+  set.Write(json, doc.dump(1) + "\n");
+  set.Publish();
   int visible = 0;
   for (const Feature& f : pattern.features) visible += f.visible ? 1 : 0;
   std::cout << fmt::format("{}: {} on {} ({} x {} px), {} features ({} visible); rendered in {:.1f} ms on {} "

@@ -36,6 +36,7 @@ int RunReport(const ReportArgs& a) {
   std::vector<fs::path> inputs = {result_path};
   for (const auto& [name, bytes] : assets.overlay_png) inputs.push_back(dir / OverlayFileName(name));
   CheckNotAnInput(out, inputs);
+  CheckWritable(out);
   const std::string html = ReportHtml(result, assets);
   WriteFileAtomic(out, html);
   const double ms = watch.Ms();

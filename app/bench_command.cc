@@ -8,6 +8,7 @@
 #include <iostream>
 #include <memory>
 
+#include "app/output_paths.h"
 #include "app/render_options.h"
 #include "core/error.h"
 #include "experiments/bench_calibrate.h"
@@ -61,6 +62,13 @@ void AddBenchCapture(CLI::App& bench, std::function<int()>& run) {
   cmd->callback([&run, o] {
     run = [o] {
       o->Check();
+      if (!o->output.empty()) {
+        // The CSV never replaces the scene or the display it photographs, and its folder takes it, before the runs.
+        std::vector<fs::path> inputs = {o->scene};
+        if (!o->display.empty()) inputs.push_back(o->display);
+        CheckOutputs({{"-o", o->output}}, inputs);
+        CheckWritable(o->output);
+      }
       experiments::RunBenchCapture(*o, std::cout);
       return 0;
     };

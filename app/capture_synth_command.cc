@@ -81,7 +81,7 @@ int RunSynth(const SynthArgs& a) {
   truth["imager_scale"] = a.scale.value_or(1.0);
   // The photo and its truth as one set (core/file_io.h OutputSet): never a new photo beside an old truth.
   OutputSet set;
-  WriteSyntheticPhoto(set.Stage(out), photo);
+  set.WriteWith(out, [&](const fs::path& staged) { WriteSyntheticPhoto(staged, photo); });
   set.Write(truth_path, truth.dump(1) + "\n");
   set.Publish();
   std::cout << truth_note;

@@ -76,12 +76,16 @@ int RunRender(const RenderArgs& a) {
                              err.missing_pixels ? fmt::format(" ({} px not drawn)", err.missing_pixels) : "");
     if (a.error_map) {
       const double scale = std::max(1e-3, err.max_finite_px);
-      WriteHeatmapPng(set.Stage(*a.error_map), scene.monitor.width_px, scene.monitor.height_px, err.map_px, scale);
+      set.WriteWith(*a.error_map, [&](const fs::path& staged) {
+        WriteHeatmapPng(staged, scene.monitor.width_px, scene.monitor.height_px, err.map_px, scale);
+      });
       std::cout << fmt::format("error map (0 .. {:.3g} px, viridis; pixels not drawn in magenta) -> {}\n", scale,
                                *a.error_map);
     }
   }
-  WritePng8(set.Stage(png), image.width, image.height, 1, image.pixels.data());
+  set.WriteWith(png, [&](const fs::path& staged) {
+    WritePng8(staged, image.width, image.height, 1, image.pixels.data());
+  });
   set.Write(json, doc.dump(1) + "\n");
   set.Publish();
   int visible = 0;

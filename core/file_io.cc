@@ -140,7 +140,19 @@ fs::path OutputSet::Stage(const fs::path& target) {
   return staged;
 }
 
-void OutputSet::Write(const fs::path& target, std::string_view contents) { WriteFileAtomic(Stage(target), contents); }
+void OutputSet::WriteWith(const fs::path& target, const std::function<void(const fs::path&)>& write) {
+  const fs::path staged = Stage(target);
+  try {
+    write(staged);
+  } catch (const Error& e) {
+    if (e.where() != staged.string()) throw;
+    throw Error(target.string(), e.problem(), e.fix());
+  }
+}
+
+void OutputSet::Write(const fs::path& target, std::string_view contents) {
+  WriteWith(target, [&](const fs::path& staged) { WriteFileAtomic(staged, contents); });
+}
 
 void OutputSet::RemoveOnPublish(const fs::path& target) { stale_.push_back(target); }
 

@@ -4,6 +4,7 @@
 #pragma once
 
 #include <filesystem>
+#include <functional>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -41,7 +42,10 @@ class OutputSet {
   // The temporary path to write `target`'s new contents to (with any writer, e.g. WriteFileAtomic or an image
   // encoder; it keeps target's extension, which some writers read): ".<stem>.tmp<N><ext>" in target's folder.
   std::filesystem::path Stage(const std::filesystem::path& target);
-  // Stage + WriteFileAtomic.
+  // Stage, then `write(staged path)`; an Error it throws about the staged path is rethrown about `target` (the
+  // file the user named: "OUT.png: write failed: No space left on device").
+  void WriteWith(const std::filesystem::path& target, const std::function<void(const std::filesystem::path&)>& write);
+  // WriteWith(target, WriteFileAtomic(staged, contents)).
   void Write(const std::filesystem::path& target, std::string_view contents);
   // A file of the previous set that the new one does not have (report.html after a run with --no-report): removed
   // when the set is published, so that it cannot be read as part of the new set. No effect if it does not exist.

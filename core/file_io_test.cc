@@ -80,6 +80,18 @@ TEST_F(FileIo, OutputSetPublishesAllOrNothing) {
   EXPECT_EQ(std::distance(fs::directory_iterator(dir_), fs::directory_iterator()), 2);
 }
 
+TEST_F(FileIo, AWriterFailingOnAStagedFileNamesTheTarget) {
+  OutputSet set;
+  try {
+    set.WriteWith(dir_ / "x.png", [](const fs::path& staged) {
+      throw Error(staged.string(), "write failed: File too large", "free disk space and run again");
+    });
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_EQ(std::string(e.what()), (dir_ / "x.png").string() + ": write failed: File too large; free disk space and run again");
+  }
+}
+
 TEST_F(FileIo, CheckWritableSaysWhatWriteFileAtomicWouldSay) {
   CheckWritable(dir_ / "out.json");
   EXPECT_EQ(std::distance(fs::directory_iterator(dir_), fs::directory_iterator()), 0);  // the probe is gone

@@ -368,16 +368,19 @@ TEST_F(RobustnessOutputs, ReportSaysADamagedOverlayInsteadOfEmbeddingIt) {
 // Case 8. The overlays' magnification costs no time (the vectors are clipped to the image); a factor that is not
 // a positive finite number is refused.
 TEST_F(RobustnessOutputs, AHugeMagnificationCostsNoTime) {
-  const auto start = Clock::now();
-  CliRun r = Curvecheck([&] {
-    auto args = AnalyzeArgs(dir_ / "huge", {Photo(1)});
-    args.insert(args.end(), {"--magnify", "1e12", "--no-report"});
-    return args;
-  }());
-  const double s = std::chrono::duration<double>(Clock::now() - start).count();
-  ASSERT_EQ(r.code, 0) << r.err;
-  EXPECT_LT(s, 20);  // before: 65 s (time linear in the factor)
-  EXPECT_TRUE(fs::exists(dir_ / "huge" / "overlay-photo1.png"));
+  // Against the default factor in the same conditions (the machine's load varies): before, 1e12 took 65 s.
+  const auto seconds = [&](const std::string& factor) {
+    auto args = AnalyzeArgs(dir_ / factor, {Photo(1)});
+    args.insert(args.end(), {"--magnify", factor, "--no-report"});
+    const auto start = Clock::now();
+    const CliRun r = Curvecheck(args);
+    EXPECT_EQ(r.code, 0) << r.err;
+    EXPECT_TRUE(fs::exists(dir_ / factor / "overlay-photo1.png"));
+    return std::chrono::duration<double>(Clock::now() - start).count();
+  };
+  const double normal = seconds("50"), huge = seconds("1e12");
+  EXPECT_LT(huge, 1.5 * normal + 3) << "--magnify 50: " << normal << " s";
+  CliRun r;
   for (const std::string bad : {"inf", "nan", "0", "-5"}) {
     auto args = AnalyzeArgs(dir_ / "bad", {Photo(1)});
     args.insert(args.end(), {"--magnify", bad});

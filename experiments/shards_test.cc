@@ -41,7 +41,7 @@ class ShardsRead : public ::testing::Test {
     WriteFileAtomic(folder_.path() / name / "t.csv", csv);
   }
   fs::path Dir(const std::string& name) const { return folder_.path() / name; }
-  const ShardFiles files_{"t.json", "t.csv", "t/1", "curvecheck t", "t run", "same grid", {"cell"}};
+  const ShardFiles files_{"t.json", "t.csv", "t/1", "curvecheck t", "t run", "same grid", {"cell"}, ""};
   TempFolder folder_{"curvecheck_shards_test", "shards test"};
 };
 

@@ -409,11 +409,14 @@ TEST(SceneReader, OverridesAreAppliedAndChecked) {
   EXPECT_EQ(s.display.bezel_mm, 0.0);
   EXPECT_EQ(s.optics.blur_px, 0.7);  // from the file
   const std::map<std::string, std::string> refused = {
-      {"optics", "is not KEY=VALUE"},
+      {"optics", "--set optics: is not KEY=VALUE"},
       {"optics..blur=none", "has an empty key"},
       {"monitor.name=x", "'monitor' is not a mapping"},
       {"optics.blur=[", "has a value that is not YAML"},
       {"optics.blur=box", "default.yaml with optics.blur=box: key 'optics.blur' is not none, gaussian or disc"},
+      {"optics.blur_px=", "--set optics.blur_px=: has no value after '='; give one, e.g. optics.blur_px=1.5"},
+      {"optics.blur_px=~", "--set optics.blur_px=~: has no value after '='"},
+      {"optics.blur_px=0x10", "key 'optics.blur_px' must be a decimal number, got '0x10'"},
   };
   for (const auto& [override_text, expected] : refused) {
     EXPECT_THAT(testing::MessageOf([&] { LoadScene(scene, {override_text}); }), ::testing::HasSubstr(expected))

@@ -363,6 +363,18 @@ CameraModel ScaledCamera(const CameraModel& camera, double scale) {
     throw Error("imager scale", fmt::format("{} has no fx, fy, cx, cy core to scale", camera.lensmodel),
                 "use the full imager with this lens model");
   }
+  // A photo must keep a size a board can be measured in: --scale 0.0001 made a 1 x 1 px photo that reported
+  // "60 of 60 features visible".
+  const double short_side_px = std::min(camera.width, camera.height) * scale;
+  if (!(short_side_px >= kMinScaledImagerPx - 0.5)) {
+    throw Error("--scale",
+                fmt::format("{:g} shrinks the {} x {} px imager to {} x {} px, below {} px on its short side, too "
+                            "small to detect a board in",
+                            scale, camera.width, camera.height, std::lround(camera.width * scale),
+                            std::lround(camera.height * scale), kMinScaledImagerPx),
+                fmt::format("give a scale of at least {:.3g}",
+                            static_cast<double>(kMinScaledImagerPx) / std::min(camera.width, camera.height)));
+  }
   CameraModel c = camera;
   c.width = std::max(1, static_cast<int>(std::lround(camera.width * scale)));
   c.height = std::max(1, static_cast<int>(std::lround(camera.height * scale)));

@@ -400,6 +400,26 @@ TEST(SceneReader, UnknownKeyIsNamed) {
   EXPECT_THAT(message, ::testing::HasSubstr("blur_px"));
 }
 
+// The imager keeps at least kMinScaledImagerPx on its short side (issue 17: --scale 0.0001 wrote a 1 x 1 photo
+// that reported every feature visible): 0.016 of 6000 x 4000 px is 96 x 64 px, 0.0159 is refused with the least.
+TEST(SceneReader, ScaledCameraKeepsAMeasurableSize) {
+  const CameraModel cam = ReadCameraModel(Datasets() / "cameras/default-24mp-opencv8.cameramodel");
+  ASSERT_EQ(cam.height, 4000);
+  const CameraModel small = ScaledCamera(cam, 0.016);
+  EXPECT_EQ(small.width, 96);
+  EXPECT_EQ(small.height, 64);
+  for (double scale : {0.0159, 0.0001}) {
+    try {
+      ScaledCamera(cam, scale);
+      ADD_FAILURE() << "accepted scale " << scale;
+    } catch (const Error& e) {
+      EXPECT_EQ(e.where(), "--scale");
+      EXPECT_THAT(e.problem(), ::testing::HasSubstr("px on its short side")) << scale;
+      EXPECT_EQ(e.fix(), "give a scale of at least 0.016");
+    }
+  }
+}
+
 // `--set` overrides: applied before the checks (which name them), or refused with what to write.
 TEST(SceneReader, OverridesAreAppliedAndChecked) {
   const std::filesystem::path scene = Datasets() / "scenes/default.yaml";

@@ -401,14 +401,14 @@ TEST(SceneReader, UnknownKeyIsNamed) {
 }
 
 // The imager keeps at least kMinScaledImagerPx on its short side (issue 17: --scale 0.0001 wrote a 1 x 1 photo
-// that reported every feature visible): 0.016 of 6000 x 4000 px is 96 x 64 px, 0.0159 is refused with the least.
+// that reported every feature visible): 0.016 of 6000 x 4000 px is 96 x 64 px; 0.0158 (63 px) is refused.
 TEST(SceneReader, ScaledCameraKeepsAMeasurableSize) {
   const CameraModel cam = ReadCameraModel(Datasets() / "cameras/default-24mp-opencv8.cameramodel");
   ASSERT_EQ(cam.height, 4000);
   const CameraModel small = ScaledCamera(cam, 0.016);
   EXPECT_EQ(small.width, 96);
   EXPECT_EQ(small.height, 64);
-  for (double scale : {0.0159, 0.0001}) {
+  for (double scale : {0.0158, 0.0001}) {
     try {
       ScaledCamera(cam, scale);
       ADD_FAILURE() << "accepted scale " << scale;

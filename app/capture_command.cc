@@ -12,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include "app/cli.h"
 #include "capture/frame_source.h"
 #include "capture/presenter_display.h"
 #include "capture/session.h"
@@ -45,13 +46,14 @@ struct CameraArgs {
 void AddCameraOptions(CLI::App* cmd, CameraArgs& a) {
   cmd->add_option("--device", a.device, "V4L2 device: /dev/videoN or an index N")->capture_default_str();
   cmd->add_option("--width", a.width, "Requested width (px); the device must deliver exactly this")
-      ->check(CLI::PositiveNumber);
-  cmd->add_option("--height", a.height, "Requested height (px)")->check(CLI::PositiveNumber);
+      ->check(InRange(1, 65535, "px", "a frame size a V4L2 device can deliver"));
+  cmd->add_option("--height", a.height, "Requested height (px)")
+      ->check(InRange(1, 65535, "px", "a frame size a V4L2 device can deliver"));
   cmd->add_option("--exposure", a.exposure,
                   "Manual exposure in the driver's units (V4L2: 100 us); without it: auto exposure");
   cmd->add_option("--frames", a.frames, "Frames averaged per photo (noise falls as 1/sqrt(N))")
       ->capture_default_str()
-      ->check(CLI::PositiveNumber);
+      ->check(InRange(1, 1000, "", "at least one frame; 1000 frames average the noise down by 30x"));
 }
 
 std::string Lower(std::string s) {
@@ -196,7 +198,7 @@ CLI::App* AddCaptureCommand(CLI::App& app, std::function<int()>& run) {
   AddCameraOptions(session, ses->camera);
   session->add_option("--display", ses->display, "Output (monitor) that shows the patterns, as GLFW lists them")
       ->capture_default_str()
-      ->check(CLI::NonNegativeNumber);
+      ->check(InRange(0, 255, "", "an output number: 0 is the primary"));
   session->add_option("--settle-ms", ses->settle_ms, "Wait after each pattern is on screen before the photo (>= 50)")
       ->capture_default_str()
       ->check(CLI::Range(50, 600000));

@@ -126,6 +126,19 @@ void CheckViewpoint(const Monitor& m, const Eigen::Vector3d& viewpoint_in_screen
   if (!viewpoint_in_screen.allFinite()) {
     throw Error(where, "viewpoint is not a finite point", "give x,y,z in mm in the screen frame");
   }
+  // Farther than 1 km a 1.2 m wide screen spans under 0.07 deg: no camera resolves its pattern, and the
+  // geometry's numbers (fields of view, clearances) lose their precision and then overflow (1e160 mm printed an
+  // infinite distance and a 45 deg field of view).
+  const double distance_mm = (viewpoint_in_screen - ScreenCentreInScreen(m)).stableNorm();  // no overflow at 1e160
+  if (!(distance_mm <= kMaxViewpointDistanceMm)) {
+    const Eigen::Vector3d& v = viewpoint_in_screen;
+    throw Error(where,
+                fmt::format("viewpoint ({:g}, {:g}, {:g}) mm is {:.3g} mm from the screen centre, beyond 1 km "
+                            "(1e6 mm), where this {:.0f} mm wide screen spans {:.2g} deg",
+                            v.x(), v.y(), v.z(), distance_mm, m.width_mm,
+                            2 * std::atan(0.5 * m.width_mm / distance_mm) * kDegPerRad),
+                "give a viewpoint within 1 km of the screen (a camera typically stands 300-3000 mm away)");
+  }
   // Below a micrometre the viewpoint is on the surface up to rounding.
   constexpr double kMinClearanceMm = 1e-3;
   const double clearance = FrontClearanceMm(m, viewpoint_in_screen);

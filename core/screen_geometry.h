@@ -52,8 +52,13 @@ std::optional<SurfaceHit> IntersectSurface(const Monitor& m, const Eigen::Vector
 // (no part is seen edge-on or from behind).
 double FrontClearanceMm(const Monitor& m, const Eigen::Vector3d& viewpoint_in_screen);
 
-// Throws Error naming `where` if the viewpoint is not finite, or is on or behind the screen surface
-// (FrontClearanceMm <= 1e-3 mm: on the surface up to rounding, or behind it).
+// The farthest viewpoint CheckViewpoint accepts from the screen centre: 1 km (a 1.2 m wide screen spans
+// 0.07 deg there).
+inline constexpr double kMaxViewpointDistanceMm = 1e6;
+
+// Throws Error naming `where` if the viewpoint is not finite, farther than kMaxViewpointDistanceMm from the
+// screen centre, or on or behind the screen surface (FrontClearanceMm <= 1e-3 mm: on the surface up to rounding,
+// or behind it).
 void CheckViewpoint(const Monitor& m, const Eigen::Vector3d& viewpoint_in_screen, const std::string& where);
 
 }  // namespace curvecheck

@@ -124,6 +124,19 @@ TEST(ScreenGeometry, FrontClearanceAndViewpointChecks) {
   } catch (const Error& e) {
     EXPECT_THAT(std::string(e.what()), ::testing::HasSubstr("--viewpoint: viewpoint (0, 0, -1200) mm is on or behind"));
   }
+  // Farther than 1 km from the screen centre (issue 17: 1e160 mm printed an infinite distance): refused with the
+  // span the screen would have (1198 mm at 1e160 mm: 6.9e-156 deg); 1 km itself is accepted.
+  EXPECT_NO_THROW(CheckViewpoint(m, ScreenCentreInScreen(m) + Eigen::Vector3d(0, 0, kMaxViewpointDistanceMm), "-v"));
+  EXPECT_THROW(CheckViewpoint(m, ScreenCentreInScreen(m) + Eigen::Vector3d(0, 0, 1.001e6), "-v"), Error);
+  EXPECT_THROW(CheckViewpoint(flat, {1e6, 0, 1e3}, "-v"), Error);
+  try {
+    CheckViewpoint(m, {0, 0, 1e160}, "--viewpoint");
+    ADD_FAILURE() << "accepted a viewpoint 1e160 mm away";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.where(), "--viewpoint");
+    EXPECT_THAT(e.problem(), ::testing::HasSubstr("is 1e+160 mm from the screen centre, beyond 1 km (1e6 mm), where "
+                                                  "this 1198 mm wide screen spans 6.9e-156 deg"));
+  }
 }
 
 }  // namespace

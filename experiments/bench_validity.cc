@@ -635,7 +635,8 @@ const ShardFiles& ValidityShardFiles() {
                                 "curvecheck bench validity",
                                 "validity bench",
                                 "same grid, trials, seed, scene, jitter, board",
-                                {"cell", "reason", "trial_ms"}};
+                                {"cell", "reason", "trial_ms"},
+                                "/summary/trials"};
   return files;
 }
 

@@ -30,6 +30,11 @@ std::vector<std::string> EmbeddedSceneNames() {
   return names;
 }
 
+std::string SceneOptionHelp() {
+  return fmt::format("Scene YAML, or an embedded scene (works from any folder): {}",
+                     fmt::join(EmbeddedSceneNames(), ", "));
+}
+
 bool IsEmbeddedScene(const std::string& name) {
   const std::vector<std::string> names = EmbeddedSceneNames();
   return std::find(names.begin(), names.end(), name) != names.end();
@@ -54,7 +59,7 @@ SyntheticScene FindScene(const std::string& name_or_path, const std::string& opt
   if (fs::exists(name_or_path, ec)) return LoadScene(name_or_path);
   if (!IsEmbeddedScene(name_or_path)) {
     throw Error(option, fmt::format("'{}' is neither a file nor an embedded scene", name_or_path),
-                "give a scene YAML or a name from datasets/scenes/ (default, off-axis, radius-8pct, ...)");
+                fmt::format("give a scene YAML, or an embedded scene: {}", fmt::join(EmbeddedSceneNames(), ", ")));
   }
   return LoadEmbeddedScene(name_or_path, option);
 }

@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "synth/synthetic_camera.h"
+#include "core/camera_model.h"
 #include "core/error.h"
 #include "core/file_io.h"
 #include "core/image_io.h"
@@ -37,9 +38,14 @@ int RunSynth(const SynthArgs& a) {
                 "write e.g. -o photo.png (or photo.jpg: the realistic chain's JPEG itself)");
   }
   const fs::path truth_path = fs::path(out).replace_extension(".truth.json");
+  // The photo's camera model (mrcal format, the scene's lens at --scale): what `analyze --camera` needs next.
+  const fs::path model_path = fs::path(out).replace_extension(".cameramodel");
   CheckNotAnInput(out, {a.scene, a.display});
   CheckNotAnInput(truth_path, {a.scene, a.display});
+  CheckNotAnInput(model_path, {a.scene, a.display});
   SyntheticScene scene = LoadScene(a.scene, a.overrides);
+  // The scene's own camera model (its path is relative to the scene's folder) must not be replaced either.
+  CheckNotAnInput(model_path, {fs::path(a.scene).parent_path() / scene.camera_model_path});
   if (a.scale) scene.camera = ScaledCamera(scene.camera, *a.scale);
   const fs::path pattern_json = fs::path(a.display).replace_extension(".json");
   const PatternFile pattern = ReadPatternJson(pattern_json);
@@ -64,17 +70,20 @@ int RunSynth(const SynthArgs& a) {
   truth["photo"] = out.filename().string();
   truth["scene_overrides"] = a.overrides;
   truth["imager_scale"] = a.scale.value_or(1.0);
+  truth["camera_model_file"] = model_path.filename().string();
   WriteSyntheticPhoto(out, photo);
   WriteFileAtomic(truth_path, truth.dump(1) + "\n");
+  WriteCameraModel(model_path, scene.camera);
   int visible = 0;
   for (const auto& f : truth["features"]) visible += f["visible"].get<bool>() ? 1 : 0;
   const PhotoTiming& t = photo.timing;
   std::cout << fmt::format(
       "{} x {} px, {} rays in {:.0f} ms ({:.1f} M rays/s traced; CPU {:.0f} ms on {} threads): rays {:.0f} ms, "
-      "trace {:.0f} ms, optics {:.0f} ms, sensor {:.0f} ms\n{} of {} features visible\nwrote {} and {}\n",
+      "trace {:.0f} ms, optics {:.0f} ms, sensor {:.0f} ms\n{} of {} features visible\nwrote {}, {} and {} (the "
+      "photo's camera model: give it to analyze --camera)\n",
       photo.width, photo.height, t.rays, t.total_ms(), t.rays / (t.trace_ms * 1e3), t.total_cpu_ms(), t.threads,
       t.rays_ms, t.trace_ms, t.optics_ms, t.sensor_ms, visible, truth["features"].size(), out.string(),
-      truth_path.string());
+      truth_path.string(), model_path.string());
   return 0;
 }
 
@@ -83,8 +92,9 @@ int RunSynth(const SynthArgs& a) {
 void AddCaptureSynthCommand(CLI::App& capture, std::function<int()>& run) {
   auto args = std::make_shared<SynthArgs>();
   CLI::App* cmd = capture.add_subcommand(
-      "synth", "Ray-trace a photo of the scene's true monitor showing a pattern; writes PHOTO.png and "
-               "PHOTO.truth.json (true image position of every feature of the pattern's pattern.json)");
+      "synth", "Ray-trace a photo of the scene's true monitor showing a pattern; writes PHOTO.png, "
+               "PHOTO.truth.json (true image position of every feature of the pattern's pattern.json) and "
+               "PHOTO.cameramodel (the photo's camera in mrcal format, at --scale: give it to analyze --camera)");
   cmd->add_option("--scene", args->scene, "Scene YAML (datasets/scenes/)")->required();
   cmd->add_option("--display", args->display, "The pattern PNG shown on the display (its .json beside it)")
       ->required();
@@ -96,7 +106,8 @@ void AddCaptureSynthCommand(CLI::App& capture, std::function<int()>& run) {
                   "Override a scene field, KEY=VALUE with a dotted key (repeatable), e.g. --set optics.blur=none "
                   "--set sensor.noise=false --set true_monitor.lean_deg=0.5");
   cmd->add_option("--scale", args->scale,
-                  "Shrink the camera's imager by this factor (0..1], lens scaled with it: quick previews and tests");
+                  "Shrink the camera's imager by this factor (0..1], lens scaled with it: quick previews and tests "
+                  "(PHOTO.cameramodel is the scaled camera)");
   cmd->callback([&run, args] { run = [args] { return RunSynth(*args); }; });
 }
 

@@ -16,6 +16,7 @@
 #include "capture/presenter_display.h"
 #include "capture/session.h"
 #include "core/error.h"
+#include "core/path_check.h"
 #include "core/file_io.h"
 #include "core/image_io.h"
 #include "core/progress.h"
@@ -93,11 +94,12 @@ void CheckPhotoOutput(const fs::path& out, bool jpeg_allowed) {
 }
 
 std::vector<fs::path> ImagesIn(const fs::path& dir) {
+  if (ClassifyPath(dir) == PathKind::kLinkLoop) RequireFolder(dir, "");
   if (!fs::is_directory(dir)) throw Error("--source fake-folder", fmt::format("'{}' is not a folder", dir.string()), "");
   static const std::set<std::string> kExt = {".png", ".jpg", ".jpeg", ".tif", ".tiff", ".bmp"};
   std::vector<fs::path> files;
   for (const auto& e : fs::directory_iterator(dir)) {
-    if (e.is_regular_file() && kExt.count(Lower(e.path().extension().string())) != 0) files.push_back(e.path());
+    if (ClassifyPath(e.path()) == PathKind::kFile && kExt.count(Lower(e.path().extension().string())) != 0) files.push_back(e.path());
   }
   std::sort(files.begin(), files.end());
   if (files.empty()) throw Error("--source fake-folder", fmt::format("'{}' holds no images", dir.string()), "");

@@ -18,6 +18,7 @@
 #include "core/error.h"
 #include "core/file_io.h"
 #include "core/image_io.h"
+#include "core/path_check.h"
 #include "pattern/pattern_json.h"
 
 namespace curvecheck::app {
@@ -47,6 +48,7 @@ int RunSynth(const SynthArgs& a) {
   // The scene's own camera model (its path is relative to the scene's folder) must not be replaced either.
   CheckNotAnInput(model_path, {fs::path(a.scene).parent_path() / scene.camera_model_path});
   if (a.scale) scene.camera = ScaledCamera(scene.camera, *a.scale);
+  RequireFile(a.display);  // before its pattern.json: a missing display or a link loop is named as itself
   const fs::path pattern_json = fs::path(a.display).replace_extension(".json");
   const PatternFile pattern = ReadPatternJson(pattern_json);
   if (pattern.monitor.width_px != scene.monitor.width_px || pattern.monitor.height_px != scene.monitor.height_px) {

@@ -10,6 +10,7 @@
 
 #include "core/config.h"
 #include "core/error.h"
+#include "core/path_check.h"
 #include "core/screen_geometry.h"
 #include "datasets/monitor_presets.h"
 
@@ -301,6 +302,7 @@ SyntheticScene ReadScene(const ConfigMap& c, const std::filesystem::path* scene_
   // The non-throwing exists: a monitor value that is no path (too long, a NUL byte) is a preset name or an error
   // of LoadMonitor, not a std::filesystem exception (fuzz_scene found "File name too long" escaping).
   std::error_code ec;
+  if (scene_dir && ClassifyPath(monitor_path) == PathKind::kLinkLoop) RequireFile(monitor_path);
   s.monitor =
       LoadMonitor(scene_dir && std::filesystem::exists(monitor_path, ec) ? monitor_path.string() : monitor_spec);
   s.truth.curvature_per_mm = s.monitor.curvature_per_mm;

@@ -126,7 +126,9 @@ int RunSessionCommand(const SessionArgs& a) {
   const SessionPlan plan = LoadSessionPlan(a.plan);
   std::set<fs::path> checked;
   for (const PlannedShot& s : plan.shots) {
-    if (checked.insert(s.pattern_json).second) ReadPatternJson(s.pattern_json);  // full validation
+    if (!checked.insert(s.pattern_json).second) continue;
+    const PatternFile pattern = ReadPatternJson(s.pattern_json);  // full validation
+    CheckPatternBelongsToImage(pattern, s.pattern_json, s.pattern_png, ReadImage8(s.pattern_png));
   }
   std::unique_ptr<FrameSource> source;
   if (kind == "webcam") {
@@ -220,7 +222,10 @@ CLI::App* AddCaptureCommand(CLI::App& app, std::function<int()>& run) {
   import->add_option("-o,--output", imp->output, "Session folder (new or empty)")->required();
   import->callback([imp, &run] {
     run = [imp] {
-      ReadPatternJson(imp->pattern);
+      const PatternFile pattern = ReadPatternJson(imp->pattern);
+      // The PNG beside it, if any, is stored with the session as the pattern shown: it must be the one.
+      const fs::path png = fs::path(imp->pattern).replace_extension(".png");
+      if (ClassifyPath(png) == PathKind::kFile) CheckPatternBelongsToImage(pattern, imp->pattern, png, ReadImage8(png));
       Progress progress("import", 0, std::cout, false);
       const ImportResult r = ImportFolder(imp->photos, imp->pattern, imp->output, CommandLine("import"), &progress);
       for (const auto& [file, reason] : r.rejected) std::cout << "rejected " << file << ": " << reason << "\n";

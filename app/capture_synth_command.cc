@@ -64,6 +64,7 @@ int RunSynth(const SynthArgs& a) {
                             scene.monitor.width_px, scene.monitor.height_px),
                 "show the PNG that render wrote for this monitor");
   }
+  CheckPatternBelongsToImage(pattern, pattern_json, a.display, display);
   const SyntheticPhoto photo = RenderSyntheticPhoto(scene, display, a.ray_grid_px);
   nlohmann::json truth = TruthJson(scene, pattern.features);
   truth["scene"] = a.scene;

@@ -350,10 +350,10 @@ SyntheticScene LoadScene(const std::filesystem::path& path, const std::vector<st
 
 CameraModel ScaledCamera(const CameraModel& camera, double scale) {
   if (!(scale > 0 && scale <= 1)) {
-    throw Error("imager scale", fmt::format("{} is not in (0, 1]", scale), "give a fraction such as 0.5");
+    throw Error("--scale", fmt::format("{} is not in (0, 1]", scale), "give the fraction of the imager to keep, such as 0.5");
   }
   if (camera.lensmodel.rfind("LENSMODEL_CAHVOR", 0) == 0 || camera.intrinsics.size() < 4) {
-    throw Error("imager scale", fmt::format("{} has no fx, fy, cx, cy core to scale", camera.lensmodel),
+    throw Error("--scale", fmt::format("the camera's lens model {} has no fx, fy, cx, cy core to scale", camera.lensmodel),
                 "use the full imager with this lens model");
   }
   CameraModel c = camera;

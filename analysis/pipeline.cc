@@ -782,8 +782,9 @@ std::string SummaryText(const AnalysisResult& r) {
       }
     } else {
       s << (f.ill_conditioned
-                ? fmt::format("radius: unobservable from these photos (ill-conditioned fit; 95% lower bound {:.0f} mm), "
-                              "model {}\n",
+                ? fmt::format("radius: not determined by these photos (ill-conditioned fit; |R| is above {:.0f} mm "
+                              "with 95% confidence, no upper bound), model {}; take more photos from other positions "
+                              "(closer, and from the sides)\n",
                               f.radius_lower_bound_mm, f.model)
                 : fmt::format("radius: not measurable as a number; flat is consistent (95% lower bound {:.0f} mm), "
                               "model {}\n",

@@ -15,6 +15,7 @@
 #include "calibrate/calibrate.h"
 #include "app/output_paths.h"
 #include "core/error.h"
+#include "core/path_check.h"
 #include "core/stopwatch.h"
 #include "core/file_io.h"
 
@@ -45,6 +46,7 @@ int RunCalibrate(const CalibrateArgs& a) {
   std::vector<fs::path> photos;
   std::error_code ec;
   for (const std::string& p : a.photos) {
+    if (ClassifyPath(p) == PathKind::kLinkLoop) RequireFile(p);  // "is a symbolic link loop; ..."
     if (!fs::is_regular_file(p, ec)) throw Error(p, "is not a file", "give the photos' paths (shell globs work)");
     if (fs::exists(out, ec) && fs::equivalent(p, out, ec)) throw Error(p, "is also the output", "choose another -o");
     photos.emplace_back(p);

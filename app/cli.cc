@@ -19,6 +19,7 @@
 #include "app/commands.h"
 #include "app/present_command.h"
 #include "app/render_command.h"
+#include "app/render_options.h"
 #include "app/report_command.h"
 #include "app/sweep_command.h"
 #include "core/decimal.h"
@@ -141,9 +142,11 @@ int Main(int argc, char** argv) {
       "info", "Print a monitor's derived geometry and, from a viewpoint, its fields of view and pixel density");
   info_cmd->add_option("--monitor,-m", info.monitor, "Monitor preset name, 'default', or a YAML/JSON spec file")
       ->capture_default_str();
-  info_cmd->add_option("--viewpoint,-v", info.viewpoint,
-                       "Viewpoint x,y,z in mm in the screen frame (origin on the cylinder axis; the screen centre "
-                       "is at 0,0,-R; for a flat monitor the screen is z = 0)");
+  CLI::Option* info_viewpoint = info_cmd->add_option(
+      "--viewpoint,-v", info.viewpoint,
+      "Viewpoint x,y,z in mm in the screen frame (origin on the cylinder axis; the screen centre is at 0,0,-R; for a "
+      "flat monitor the screen is z = 0; or give --distance-mm)");
+  AddDistanceOptions(*info_cmd, info_viewpoint, info.distance_mm, info.offset_mm);
   info_cmd->add_flag("--json", info.json, "Print JSON instead of text");
   info_cmd->add_flag("--list-presets", info.list_presets, "List the monitor presets and exit");
   info_cmd->callback([&] { run = [&] { return RunInfo(info); }; });

@@ -63,6 +63,8 @@ int RunRender(const RenderArgs& a) {
                    {"render_ms", timing.render_ms},
                    {"setup_ms", renderer.setup_ms()},
                    {"image", png.filename().string()},
+                   // what capture synth and capture sessions check that a display PNG is this one
+                   {"image_content_hash", DisplayImageHash({image.width, image.height, 1, image.pixels})},
                    {"command", "curvecheck render"}};
   OutputSet set;  // the PNG, its pattern.json and the error map: all new or all old
   if (a.accuracy || a.error_map) {
@@ -91,10 +93,11 @@ int RunRender(const RenderArgs& a) {
   int visible = 0;
   for (const Feature& f : pattern.features) visible += f.visible ? 1 : 0;
   std::cout << fmt::format("{}: {} on {} ({} x {} px), {} features ({} visible); rendered in {:.1f} ms on {} "
-                           "(set-up {:.1f} ms)\nwrote {} and {}\n",
+                           "(set-up {:.1f} ms)\n{}\nwrote {} and {}\n",
                            options.method.Label(), PatternKindName(pattern.spec.kind), scene.monitor.name,
                            image.width, image.height, pattern.features.size(), visible, timing.render_ms,
-                           renderer.device_name(), renderer.setup_ms(), png.string(), json.string());
+                           renderer.device_name(), renderer.setup_ms(),
+                           DescribeViewpoint(scene.monitor, scene.viewpoint_in_screen), png.string(), json.string());
   if (a.present) {
     PresenterOptions present;
     present.display = a.display;

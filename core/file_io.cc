@@ -14,14 +14,13 @@
 #include <sstream>
 
 #include "core/error.h"
+#include "core/path_check.h"
 
 namespace curvecheck {
 namespace fs = std::filesystem;
 
 std::string ReadFileToString(const fs::path& path) {
-  std::error_code ec;
-  if (!fs::exists(path, ec)) throw Error(path.string(), "file does not exist", "check the path");
-  if (fs::is_directory(path, ec)) throw Error(path.string(), "is a folder, not a file", "give a file");
+  RequireFile(path);  // missing, a folder, or a symbolic link loop: each said as such
   std::ifstream in(path, std::ios::binary);
   if (!in) throw Error(path.string(), std::string("cannot be opened: ") + std::strerror(errno), "check permissions");
   std::ostringstream ss;

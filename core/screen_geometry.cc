@@ -29,6 +29,10 @@ Eigen::Vector3d ScreenCentreInScreen(const Monitor& m) {
   return m.is_flat() ? Eigen::Vector3d::Zero() : Eigen::Vector3d(0, 0, -m.radius_mm());
 }
 
+Eigen::Vector3d ViewpointFromScreenCentre(const Monitor& m, double distance_mm, const Eigen::Vector2d& offset_mm) {
+  return ScreenCentreInScreen(m) + Eigen::Vector3d(offset_mm.x(), offset_mm.y(), distance_mm);
+}
+
 Eigen::Vector2d UvFromDisplayPx(const Monitor& m, const Eigen::Vector2d& px) {
   return {2 * (px.x() + 0.5) / m.width_px - 1, 2 * (px.y() + 0.5) / m.height_px - 1};
 }

@@ -9,6 +9,7 @@
 #include "core/camera_model.h"
 #include "core/config.h"
 #include "core/error.h"
+#include "core/path_check.h"
 #include "datasets/dataset_files.h"
 
 namespace curvecheck::experiments {
@@ -55,8 +56,9 @@ SyntheticScene LoadEmbeddedScene(const std::string& name, const std::string& opt
 }
 
 SyntheticScene FindScene(const std::string& name_or_path, const std::string& option) {
-  std::error_code ec;
-  if (fs::exists(name_or_path, ec)) return LoadScene(name_or_path);
+  const PathKind kind = ClassifyPath(name_or_path);
+  if (kind == PathKind::kLinkLoop) RequireFile(name_or_path);  // a loop is not "neither a file nor a scene"
+  if (kind != PathKind::kMissing && kind != PathKind::kUnreachable) return LoadScene(name_or_path);
   if (!IsEmbeddedScene(name_or_path)) {
     throw Error(option, fmt::format("'{}' is neither a file nor an embedded scene", name_or_path),
                 fmt::format("give a scene YAML, or an embedded scene: {}", fmt::join(EmbeddedSceneNames(), ", ")));

@@ -10,6 +10,7 @@
 
 #include "core/config.h"
 #include "core/error.h"
+#include "core/path_check.h"
 #include "core/screen_geometry.h"
 #include "datasets/monitor_presets.h"
 
@@ -310,6 +311,7 @@ SyntheticScene ReadScene(const ConfigMap& c, const std::filesystem::path* scene_
   // The non-throwing exists: a monitor value that is no path (too long, a NUL byte) is a preset name or an error
   // of LoadMonitor, not a std::filesystem exception (fuzz_scene found "File name too long" escaping).
   std::error_code ec;
+  if (scene_dir && ClassifyPath(monitor_path) == PathKind::kLinkLoop) RequireFile(monitor_path);
   s.monitor =
       LoadMonitor(scene_dir && std::filesystem::exists(monitor_path, ec) ? monitor_path.string() : monitor_spec);
   s.truth.curvature_per_mm = s.monitor.curvature_per_mm;
@@ -357,10 +359,10 @@ SyntheticScene LoadScene(const std::filesystem::path& path, const std::vector<st
 
 CameraModel ScaledCamera(const CameraModel& camera, double scale) {
   if (!(scale > 0 && scale <= 1)) {
-    throw Error("imager scale", fmt::format("{} is not in (0, 1]", scale), "give a fraction such as 0.5");
+    throw Error("--scale", fmt::format("{} is not in (0, 1]", scale), "give the fraction of the imager to keep, such as 0.5");
   }
   if (camera.lensmodel.rfind("LENSMODEL_CAHVOR", 0) == 0 || camera.intrinsics.size() < 4) {
-    throw Error("imager scale", fmt::format("{} has no fx, fy, cx, cy core to scale", camera.lensmodel),
+    throw Error("--scale", fmt::format("the camera's lens model {} has no fx, fy, cx, cy core to scale", camera.lensmodel),
                 "use the full imager with this lens model");
   }
   // A photo must keep a size a board can be measured in: --scale 0.0001 made a 1 x 1 px photo that reported

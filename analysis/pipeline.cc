@@ -6,11 +6,13 @@
 #include <cmath>
 #include <limits>
 #include <map>
+#include <optional>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <set>
 #include <sstream>
 
+#include "analysis/report.h"
 #include "core/error.h"
 #include "core/file_io.h"
 #include "core/image_hash.h"
@@ -211,16 +213,27 @@ nlohmann::json BudgetJson(const ModelFit& f, const std::string& first_photo) {
   return j;
 }
 
-std::string PhotoNameFor(const std::filesystem::path& p, std::set<std::string>& taken) {
-  std::string name = p.filename().string();
-  if (name.empty()) name = "photo";
-  std::string candidate = name;
-  for (int k = 2; taken.count(candidate); ++k) candidate = fmt::format("{}-{}", name, k);
-  taken.insert(candidate);
-  return candidate;
-}
-
 }  // namespace
+
+std::vector<std::string> PhotoNames(const std::vector<PhotoInput>& inputs) {
+  // Unique by stem, not only by name: the overlay is named after the stem (OverlayFileName), so a/photo.png and
+  // b/photo.png, or photo.png and photo.jpg, would otherwise share one overlay. The second becomes photo-2.png.
+  std::set<std::string> stems;
+  std::vector<std::string> names;
+  for (const PhotoInput& in : inputs) {
+    std::string name = in.photo.filename().string();
+    if (name.empty()) name = "photo";
+    const std::string stem = std::filesystem::path(name).stem().string();
+    const std::string ext = std::filesystem::path(name).extension().string();
+    std::string candidate = name;
+    for (int k = 2; stems.count(std::filesystem::path(candidate).stem().string()); ++k) {
+      candidate = fmt::format("{}-{}{}", stem, k, ext);
+    }
+    stems.insert(std::filesystem::path(candidate).stem().string());
+    names.push_back(candidate);
+  }
+  return names;
+}
 
 void AnalyzeOptions::Check(const std::string& where) const {
   detect.Check(where);
@@ -292,13 +305,13 @@ AnalysisResult AnalyzeWith(const CameraModel& camera, const std::filesystem::pat
   r.monitor = distinct.front().monitor;
   for (size_t k : pattern_of_photo) r.patterns.push_back(distinct[k]);
 
-  std::set<std::string> names;
+  const std::vector<std::string> names = PhotoNames(inputs);
   std::vector<PhotoObservations> observations;
   std::map<std::string, size_t> content;  // hash of the decoded image (core/image_hash.h) -> first photo with it
   for (size_t i = 0; i < inputs.size(); ++i) {
     PhotoAnalysis pa;
     pa.input = inputs[i];
-    pa.name = PhotoNameFor(inputs[i].photo, names);
+    pa.name = names[i];
     const PatternFile& pattern = r.patterns[i];
     Stopwatch watch;
     cv::Mat gray;
@@ -640,64 +653,107 @@ std::vector<std::pair<std::string, std::string>> GridEdges(const PatternFile& pa
 
 }  // namespace
 
+namespace {
+
+// The part of segment a-b inside the rectangle [lo, hi] (Liang-Barsky), or nothing. A residual magnified a
+// million times is a segment kilometres long in pixels; OpenCV draws such a line in time proportional to its
+// length, so it is clipped first.
+std::optional<std::pair<Eigen::Vector2d, Eigen::Vector2d>> ClipSegment(const Eigen::Vector2d& a, const Eigen::Vector2d& b,
+                                                                       const Eigen::Vector2d& lo,
+                                                                       const Eigen::Vector2d& hi) {
+  if (!a.allFinite() || !b.allFinite()) return std::nullopt;
+  double t0 = 0, t1 = 1;
+  const Eigen::Vector2d d = b - a;
+  for (int axis = 0; axis < 2; ++axis) {
+    const double p[2] = {-d[axis], d[axis]};
+    const double q[2] = {a[axis] - lo[axis], hi[axis] - a[axis]};
+    for (int k = 0; k < 2; ++k) {
+      if (p[k] == 0) {
+        if (q[k] < 0) return std::nullopt;
+        continue;
+      }
+      const double t = q[k] / p[k];
+      if (p[k] < 0) {
+        t0 = std::max(t0, t);
+      } else {
+        t1 = std::min(t1, t);
+      }
+    }
+  }
+  if (t0 > t1) return std::nullopt;
+  return std::make_pair(Eigen::Vector2d(a + t0 * d), Eigen::Vector2d(a + t1 * d));
+}
+
+}  // namespace
+
+std::string OverlayPng(const AnalysisResult& r, size_t i, double magnification, int max_px) {
+  const PhotoAnalysis& p = r.photos.at(i);
+  if (!p.used) throw Error(p.name, "has no overlay (the photo was not used)", "this is a bug");
+  cv::Mat gray = ReadPhotoGray(p.input.photo);
+  if (gray.depth() == CV_16U) gray.convertTo(gray, CV_8U, 1.0 / 257);
+  const double scale = std::min(1.0, static_cast<double>(max_px) / std::max(gray.cols, gray.rows));
+  cv::Mat small;
+  if (scale < 1) {
+    cv::resize(gray, small, cv::Size(), scale, scale, cv::INTER_AREA);
+  } else {
+    small = gray;
+  }
+  cv::Mat img;
+  cv::cvtColor(small, img, cv::COLOR_GRAY2BGR);
+  // Pixel centres at integers in both images: x_small = (x + 0.5) scale - 0.5.
+  const auto at = [&](const Eigen::Vector2d& q) {
+    return cv::Point2d((q.x() + 0.5) * scale - 0.5, (q.y() + 0.5) * scale - 0.5);
+  };
+  const int thick = std::max(1, static_cast<int>(std::lround(std::max(img.cols, img.rows) / 1500.0)));
+  // A vector from q to q + m v in photo pixels, drawn as far as it is inside the image (plus a margin for the
+  // line's width).
+  const Eigen::Vector2d margin(4.0 * thick / scale, 4.0 * thick / scale);
+  const Eigen::Vector2d lo = Eigen::Vector2d(-0.5, -0.5) - margin;
+  const Eigen::Vector2d hi = Eigen::Vector2d(gray.cols - 0.5, gray.rows - 0.5) + margin;
+  const auto vector = [&](const Eigen::Vector2d& q, const Eigen::Vector2d& v, const cv::Scalar& colour) {
+    if (const auto s = ClipSegment(q, q + magnification * v, lo, hi)) {
+      cv::line(img, at(s->first), at(s->second), colour, thick + 1, cv::LINE_AA);
+    }
+  };
+  std::map<std::string, const FeatureCheck*> checks;
+  for (const FeatureCheck& c : p.verification.features) checks[c.id] = &c;
+  for (const auto& [a, b] : GridEdges(r.patterns[i])) {
+    const auto ca = checks.find(a), cb = checks.find(b);
+    if (ca == checks.end() || cb == checks.end()) continue;
+    cv::line(img, at(ca->second->expected_px), at(cb->second->expected_px), cv::Scalar(0, 160, 0), thick,
+             cv::LINE_AA);
+  }
+  for (const FeatureCheck& c : p.verification.features) {
+    vector(c.expected_px, c.residual_px, cv::Scalar(0, 0, 255));
+    cv::circle(img, at(c.expected_px), 2 * thick, cv::Scalar(0, 160, 0), thick, cv::LINE_AA);
+  }
+  if (r.fit && p.fit_index >= 0) {
+    const ModelFit& chosen = r.fit->Chosen();
+    const auto& res = chosen.residual_px[static_cast<size_t>(p.fit_index)];
+    std::map<std::string, Eigen::Vector2d> detected;
+    for (const DetectedFeature& d : p.detection.features) detected[d.id] = d.px;
+    for (size_t k = 0; k < p.fit_ids.size() && k < res.size(); ++k) {
+      vector(detected[p.fit_ids[k]], res[k], cv::Scalar(255, 80, 0));
+    }
+  }
+  const std::string legend = fmt::format(
+      "{}: green = expected planar perspective grid; red = verification residual x{:g}; blue = {} fit residual x{:g}",
+      p.name, magnification, r.fit ? r.fit->Chosen().model : std::string("(no)"), magnification);
+  const double font = std::max(0.5, img.cols / 2500.0);
+  cv::putText(img, legend, cv::Point(10, static_cast<int>(30 * font)), cv::FONT_HERSHEY_SIMPLEX, font,
+              cv::Scalar(0, 255, 255), thick, cv::LINE_AA);
+  std::vector<uchar> png;
+  if (!cv::imencode(".png", img, png)) throw Error(OverlayFileName(p.name), "could not encode the overlay image");
+  return std::string(reinterpret_cast<const char*>(png.data()), png.size());
+}
+
 std::vector<std::filesystem::path> WriteOverlays(const AnalysisResult& r, const std::filesystem::path& dir,
                                                  double magnification, int max_px) {
   std::vector<std::filesystem::path> written;
   for (size_t i = 0; i < r.photos.size(); ++i) {
-    const PhotoAnalysis& p = r.photos[i];
-    if (!p.used) continue;
-    cv::Mat gray = ReadPhotoGray(p.input.photo);
-    if (gray.depth() == CV_16U) gray.convertTo(gray, CV_8U, 1.0 / 257);
-    const double scale = std::min(1.0, static_cast<double>(max_px) / std::max(gray.cols, gray.rows));
-    cv::Mat small;
-    if (scale < 1) {
-      cv::resize(gray, small, cv::Size(), scale, scale, cv::INTER_AREA);
-    } else {
-      small = gray;
-    }
-    cv::Mat img;
-    cv::cvtColor(small, img, cv::COLOR_GRAY2BGR);
-    // Pixel centres at integers in both images: x_small = (x + 0.5) scale - 0.5.
-    const auto at = [&](const Eigen::Vector2d& q) {
-      return cv::Point2d((q.x() + 0.5) * scale - 0.5, (q.y() + 0.5) * scale - 0.5);
-    };
-    const int thick = std::max(1, static_cast<int>(std::lround(std::max(img.cols, img.rows) / 1500.0)));
-    std::map<std::string, const FeatureCheck*> checks;
-    for (const FeatureCheck& c : p.verification.features) checks[c.id] = &c;
-    for (const auto& [a, b] : GridEdges(r.patterns[i])) {
-      const auto ca = checks.find(a), cb = checks.find(b);
-      if (ca == checks.end() || cb == checks.end()) continue;
-      cv::line(img, at(ca->second->expected_px), at(cb->second->expected_px), cv::Scalar(0, 160, 0), thick,
-               cv::LINE_AA);
-    }
-    for (const FeatureCheck& c : p.verification.features) {
-      const cv::Point2d q = at(c.expected_px);
-      const Eigen::Vector2d tip = c.expected_px + magnification * c.residual_px;
-      cv::line(img, q, at(tip), cv::Scalar(0, 0, 255), thick + 1, cv::LINE_AA);
-      cv::circle(img, q, 2 * thick, cv::Scalar(0, 160, 0), thick, cv::LINE_AA);
-    }
-    if (r.fit && p.fit_index >= 0) {
-      const ModelFit& chosen = r.fit->Chosen();
-      const auto& res = chosen.residual_px[static_cast<size_t>(p.fit_index)];
-      std::map<std::string, Eigen::Vector2d> detected;
-      for (const DetectedFeature& d : p.detection.features) detected[d.id] = d.px;
-      for (size_t k = 0; k < p.fit_ids.size() && k < res.size(); ++k) {
-        const Eigen::Vector2d q = detected[p.fit_ids[k]];
-        cv::line(img, at(q), at(q + magnification * res[k]), cv::Scalar(255, 80, 0), thick + 1, cv::LINE_AA);
-      }
-    }
-    const std::string legend = fmt::format(
-        "{}: green = expected planar perspective grid; red = verification residual x{:g}; blue = {} fit residual x{:g}",
-        p.name, magnification, r.fit ? r.fit->Chosen().model : std::string("(no)"), magnification);
-    const double font = std::max(0.5, img.cols / 2500.0);
-    cv::putText(img, legend, cv::Point(10, static_cast<int>(30 * font)), cv::FONT_HERSHEY_SIMPLEX, font,
-                cv::Scalar(0, 255, 255), thick, cv::LINE_AA);
-    std::vector<uchar> png;
-    if (!cv::imencode(".png", img, png)) {
-      throw Error((dir / ("overlay-" + p.name)).string(), "could not encode the overlay image");
-    }
-    std::filesystem::path out = dir / ("overlay-" + std::filesystem::path(p.name).stem().string() + ".png");
-    WriteFileAtomic(out, std::string_view(reinterpret_cast<const char*>(png.data()), png.size()));
+    if (!r.photos[i].used) continue;
+    const std::filesystem::path out = dir / OverlayFileName(r.photos[i].name);
+    WriteFileAtomic(out, OverlayPng(r, i, magnification, max_px));
     written.push_back(out);
   }
   return written;
@@ -736,8 +792,9 @@ std::string SummaryText(const AnalysisResult& r) {
       }
     } else {
       s << (f.ill_conditioned
-                ? fmt::format("radius: unobservable from these photos (ill-conditioned fit; 95% lower bound {:.0f} mm), "
-                              "model {}\n",
+                ? fmt::format("radius: not determined by these photos (ill-conditioned fit; |R| is above {:.0f} mm "
+                              "with 95% confidence, no upper bound), model {}; take more photos from other positions "
+                              "(closer, and from the sides)\n",
                               f.radius_lower_bound_mm, f.model)
                 : fmt::format("radius: not measurable as a number; flat is consistent (95% lower bound {:.0f} mm), "
                               "model {}\n",

@@ -115,10 +115,19 @@ AnalysisResult AnalyzeImages(const CameraModel& camera, const std::filesystem::p
 // verification, the fit with every candidate, the deviations, and every feature.
 nlohmann::json ResultJson(const AnalysisResult& result, const std::string& command_line);
 
+// The name of each photo in the analysis (PhotoAnalysis::name, result.json's inputs.photos[].name), in input
+// order: its file name, made unique by stem (a/photo.png and b/photo.png become photo.png and photo-2.png) because
+// the overlay file is named after the stem (report.h OverlayFileName).
+std::vector<std::string> PhotoNames(const std::vector<PhotoInput>& inputs);
+
+// The overlay of used photo result.photos[index] as PNG bytes (see WriteOverlays). The residual vectors are
+// clipped to the image, so any magnification draws in the same time.
+std::string OverlayPng(const AnalysisResult& result, size_t index, double magnification = 50, int max_px = 3000);
+
 // Overlay images, one per used photo: the photo (gray, scaled to at most max_px on its longer side) with the
 // expected planar perspective grid (green), the verification residuals (red) and the screen fit's residuals
-// (blue), both magnified by `magnification`. Written atomically into `dir` as overlay-<name>.png; returns the
-// paths.
+// (blue), both magnified by `magnification`. Written atomically into `dir` as OverlayFileName(name) (report.h);
+// returns the paths.
 std::vector<std::filesystem::path> WriteOverlays(const AnalysisResult& result, const std::filesystem::path& dir,
                                                  double magnification = 50, int max_px = 3000);
 

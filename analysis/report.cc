@@ -16,6 +16,7 @@
 #include "core/error.h"
 #include "core/file_io.h"
 #include "core/gnuplot.h"
+#include "core/image_decode.h"
 
 #ifndef CURVECHECK_VERSION
 #define CURVECHECK_VERSION "unknown"
@@ -268,7 +269,14 @@ ReportAssets LoadReportAssets(const json& result, const fs::path& dir, const std
       if (!IsPng(bytes)) {
         assets.overlay_missing[name] = file.filename().string() + " is not a PNG image";
       } else {
-        assets.overlay_png[name] = std::move(bytes);
+        // Decoded once, so that a damaged file is said (in the page and by `curvecheck report`) instead of
+        // embedded as a broken image.
+        try {
+          DecodeImage(bytes, file.string());
+          assets.overlay_png[name] = std::move(bytes);
+        } catch (const Error& e) {
+          assets.overlay_missing[name] = fmt::format("{} is damaged ({})", file.filename().string(), e.what());
+        }
       }
     } catch (const Error& e) {
       assets.overlay_missing[name] = e.what();

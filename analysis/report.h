@@ -53,8 +53,9 @@ std::string ReportHtml(const nlohmann::json& result, const ReportAssets& assets,
 // The overlay file of a photo, as WriteOverlays (pipeline.h) names it: "overlay-<stem of name>.png".
 std::string OverlayFileName(const std::string& photo_name);
 
-// The overlays of the used photos of `result`, read from `dir` (the folder of result.json); a missing or
-// unreadable file is recorded in overlay_missing, never thrown. `source` goes to ReportAssets::source.
+// The overlays of the used photos of `result`, read from `dir` (the folder of result.json) and decoded to check
+// them; a missing, unreadable or damaged file (truncated, corrupt data) is recorded in overlay_missing, never
+// thrown. `source` goes to ReportAssets::source.
 ReportAssets LoadReportAssets(const nlohmann::json& result, const std::filesystem::path& dir,
                               const std::string& source);
 

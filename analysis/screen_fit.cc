@@ -828,13 +828,16 @@ void RadiusFromCurvature(const Setup& setup, const ModelWork& w, ModelFit* fit) 
   const double lo = k - cover * sk, hi = k + cover * sk;
   const double max_relative = setup.options->max_relative_curvature_sigma;
   if (curved_model && (lo > 0 || hi < 0) && sk > max_relative * std::abs(k)) {
-    // Significantly curved, but too poorly determined for a number.
+    // Significantly curved, but too poorly determined for a number. The bound is on |R| (a size, never below
+    // zero), from the curvature interval's end farthest from flat; for a curvature of the other sign (a convex fit)
+    // 1/lo and 1/hi are negative and would print as "lower bound -5503 mm".
     fit->radius_ci95_mm = {std::min(1 / lo, 1 / hi), std::max(1 / lo, 1 / hi)};
-    fit->radius_lower_bound_mm = fit->radius_ci95_mm[0];
+    fit->radius_lower_bound_mm = 1 / std::max(std::abs(lo), std::abs(hi));
     fit->ill_conditioned = true;
     fit->condition_note += fmt::format(
         "radius unobservable from these photos: the curvature {:.3g} +- {:.3g} /m has a relative sigma of {:.0f}% "
-        "(limit {:.0f}%), a 95% interval of R from {:.0f} to {:.0f} mm; photograph from closer or more obliquely. ",
+        "(limit {:.0f}%), a 95% interval of R from {:.0f} to {:.0f} mm: the radius is not determined by these "
+        "photos; take more photos from other positions (closer, and from the sides). ",
         k * 1000, sk * 1000, 100 * sk / std::abs(k), 100 * max_relative, fit->radius_ci95_mm[0],
         fit->radius_ci95_mm[1]);
   } else if (curved_model && (lo > 0 || hi < 0)) {
@@ -1117,7 +1120,7 @@ std::string InadequacyWarning(const std::vector<PhotoObservations>& photos, cons
       "{}: inadequate: the fit's residual noise is {:.3f} px per coordinate (RMS {:.3f} px), {:.1f} times the {} "
       "detection noise of {:.3f} px (limit {:.3f} px); chi2/dof = {:.4g}/{} = {:.3g}, p = {:.2g}.",
       m.model, m.noise_px, m.rms_px, m.noise_ratio,
-      result.detection_noise_assumed ? "assumed (not measured: expected_noise_px)" : "measured",
+      result.detection_noise_assumed ? "assumed (not measured: --expected-noise)" : "measured",
       result.detection_noise_px, result.adequacy_limit_px, m.chi2, m.dof, m.dof > 0 ? m.chi2 / m.dof : kNaN,
       m.chi2_p_value);
   std::string others;
@@ -1243,7 +1246,11 @@ void FitOptions::Check(const std::string& where) const {
       throw Error(where, fmt::format("{} is {}, but must be a positive number", name, v), "");
     }
   };
-  positive(expected_noise_px, "expected_noise_px");
+  // Named as the user sets it (analyze --expected-noise), not by this field's name.
+  if (!(expected_noise_px > 0) || !std::isfinite(expected_noise_px)) {
+    throw Error("--expected-noise", fmt::format("{} px is not a detection noise level", expected_noise_px),
+                "give the expected detection noise per coordinate in px, a positive number such as 0.15");
+  }
   if (!(detection_noise_px >= 0) || !std::isfinite(detection_noise_px)) {
     throw Error(where, fmt::format("detection_noise_px is {}, but must be 0 (unknown) or a positive number",
                                    detection_noise_px),
@@ -1454,7 +1461,7 @@ ScreenFitResult FitScreen(const Monitor& nominal, const CameraModel& camera,
   result.assumptions.push_back(
       result.detection_noise_assumed
           ? fmt::format("detection noise not measured: each model's fit was tested against an assumed {:.3f} px per "
-                        "coordinate (expected_noise_px); adequacy is only as good as that guess",
+                        "coordinate (--expected-noise); adequacy is only as good as that guess",
                         result.detection_noise_px)
           : fmt::format("each model's fit tested against the measured detection noise, {:.3f} px per coordinate",
                         result.detection_noise_px));

@@ -6,6 +6,7 @@
 
 #include <fmt/format.h>
 
+#include <cmath>
 #include <filesystem>
 #include <iostream>
 #include <memory>
@@ -56,10 +57,13 @@ int RunAnalyze(AnalyzeArgs a) {
   a.options.lens_covariance = a.lens_covariance;
   a.options.detect.detector = ParseDetector(a.detector, "analyze options");
   a.options.Check("analyze options");
-  if (!(a.magnification > 0)) throw Error("--magnify", "must be a positive factor", "give e.g. 50");
+  if (!(a.magnification > 0) || !std::isfinite(a.magnification)) {
+    throw Error("--magnify", fmt::format("{} is not a positive finite factor", a.magnification), "give e.g. 50");
+  }
 
   std::vector<PhotoInput> inputs;
   std::vector<fs::path> input_paths = {a.camera};
+  if (!a.lens_covariance.empty()) input_paths.push_back(a.lens_covariance);
   for (size_t i = 0; i < a.photos.size(); ++i) {
     inputs.push_back({a.photos[i], a.patterns[a.patterns.size() == 1 ? 0 : i]});
     input_paths.push_back(inputs.back().photo);
@@ -67,10 +71,14 @@ int RunAnalyze(AnalyzeArgs a) {
   }
   const fs::path dir = a.output;
   const fs::path result_path = dir / "result.json";
-  PrepareOutputDir(dir, "-o");
   const fs::path report_path = dir / "report.html";
-  CheckNotAnInput(result_path, input_paths);
-  if (!a.no_report) CheckNotAnInput(report_path, input_paths);
+  // Every output is checked before the work (minutes on many large photos): against the inputs, and the folder
+  // made, writable and locked against a second run into it. The overlays' names are known now (PhotoNames).
+  const std::vector<std::string> names = PhotoNames(inputs);
+  std::vector<NamedOutput> outputs = {{"result.json", result_path}, {"report.html", report_path}};
+  for (const std::string& name : names) outputs.push_back({"an overlay", dir / OverlayFileName(name)});
+  CheckOutputs(outputs, input_paths);
+  OutputFolder folder(dir, "-o");
 
   const AnalysisResult r = Analyze(a.camera, inputs, a.options);
   std::cout << SummaryText(r);
@@ -80,35 +88,58 @@ int RunAnalyze(AnalyzeArgs a) {
     throw Error("", p.rejected + (r.photos.size() > 1 ? fmt::format(" (and {} more photos rejected)", r.photos.size() - 1) : ""),
                 "");
   }
+  // result.json, the overlays and report.html are published together (core/file_io.h OutputSet): an interrupted
+  // or failed run leaves the previous complete set, never a new result.json beside an old report.html. Members
+  // of the previous set that this run does not write (report.html with --no-report, overlays with --no-overlays)
+  // go, so that nothing stale is read as part of the new set.
+  OutputSet set;
+  ReportAssets assets;
   std::vector<fs::path> overlays;
-  if (!a.no_overlays) {
-    for (const PhotoAnalysis& p : r.photos) {
-      if (p.used) CheckNotAnInput(dir / ("overlay-" + fs::path(p.name).stem().string() + ".png"), input_paths);
+  for (size_t i = 0; i < r.photos.size(); ++i) {
+    const PhotoAnalysis& p = r.photos[i];
+    if (!p.used) continue;
+    const fs::path path = dir / OverlayFileName(p.name);
+    if (a.no_overlays) {
+      set.RemoveOnPublish(path);
+      assets.overlay_missing[p.name] = "analyze ran with --no-overlays";
+      continue;
     }
-    overlays = WriteOverlays(r, dir, a.magnification);
+    std::string png = OverlayPng(r, i, a.magnification);
+    set.Write(path, png);
+    overlays.push_back(path);
+    if (!a.no_report) assets.overlay_png[p.name] = std::move(png);
   }
   const std::string result_text = ResultJson(r, a.command_line).dump(1) + "\n";
-  WriteFileAtomic(result_path, result_text);
+  set.Write(result_path, result_text);
+  std::string html;
+  std::string report_failure;
+  const Stopwatch watch;
+  if (a.no_report) {
+    set.RemoveOnPublish(report_path);
+  } else {
+    // The page from the document just written, read back as `curvecheck report` reads it (so it shows what the
+    // file says: a non-finite number in memory is null there), with the overlays just drawn.
+    try {
+      const nlohmann::json result = ParseResultJson(result_text, result_path.string());
+      assets.source = result_path.string();
+      html = ReportHtml(result, assets);
+      set.Write(report_path, html);
+    } catch (const Error& e) {
+      report_failure = e.what();
+      set.RemoveOnPublish(report_path);
+    }
+  }
+  set.Publish();
+  folder.Keep();
   std::cout << "wrote " << result_path.string();
   for (const fs::path& p : overlays) std::cout << ", " << p.filename().string();
   std::cout << "\n";
+  if (!report_failure.empty()) {
+    throw Error(report_path.string(), fmt::format("not written ({}); {} was written", report_failure,
+                                                  result_path.string()),
+                "fix that and run `curvecheck report " + result_path.string() + "`, or pass --no-report");
+  }
   if (!a.no_report) {
-    // The page from the document just written, read back as `curvecheck report` reads it (so it shows what the file
-    // says: a non-finite number in memory is null there), and the overlays beside it.
-    const Stopwatch watch;
-    std::string html;
-    try {
-      const nlohmann::json result = ParseResultJson(result_text, result_path.string());
-      ReportAssets assets = LoadReportAssets(result, dir, result_path.string());
-      if (a.no_overlays) {
-        for (auto& [name, why] : assets.overlay_missing) why = "analyze ran with --no-overlays";
-      }
-      html = ReportHtml(result, assets);
-    } catch (const Error& e) {
-      throw Error(report_path.string(), fmt::format("not written ({}); {} was written", e.what(), result_path.string()),
-                  "fix that and run `curvecheck report " + result_path.string() + "`, or pass --no-report");
-    }
-    WriteFileAtomic(report_path, html);
     std::cout << fmt::format("wrote {} ({:.2f} MB) in {:.0f} ms\n", report_path.string(), html.size() / 1e6,
                              watch.Ms());
   }

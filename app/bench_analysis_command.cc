@@ -15,6 +15,7 @@
 #include "experiments/bench_models.h"
 #include "experiments/bench_validity.h"
 #include "experiments/bench_verdict.h"
+#include "experiments/scene_lookup.h"
 
 namespace curvecheck::app {
 namespace {
@@ -24,7 +25,7 @@ void AddBenchFit(CLI::App& bench, std::function<int()>& run) {
   CLI::App* cmd = bench.add_subcommand(
       "fit",
       "Screen fit on synthetic truth: time per model (1 and 10 photos), radius bias/scatter/CRB/coverage");
-  cmd->add_option("--scene", o->scene, "Scene file (its true monitor and camera)")->capture_default_str();
+  cmd->add_option("--scene", o->scene, experiments::SceneOptionHelp() + "; its true monitor and camera")->capture_default_str();
   cmd->add_option("--runs", o->runs, "Timed runs per case (median reported)")->capture_default_str();
   cmd->add_option("--seeds", o->seeds, "Seeded single-photo fits for the radius statistics")
       ->capture_default_str();
@@ -82,7 +83,7 @@ void AddBenchAnalyze(CLI::App& bench, std::function<int()>& run) {
       "analyze",
       "The whole analysis on synthetic photos of a scene, many noise seeds: radius bias, sigma against "
       "the Cramer-Rao bound, interval coverage, model choice, time per stage");
-  cmd->add_option("--scene", o.scene, "Scene YAML, or the name of an embedded scene")->capture_default_str();
+  cmd->add_option("--scene", o.scene, experiments::SceneOptionHelp())->capture_default_str();
   cmd->add_option("--seeds", o.seeds, "Photos (noise seeds)")->capture_default_str();
   cmd->add_option("--cols", o.cols, "Checkerboard squares across")->capture_default_str();
   cmd->add_option("--rows", o.rows, "Checkerboard squares down")->capture_default_str();
@@ -123,7 +124,7 @@ void AddBenchVerdict(CLI::App& bench, std::function<int()>& run) {
       ->capture_default_str();
   cmd->add_option("--views", a->views, "on-axis, off-axis (yaw 15 deg, pitch 5 deg) or both, comma-separated")
       ->capture_default_str();
-  cmd->add_option("--scene", o.scene, "Scene YAML, or the name of an embedded scene (its monitor, lens, optics, "
+  cmd->add_option("--scene", o.scene, experiments::SceneOptionHelp() + " (its monitor, lens, optics, "
                                       "sensor; the camera is placed by the bench)")
       ->capture_default_str();
   cmd->add_option("--tolerance", o.tolerance_display_px, "Tolerance T, display px")->capture_default_str();
@@ -185,8 +186,7 @@ void AddBenchValidity(CLI::App& bench, std::function<int()>& run) {
       ->delimiter(',')
       ->capture_default_str();
   cmd->add_option("--scene", o.scene,
-                  "Scene YAML, or the name of an embedded scene (its monitor, lens, optics, sensor; the bench places "
-                  "the camera)")
+                  experiments::SceneOptionHelp() + " (its monitor, lens, optics, sensor; the bench places the camera)")
       ->capture_default_str();
   cmd->add_option("--jitter-mm", o.jitter_mm, "Camera position jitter per trial, mm per axis (1 sigma)")
       ->capture_default_str();

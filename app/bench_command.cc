@@ -8,12 +8,14 @@
 #include <iostream>
 #include <memory>
 
+#include "app/output_paths.h"
 #include "app/render_options.h"
 #include "core/error.h"
 #include "experiments/bench_calibrate.h"
 #include "experiments/bench_capture.h"
 #include "experiments/bench_detect.h"
 #include "experiments/bench_render.h"
+#include "experiments/scene_lookup.h"
 
 namespace curvecheck::app {
 namespace {
@@ -51,7 +53,7 @@ void AddBenchCapture(CLI::App& bench, std::function<int()>& run) {
   auto o = std::make_shared<experiments::BenchCaptureOptions>();
   CLI::App* cmd = bench.add_subcommand(
       "capture", "Synthetic camera speed on one scene: median wall and CPU time, rays/s, share per stage");
-  cmd->add_option("--scene", o->scene, "Scene YAML")->capture_default_str();
+  cmd->add_option("--scene", o->scene, experiments::SceneOptionHelp())->capture_default_str();
   cmd->add_option(
       "--display", o->display,
       "Display image (PNG at the monitor's resolution); default: the default checkerboard rendered "
@@ -61,6 +63,13 @@ void AddBenchCapture(CLI::App& bench, std::function<int()>& run) {
   cmd->callback([&run, o] {
     run = [o] {
       o->Check();
+      if (!o->output.empty()) {
+        // The CSV never replaces the scene or the display it photographs, and its folder takes it, before the runs.
+        std::vector<fs::path> inputs = {o->scene};
+        if (!o->display.empty()) inputs.push_back(o->display);
+        CheckOutputs({{"-o", o->output}}, inputs);
+        CheckWritable(o->output);
+      }
       experiments::RunBenchCapture(*o, std::cout);
       return 0;
     };
@@ -77,7 +86,7 @@ void AddBenchDetect(CLI::App& bench, std::function<int()>& run) {
   experiments::BenchDetectOptions& o = a->options;
   CLI::App* cmd = bench.add_subcommand(
       "detect", "Every detector on synthetic photos of a scene: median time and error against the truth");
-  cmd->add_option("--scene", o.scene, "Scene YAML (its camera takes the photos)")->capture_default_str();
+  cmd->add_option("--scene", o.scene, experiments::SceneOptionHelp() + "; its camera takes the photos")->capture_default_str();
   cmd->add_option("--runs", o.runs, "Timed runs per detector (median reported)")->capture_default_str();
   cmd->add_option("--patterns", o.patterns, "Which of checkerboard,square,apriltag")->capture_default_str();
   cmd->add_option("-o,--output", a->output, "Output folder (detect_bench.csv, detect_bench.png and its .gp)");

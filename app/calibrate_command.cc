@@ -13,7 +13,9 @@
 #include <iostream>
 
 #include "calibrate/calibrate.h"
+#include "app/output_paths.h"
 #include "core/error.h"
+#include "core/path_check.h"
 #include "core/stopwatch.h"
 #include "core/file_io.h"
 
@@ -44,10 +46,20 @@ int RunCalibrate(const CalibrateArgs& a) {
   std::vector<fs::path> photos;
   std::error_code ec;
   for (const std::string& p : a.photos) {
+    if (ClassifyPath(p) == PathKind::kLinkLoop) RequireFile(p);  // "is a symbolic link loop; ..."
     if (!fs::is_regular_file(p, ec)) throw Error(p, "is not a file", "give the photos' paths (shell globs work)");
     if (fs::exists(out, ec) && fs::equivalent(p, out, ec)) throw Error(p, "is also the output", "choose another -o");
     photos.emplace_back(p);
   }
+  // Every output against every input and writable before the work, which takes minutes on 30 large photos.
+  fs::path cov_path = out;
+  cov_path.replace_extension(".intrinsics_covariance.json");
+  const std::vector<NamedOutput> outputs = {
+      {"-o", out}, {"the report beside -o", report_path}, {"the covariance beside -o", cov_path}};
+  std::vector<fs::path> inputs = photos;
+  if (!a.board_from.empty()) inputs.push_back(a.board_from);
+  CheckOutputs(outputs, inputs);
+  for (const NamedOutput& o : outputs) CheckWritable(o.path);
   const BoardSpec board = a.board_from.empty() ? BoardFromText(a.board, a.square_mm) : BoardFromPatternJson(a.board_from);
   ChessboardOptions d;
   d.detector = ParseChessboardDetector(a.detector);
@@ -91,14 +103,20 @@ int RunCalibrate(const CalibrateArgs& a) {
   report["detect_s"] = detect_s;
   report["uncertainty"]["distance_mm"] = c.distance_mm > 0 ? nlohmann::json(c.distance_mm) : nlohmann::json("infinity");
   report["model"] = out.filename().string();
-  WriteFileAtomic(out, ch.model_text);
-  WriteFileAtomic(report_path, report.dump(1) + "\n");
+  // The model, its report and its covariance as one set (core/file_io.h OutputSet); a covariance left from an
+  // earlier model goes with it.
+  OutputSet set;
+  set.Write(out, ch.model_text);
+  set.Write(report_path, report.dump(1) + "\n");
+  if (ch.intrinsics_covariance.size() > 0) {
+    set.Write(cov_path, IntrinsicsCovarianceJson(ch, out.filename().string()).dump(1) + "\n");
+  } else {
+    set.RemoveOnPublish(cov_path);
+  }
+  set.Publish();
   std::cout << fmt::format("wrote {} and {}\n", out.string(), report_path.string());
   // The lens's own uncertainty, which `curvecheck analyze` propagates into the radius (its uncertainty budget).
   if (ch.intrinsics_covariance.size() > 0) {
-    fs::path cov_path = out;
-    cov_path.replace_extension(".intrinsics_covariance.json");
-    WriteFileAtomic(cov_path, IntrinsicsCovarianceJson(ch, out.filename().string()).dump(1) + "\n");
     std::cout << fmt::format("wrote {} (the intrinsics covariance, for analyze's uncertainty budget)\n",
                              cov_path.string());
   }

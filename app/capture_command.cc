@@ -12,10 +12,12 @@
 #include <string>
 #include <vector>
 
+#include "app/cli.h"
 #include "capture/frame_source.h"
 #include "capture/presenter_display.h"
 #include "capture/session.h"
 #include "core/error.h"
+#include "core/path_check.h"
 #include "core/file_io.h"
 #include "core/image_io.h"
 #include "core/progress.h"
@@ -45,13 +47,14 @@ struct CameraArgs {
 void AddCameraOptions(CLI::App* cmd, CameraArgs& a) {
   cmd->add_option("--device", a.device, "V4L2 device: /dev/videoN or an index N")->capture_default_str();
   cmd->add_option("--width", a.width, "Requested width (px); the device must deliver exactly this")
-      ->check(CLI::PositiveNumber);
-  cmd->add_option("--height", a.height, "Requested height (px)")->check(CLI::PositiveNumber);
+      ->check(InRange(1, 65535, "px", "a frame size a V4L2 device can deliver"));
+  cmd->add_option("--height", a.height, "Requested height (px)")
+      ->check(InRange(1, 65535, "px", "a frame size a V4L2 device can deliver"));
   cmd->add_option("--exposure", a.exposure,
                   "Manual exposure in the driver's units (V4L2: 100 us); without it: auto exposure");
   cmd->add_option("--frames", a.frames, "Frames averaged per photo (noise falls as 1/sqrt(N))")
       ->capture_default_str()
-      ->check(CLI::PositiveNumber);
+      ->check(InRange(1, 1000, "", "at least one frame; 1000 frames average the noise down by 30x"));
 }
 
 std::string Lower(std::string s) {
@@ -93,11 +96,12 @@ void CheckPhotoOutput(const fs::path& out, bool jpeg_allowed) {
 }
 
 std::vector<fs::path> ImagesIn(const fs::path& dir) {
+  if (ClassifyPath(dir) == PathKind::kLinkLoop) RequireFolder(dir, "");
   if (!fs::is_directory(dir)) throw Error("--source fake-folder", fmt::format("'{}' is not a folder", dir.string()), "");
   static const std::set<std::string> kExt = {".png", ".jpg", ".jpeg", ".tif", ".tiff", ".bmp"};
   std::vector<fs::path> files;
   for (const auto& e : fs::directory_iterator(dir)) {
-    if (e.is_regular_file() && kExt.count(Lower(e.path().extension().string())) != 0) files.push_back(e.path());
+    if (ClassifyPath(e.path()) == PathKind::kFile && kExt.count(Lower(e.path().extension().string())) != 0) files.push_back(e.path());
   }
   std::sort(files.begin(), files.end());
   if (files.empty()) throw Error("--source fake-folder", fmt::format("'{}' holds no images", dir.string()), "");
@@ -124,7 +128,9 @@ int RunSessionCommand(const SessionArgs& a) {
   const SessionPlan plan = LoadSessionPlan(a.plan);
   std::set<fs::path> checked;
   for (const PlannedShot& s : plan.shots) {
-    if (checked.insert(s.pattern_json).second) ReadPatternJson(s.pattern_json);  // full validation
+    if (!checked.insert(s.pattern_json).second) continue;
+    const PatternFile pattern = ReadPatternJson(s.pattern_json);  // full validation
+    CheckPatternBelongsToImage(pattern, s.pattern_json, s.pattern_png, ReadImage8(s.pattern_png));
   }
   std::unique_ptr<FrameSource> source;
   if (kind == "webcam") {
@@ -196,7 +202,7 @@ CLI::App* AddCaptureCommand(CLI::App& app, std::function<int()>& run) {
   AddCameraOptions(session, ses->camera);
   session->add_option("--display", ses->display, "Output (monitor) that shows the patterns, as GLFW lists them")
       ->capture_default_str()
-      ->check(CLI::NonNegativeNumber);
+      ->check(InRange(0, 255, "", "an output number: 0 is the primary"));
   session->add_option("--settle-ms", ses->settle_ms, "Wait after each pattern is on screen before the photo (>= 50)")
       ->capture_default_str()
       ->check(CLI::Range(50, 600000));
@@ -218,7 +224,10 @@ CLI::App* AddCaptureCommand(CLI::App& app, std::function<int()>& run) {
   import->add_option("-o,--output", imp->output, "Session folder (new or empty)")->required();
   import->callback([imp, &run] {
     run = [imp] {
-      ReadPatternJson(imp->pattern);
+      const PatternFile pattern = ReadPatternJson(imp->pattern);
+      // The PNG beside it, if any, is stored with the session as the pattern shown: it must be the one.
+      const fs::path png = fs::path(imp->pattern).replace_extension(".png");
+      if (ClassifyPath(png) == PathKind::kFile) CheckPatternBelongsToImage(pattern, imp->pattern, png, ReadImage8(png));
       Progress progress("import", 0, std::cout, false);
       const ImportResult r = ImportFolder(imp->photos, imp->pattern, imp->output, CommandLine("import"), &progress);
       for (const auto& [file, reason] : r.rejected) std::cout << "rejected " << file << ": " << reason << "\n";

@@ -14,9 +14,11 @@
 #include <vector>
 
 #include "synth/synthetic_camera.h"
+#include "core/camera_model.h"
 #include "core/error.h"
 #include "core/file_io.h"
 #include "core/image_io.h"
+#include "core/path_check.h"
 #include "pattern/pattern_json.h"
 
 namespace curvecheck::app {
@@ -36,12 +38,31 @@ int RunSynth(const SynthArgs& a) {
     throw Error("-o", fmt::format("'{}' does not end in .png or .jpg", a.output),
                 "write e.g. -o photo.png (or photo.jpg: the realistic chain's JPEG itself)");
   }
-  const fs::path truth_path = fs::path(out).replace_extension(".truth.json");
-  CheckNotAnInput(out, {a.scene, a.display});
-  CheckNotAnInput(truth_path, {a.scene, a.display});
+  fs::path truth_path = fs::path(out).replace_extension(".truth.json");
+  // The photo's camera model (mrcal format, the scene's lens at --scale): what `analyze --camera` needs next.
+  const fs::path model_path = fs::path(out).replace_extension(".cameramodel");
+  RequireFile(a.display);  // before its pattern.json: a missing display or a link loop is named as itself
+  const fs::path pattern_json = fs::path(a.display).replace_extension(".json");
   SyntheticScene scene = LoadScene(a.scene, a.overrides);
   if (a.scale) scene.camera = ScaledCamera(scene.camera, *a.scale);
-  const fs::path pattern_json = fs::path(a.display).replace_extension(".json");
+  // Every file read (the scene's camera model too) against every file written, and the outputs writable, before
+  // the ray tracing. `--display X.truth.png -o X.png` names the display's pattern.json (X.truth.json) as the
+  // photo's truth: the truth then takes the photo's whole file name, X.png.truth.json (said on stdout).
+  std::vector<fs::path> inputs = {a.scene, a.display, pattern_json};
+  if (!scene.camera_model_path.empty()) {
+    const fs::path model = scene.camera_model_path;
+    inputs.push_back(model.is_relative() ? fs::path(a.scene).parent_path() / model : model);
+  }
+  std::string truth_note;
+  if (IsAnInput(truth_path, inputs)) {
+    truth_note = fmt::format("note: {} is an input of this command, so the truth is written as {}\n",
+                             truth_path.string(), out.string() + ".truth.json");
+    truth_path = out.string() + ".truth.json";
+  }
+  const std::vector<NamedOutput> outputs = {
+      {"-o", out}, {"the truth beside -o", truth_path}, {"the camera model beside -o", model_path}};
+  CheckOutputs(outputs, inputs);
+  for (const NamedOutput& o : outputs) CheckWritable(o.path);
   const PatternFile pattern = ReadPatternJson(pattern_json);
   if (pattern.monitor.width_px != scene.monitor.width_px || pattern.monitor.height_px != scene.monitor.height_px) {
     throw Error(pattern_json.string(),
@@ -56,6 +77,7 @@ int RunSynth(const SynthArgs& a) {
                             scene.monitor.width_px, scene.monitor.height_px),
                 "show the PNG that render wrote for this monitor");
   }
+  CheckPatternBelongsToImage(pattern, pattern_json, a.display, display);
   const SyntheticPhoto photo = RenderSyntheticPhoto(scene, display, a.ray_grid_px);
   nlohmann::json truth = TruthJson(scene, pattern.features);
   truth["scene"] = a.scene;
@@ -64,17 +86,25 @@ int RunSynth(const SynthArgs& a) {
   truth["photo"] = out.filename().string();
   truth["scene_overrides"] = a.overrides;
   truth["imager_scale"] = a.scale.value_or(1.0);
-  WriteSyntheticPhoto(out, photo);
-  WriteFileAtomic(truth_path, truth.dump(1) + "\n");
+  truth["camera_model_file"] = model_path.filename().string();
+  // The photo, its truth and its camera model as one set (core/file_io.h OutputSet): never a new photo beside an
+  // old truth.
+  OutputSet set;
+  set.WriteWith(out, [&](const fs::path& staged) { WriteSyntheticPhoto(staged, photo); });
+  set.Write(truth_path, truth.dump(1) + "\n");
+  set.WriteWith(model_path, [&](const fs::path& staged) { WriteCameraModel(staged, scene.camera); });
+  set.Publish();
+  std::cout << truth_note;
   int visible = 0;
   for (const auto& f : truth["features"]) visible += f["visible"].get<bool>() ? 1 : 0;
   const PhotoTiming& t = photo.timing;
   std::cout << fmt::format(
       "{} x {} px, {} rays in {:.0f} ms ({:.1f} M rays/s traced; CPU {:.0f} ms on {} threads): rays {:.0f} ms, "
-      "trace {:.0f} ms, optics {:.0f} ms, sensor {:.0f} ms\n{} of {} features visible\nwrote {} and {}\n",
+      "trace {:.0f} ms, optics {:.0f} ms, sensor {:.0f} ms\n{} of {} features visible\nwrote {}, {} and {} (the "
+      "photo's camera model: give it to analyze --camera)\n",
       photo.width, photo.height, t.rays, t.total_ms(), t.rays / (t.trace_ms * 1e3), t.total_cpu_ms(), t.threads,
       t.rays_ms, t.trace_ms, t.optics_ms, t.sensor_ms, visible, truth["features"].size(), out.string(),
-      truth_path.string());
+      truth_path.string(), model_path.string());
   return 0;
 }
 
@@ -83,8 +113,9 @@ int RunSynth(const SynthArgs& a) {
 void AddCaptureSynthCommand(CLI::App& capture, std::function<int()>& run) {
   auto args = std::make_shared<SynthArgs>();
   CLI::App* cmd = capture.add_subcommand(
-      "synth", "Ray-trace a photo of the scene's true monitor showing a pattern; writes PHOTO.png and "
-               "PHOTO.truth.json (true image position of every feature of the pattern's pattern.json)");
+      "synth", "Ray-trace a photo of the scene's true monitor showing a pattern; writes PHOTO.png, "
+               "PHOTO.truth.json (true image position of every feature of the pattern's pattern.json) and "
+               "PHOTO.cameramodel (the photo's camera in mrcal format, at --scale: give it to analyze --camera)");
   cmd->add_option("--scene", args->scene, "Scene YAML (datasets/scenes/)")->required();
   cmd->add_option("--display", args->display, "The pattern PNG shown on the display (its .json beside it)")
       ->required();
@@ -96,7 +127,8 @@ void AddCaptureSynthCommand(CLI::App& capture, std::function<int()>& run) {
                   "Override a scene field, KEY=VALUE with a dotted key (repeatable), e.g. --set optics.blur=none "
                   "--set sensor.noise=false --set true_monitor.lean_deg=0.5");
   cmd->add_option("--scale", args->scale,
-                  "Shrink the camera's imager by this factor (0..1], lens scaled with it: quick previews and tests");
+                  "Shrink the camera's imager by this factor (0..1], lens scaled with it: quick previews and tests "
+                  "(PHOTO.cameramodel is the scaled camera)");
   cmd->callback([&run, args] { run = [args] { return RunSynth(*args); }; });
 }
 

@@ -10,6 +10,8 @@ namespace curvecheck::app {
 struct InfoOptions {
   std::string monitor = "default";  // preset name, "default", or YAML/JSON file
   std::optional<std::string> viewpoint;  // "x,y,z" in mm, screen frame
+  std::optional<double> distance_mm;     // or the viewpoint from the screen centre (render_options.h)
+  std::optional<std::string> offset_mm;
   bool json = false;                 // machine-readable output
   bool list_presets = false;
 };

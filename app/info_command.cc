@@ -5,6 +5,7 @@
 #include <nlohmann/json.hpp>
 
 #include "app/commands.h"
+#include "app/render_options.h"
 #include "core/config.h"
 #include "core/math_util.h"
 #include "core/monitor_json.h"
@@ -25,12 +26,8 @@ int RunInfo(const InfoOptions& o) {
   const Monitor m = LoadMonitor(o.monitor);
   std::optional<Eigen::Vector3d> viewpoint;
   std::optional<ViewingGeometry> view;
-  if (o.viewpoint) {
-    const std::vector<double> v = ParseNumberList(*o.viewpoint, 3, "--viewpoint");
-    viewpoint = Eigen::Vector3d(v[0], v[1], v[2]);
-    CheckViewpoint(m, *viewpoint, "--viewpoint");
-    view = DescribeViewing(m, *viewpoint);
-  }
+  viewpoint = ViewpointFromOptions(m, o.viewpoint.value_or(""), o.distance_mm, o.offset_mm);
+  if (viewpoint) view = DescribeViewing(m, *viewpoint);
 
   if (o.json) {
     nlohmann::json j;
@@ -65,7 +62,8 @@ int RunInfo(const InfoOptions& o) {
                              m.chord_width_mm(), m.sagitta_mm());
   }
   if (!view) {
-    std::cout << "viewpoint       not given (--viewpoint x,y,z in mm, screen frame) -> no field of view\n";
+    std::cout << "viewpoint       not given (--distance-mm D from the screen centre, or --viewpoint x,y,z in mm, "
+                 "screen frame) -> no field of view\n";
     return 0;
   }
   const Eigen::Vector3d rel = *viewpoint - ScreenCentreInScreen(m);

@@ -1,5 +1,7 @@
 #include "app/present_command.h"
 
+#include "app/cli.h"
+
 #include <iostream>
 #include <memory>
 #include <string>
@@ -23,10 +25,11 @@ void AddPresentCommand(CLI::App& app, std::function<int()>& run) {
       "'shown k/n path' on stdout once each image is on screen");
   cmd->add_option("--display,-d", options->display, "Output (monitor) number as GLFW lists them; 0 is the primary")
       ->capture_default_str()
-      ->check(CLI::NonNegativeNumber);
+      ->check(InRange(0, 255, "", "an output number: 0 is the primary"));
   cmd->add_option("--hold-ms", options->hold_ms,
-                  "Keep each image this many milliseconds, then show the next; exit after the last (unattended)")
-      ->check(CLI::PositiveNumber);
+                  "Keep each image this many milliseconds (1 to 86400000, one day), then show the next; exit after "
+                  "the last (unattended)")
+      ->check(InRange(1, 86400000, "ms", "at least 1 ms, at most one day"));
   cmd->add_flag("--windowed", options->windowed,
                 "An undecorated window at the output's position and size instead of exclusive fullscreen "
                 "(tests, Xvfb)");

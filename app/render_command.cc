@@ -42,8 +42,12 @@ int RunRender(const RenderArgs& a) {
   const fs::path png = a.output;
   if (png.extension() != ".png") throw Error("-o", fmt::format("'{}' does not end in .png", a.output), "write e.g. -o out.png");
   const fs::path json = fs::path(png).replace_extension(".json");
-  CheckNotAnInput(png, Inputs(a));
-  CheckNotAnInput(json, Inputs(a));
+  // Outputs against the inputs and one another (`--error-map x.png -o x.png`, or `--error-map x.json` beside
+  // x.png's pattern.json, would lose one of them), and writable, before the render.
+  std::vector<NamedOutput> outputs = {{"-o", png}, {"the pattern.json beside -o", json}};
+  if (a.error_map) outputs.push_back({"--error-map", *a.error_map});
+  CheckOutputs(outputs, Inputs(a));
+  for (const NamedOutput& o : outputs) CheckWritable(o.path);
   const Scene scene = ResolveScene(a.scene, Eigen::Vector3d(0, 0, 1500));
   const RenderOptions options = ResolveMethod(a.method);
   const Pattern pattern = BuildPattern(scene.spec, scene.monitor, scene.viewpoint_in_screen,
@@ -59,7 +63,10 @@ int RunRender(const RenderArgs& a) {
                    {"render_ms", timing.render_ms},
                    {"setup_ms", renderer.setup_ms()},
                    {"image", png.filename().string()},
+                   // what capture synth and capture sessions check that a display PNG is this one
+                   {"image_content_hash", DisplayImageHash({image.width, image.height, 1, image.pixels})},
                    {"command", "curvecheck render"}};
+  OutputSet set;  // the PNG, its pattern.json and the error map: all new or all old
   if (a.accuracy || a.error_map) {
     const CoordinateImage coords =
         renderer.RenderCoordinates(scene.monitor, scene.viewpoint_in_screen, pattern, options);
@@ -71,20 +78,26 @@ int RunRender(const RenderArgs& a) {
                              err.missing_pixels ? fmt::format(" ({} px not drawn)", err.missing_pixels) : "");
     if (a.error_map) {
       const double scale = std::max(1e-3, err.max_finite_px);
-      WriteHeatmapPng(*a.error_map, scene.monitor.width_px, scene.monitor.height_px, err.map_px, scale);
+      set.WriteWith(*a.error_map, [&](const fs::path& staged) {
+        WriteHeatmapPng(staged, scene.monitor.width_px, scene.monitor.height_px, err.map_px, scale);
+      });
       std::cout << fmt::format("error map (0 .. {:.3g} px, viridis; pixels not drawn in magenta) -> {}\n", scale,
                                *a.error_map);
     }
   }
-  WritePng8(png, image.width, image.height, 1, image.pixels.data());
-  WriteFileAtomic(json, doc.dump(1) + "\n");
+  set.WriteWith(png, [&](const fs::path& staged) {
+    WritePng8(staged, image.width, image.height, 1, image.pixels.data());
+  });
+  set.Write(json, doc.dump(1) + "\n");
+  set.Publish();
   int visible = 0;
   for (const Feature& f : pattern.features) visible += f.visible ? 1 : 0;
   std::cout << fmt::format("{}: {} on {} ({} x {} px), {} features ({} visible); rendered in {:.1f} ms on {} "
-                           "(set-up {:.1f} ms)\nwrote {} and {}\n",
+                           "(set-up {:.1f} ms)\n{}\nwrote {} and {}\n",
                            options.method.Label(), PatternKindName(pattern.spec.kind), scene.monitor.name,
                            image.width, image.height, pattern.features.size(), visible, timing.render_ms,
-                           renderer.device_name(), renderer.setup_ms(), png.string(), json.string());
+                           renderer.device_name(), renderer.setup_ms(),
+                           DescribeViewpoint(scene.monitor, scene.viewpoint_in_screen), png.string(), json.string());
   if (a.present) {
     PresenterOptions present;
     present.display = a.display;

@@ -2,6 +2,8 @@
 
 #include <fmt/format.h>
 
+#include <cmath>
+
 #include "core/config.h"
 #include "core/error.h"
 #include "core/screen_geometry.h"
@@ -12,9 +14,11 @@ namespace curvecheck::app {
 void AddSceneOptions(CLI::App& cmd, SceneArgs& a, const std::string& default_viewpoint_help) {
   cmd.add_option("--monitor,-m", a.monitor, "Monitor preset name, 'default', or a YAML/JSON spec file")
       ->capture_default_str();
-  cmd.add_option("--viewpoint,-v", a.viewpoint,
-                 "Viewpoint x,y,z in mm, screen frame (origin on the cylinder axis, screen centre at 0,0,-R; flat: "
-                 "screen is z = 0). Default: " + default_viewpoint_help);
+  CLI::Option* viewpoint = cmd.add_option(
+      "--viewpoint,-v", a.viewpoint,
+      "Viewpoint x,y,z in mm, screen frame (origin on the cylinder axis, screen centre at 0,0,-R; flat: screen is "
+      "z = 0; or give --distance-mm). Default: " + default_viewpoint_help);
+  AddDistanceOptions(cmd, viewpoint, a.distance_mm, a.offset_mm);
   cmd.add_option("--pattern,-p", a.pattern, "checkerboard | apriltag | both (tags in the white squares)")
       ->capture_default_str();
   cmd.add_option("--pattern-file", a.pattern_file, "Pattern spec YAML (keys as pattern/pattern.h PatternSpec)");
@@ -25,6 +29,48 @@ void AddSceneOptions(CLI::App& cmd, SceneArgs& a, const std::string& default_vie
   cmd.add_option("--first-tag-id", a.first_tag_id, "First tag36h11 id");
   cmd.add_option("--tag-gap-cells", a.tag_gap_cells, "Gap between tags in cells of tag size / 8 (>= 2)");
   cmd.add_option("--margin", a.margin, "Free margin around a fitted pattern, fraction of the display per side");
+}
+
+void AddDistanceOptions(CLI::App& cmd, CLI::Option* viewpoint, std::optional<double>& distance_mm,
+                        std::optional<std::string>& offset_mm) {
+  CLI::Option* distance = cmd.add_option(
+      "--distance-mm", distance_mm,
+      "Viewpoint this far (mm) in front of the screen centre, along the screen's normal there (instead of "
+      "--viewpoint, which is measured from the cylinder axis)");
+  distance->excludes(viewpoint);
+  cmd.add_option("--offset-mm", offset_mm,
+                 "With --distance-mm: move the viewpoint X,Y mm right and up, parallel to the screen at its centre")
+      ->needs(distance);
+}
+
+std::optional<Eigen::Vector3d> ViewpointFromOptions(const Monitor& monitor, const std::string& viewpoint,
+                                                    const std::optional<double>& distance_mm,
+                                                    const std::optional<std::string>& offset_mm) {
+  std::optional<Eigen::Vector3d> v;
+  std::string option = "--viewpoint";
+  if (distance_mm) {
+    option = "--distance-mm";
+    if (!std::isfinite(*distance_mm) || *distance_mm <= 0) {
+      throw Error("--distance-mm", fmt::format("{} is not a positive distance", *distance_mm),
+                  "give the distance from the screen centre in mm, e.g. --distance-mm 600");
+    }
+    Eigen::Vector2d offset = Eigen::Vector2d::Zero();
+    if (offset_mm) {
+      const std::vector<double> o = ParseNumberList(*offset_mm, 2, "--offset-mm");
+      offset = Eigen::Vector2d(o[0], o[1]);
+    }
+    v = ViewpointFromScreenCentre(monitor, *distance_mm, offset);
+  } else if (!viewpoint.empty()) {
+    const std::vector<double> p = ParseNumberList(viewpoint, 3, "--viewpoint");
+    v = Eigen::Vector3d(p[0], p[1], p[2]);
+  }
+  if (v) CheckViewpoint(monitor, *v, option);
+  return v;
+}
+
+std::string DescribeViewpoint(const Monitor& monitor, const Eigen::Vector3d& v) {
+  return fmt::format("viewpoint ({:g}, {:g}, {:g}) mm (screen frame), {:.1f} mm from the screen centre", v.x(), v.y(),
+                     v.z(), (v - ScreenCentreInScreen(monitor)).norm());
 }
 
 void AddMethodOptions(CLI::App& cmd, MethodArgs& a) {
@@ -57,12 +103,8 @@ std::pair<int, int> ParseCount2(const std::string& text, const std::string& opti
 Scene ResolveScene(const SceneArgs& a, const Eigen::Vector3d& default_from_centre) {
   Scene s;
   s.monitor = LoadMonitor(a.monitor);
-  if (a.viewpoint.empty()) {
-    s.viewpoint_in_screen = ScreenCentreInScreen(s.monitor) + default_from_centre;
-  } else {
-    const std::vector<double> v = ParseNumberList(a.viewpoint, 3, "--viewpoint");
-    s.viewpoint_in_screen = Eigen::Vector3d(v[0], v[1], v[2]);
-  }
+  const std::optional<Eigen::Vector3d> given = ViewpointFromOptions(s.monitor, a.viewpoint, a.distance_mm, a.offset_mm);
+  s.viewpoint_in_screen = given ? *given : ScreenCentreInScreen(s.monitor) + default_from_centre;
   CheckViewpoint(s.monitor, s.viewpoint_in_screen, "--viewpoint");
   if (a.pattern_file) s.spec = PatternSpecFromConfig(ConfigMap::Load(*a.pattern_file));
   s.spec.kind = ParsePatternKind(a.pattern, "--pattern");

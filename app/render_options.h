@@ -16,6 +16,9 @@ namespace curvecheck::app {
 struct SceneArgs {
   std::string monitor = "default";
   std::string viewpoint;  // "x,y,z"; empty = the command's default
+  // --distance-mm D [--offset-mm X,Y]: the viewpoint from the screen centre (ViewpointFromScreenCentre).
+  std::optional<double> distance_mm;
+  std::optional<std::string> offset_mm;
   std::string pattern = "checkerboard";
   std::optional<std::string> pattern_file;
   std::optional<std::string> squares, tags;  // "CxR"
@@ -39,6 +42,17 @@ struct MethodArgs {
 };
 
 void AddSceneOptions(CLI::App& cmd, SceneArgs& args, const std::string& default_viewpoint_help);
+// --distance-mm and --offset-mm beside a command's --viewpoint option (which they exclude): for every command
+// that takes a viewpoint.
+void AddDistanceOptions(CLI::App& cmd, CLI::Option* viewpoint, std::optional<double>& distance_mm,
+                        std::optional<std::string>& offset_mm);
+// The viewpoint in the screen frame from --viewpoint text or --distance-mm/--offset-mm; nullopt when neither is
+// given. Checked (CheckViewpoint), errors naming the option the user gave.
+std::optional<Eigen::Vector3d> ViewpointFromOptions(const Monitor& monitor, const std::string& viewpoint,
+                                                    const std::optional<double>& distance_mm,
+                                                    const std::optional<std::string>& offset_mm);
+// "viewpoint (x, y, z) mm (screen frame), D mm from the screen centre": how commands print a viewpoint.
+std::string DescribeViewpoint(const Monitor& monitor, const Eigen::Vector3d& viewpoint_in_screen);
 void AddMethodOptions(CLI::App& cmd, MethodArgs& args);
 
 struct Scene {

@@ -35,7 +35,9 @@ int RunReport(const ReportArgs& a) {
   const ReportAssets assets = LoadReportAssets(result, dir, result_path.string());
   std::vector<fs::path> inputs = {result_path};
   for (const auto& [name, bytes] : assets.overlay_png) inputs.push_back(dir / OverlayFileName(name));
+  for (const auto& [name, why] : assets.overlay_missing) inputs.push_back(dir / OverlayFileName(name));
   CheckNotAnInput(out, inputs);
+  CheckWritable(out);
   const std::string html = ReportHtml(result, assets);
   WriteFileAtomic(out, html);
   const double ms = watch.Ms();

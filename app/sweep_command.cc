@@ -11,6 +11,7 @@
 #include "app/cli.h"
 #include "app/output_paths.h"
 #include "core/error.h"
+#include "experiments/scene_lookup.h"
 #include "experiments/sweep.h"
 #include "render/method.h"
 
@@ -103,7 +104,7 @@ void AddSweepCommand(CLI::App& app, std::function<int()>& run) {
   cmd->add_option("--factor", a->factors, factor_help);
   cmd->add_option("--method", a->method, "exact|none|strips|warp|mesh, a comma list, or all")
       ->capture_default_str();
-  cmd->add_option("--scene", a->options.scene, "Scene YAML, or the name of an embedded scene")
+  cmd->add_option("--scene", a->options.scene, experiments::SceneOptionHelp())
       ->capture_default_str();
   cmd->add_option("--scale", a->options.camera_scale,
                   "Camera imager scale (0 < s <= 1; 0.25: 1500 x 1000 px for the default)")

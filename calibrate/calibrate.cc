@@ -8,6 +8,7 @@
 #include <opencv2/calib3d.hpp>
 
 #include "calibrate/mrcal_solve_script.h"
+#include "core/camera_model.h"
 #include "core/error.h"
 #include "core/file_io.h"
 #include "core/stats.h"
@@ -138,10 +139,17 @@ const std::string& MrcalSolveScript() {
 }
 
 void CalibrateOptions::Check() const {
+  // Checked with mrcal's own parser before any photo is read, not when the solver first meets the name.
+  // "fov_x_deg=auto" is ours (the field of view from the stereographic seed): parsed with a number in its place.
   for (const std::string& m : lensmodels) {
-    if (m.rfind("LENSMODEL_", 0) != 0) {
+    std::string parsable = m;
+    if (const size_t at = parsable.rfind("fov_x_deg=auto"); at != std::string::npos && at + 14 == parsable.size()) {
+      parsable.replace(at + 10, 4, "100");
+    }
+    if (!IsMrcalLensModel(parsable)) {
       throw Error("--lensmodel", fmt::format("'{}' is not a mrcal lens model name", m),
-                  "use auto or e.g. LENSMODEL_OPENCV8 (mrcal-lensmodel-metadata lists them)");
+                  "use auto or e.g. LENSMODEL_OPENCV8 (the lens models are listed in mrcal's documentation, "
+                  "'Lens models')");
     }
   }
   if (splined_nx < 4 || splined_nx > 60) {

@@ -16,6 +16,7 @@
 #include "core/error.h"
 #include "core/file_io.h"
 #include "core/image_io.h"
+#include "core/path_check.h"
 
 namespace curvecheck {
 namespace fs = std::filesystem;
@@ -47,7 +48,8 @@ std::pair<std::string, std::string> StorePattern(const fs::path& png, const fs::
 }
 
 void CheckPatternJson(const fs::path& p, const std::string& where) {
-  if (!fs::is_regular_file(p)) {
+  if (ClassifyPath(p) == PathKind::kLinkLoop) RequireFile(p);
+  if (ClassifyPath(p) != PathKind::kFile) {
     throw Error(where, fmt::format("pattern.json '{}' does not exist", p.string()),
                 "keep the .json that `curvecheck render` wrote beside the pattern PNG");
   }
@@ -76,7 +78,10 @@ std::string FileTimeUtc(const fs::path& p) {
 }
 
 bool FolderIsEmptyOrMissing(const fs::path& folder) {
-  return !fs::exists(folder) || (fs::is_directory(folder) && fs::is_empty(folder));
+  const PathKind kind = ClassifyPath(folder);
+  if (kind == PathKind::kLinkLoop) RequireFolder(folder, "");
+  std::error_code ec;
+  return kind == PathKind::kMissing || (kind == PathKind::kFolder && fs::is_empty(folder, ec) && !ec);
 }
 
 void PrepareNewFolder(const fs::path& folder, bool resume_possible) {
@@ -118,7 +123,8 @@ SessionPlan LoadSessionPlan(const fs::path& plan_file) {
       throw Error(where, fmt::format("pattern '{}' is not a .png", p.pattern_png.string()),
                   "give the PNG that `curvecheck render` wrote");
     }
-    if (!fs::is_regular_file(p.pattern_png)) {
+    if (ClassifyPath(p.pattern_png) == PathKind::kLinkLoop) RequireFile(p.pattern_png);
+    if (ClassifyPath(p.pattern_png) != PathKind::kFile) {
       throw Error(where, fmt::format("pattern '{}' does not exist", p.pattern_png.string()), "check the path");
     }
     p.pattern_json = fs::path(p.pattern_png).replace_extension(".json");
@@ -137,7 +143,7 @@ SessionResult RunSession(const SessionPlan& plan, FrameSource& source, const Sho
   const int total = static_cast<int>(plan.shots.size());
   json manifest;
   if (options.resume) {
-    if (!fs::is_regular_file(manifest_path)) {
+    if (ClassifyPath(manifest_path) != PathKind::kFile) {
       throw Error(folder.string(), "has no manifest.json to resume", "start the session without --resume");
     }
     try {
@@ -155,7 +161,7 @@ SessionResult RunSession(const SessionPlan& plan, FrameSource& source, const Sho
                   "resume with the same plan");
     }
   } else {
-    PrepareNewFolder(folder, fs::exists(manifest_path));
+    PrepareNewFolder(folder, ClassifyPath(manifest_path) == PathKind::kFile);
     manifest = {{"format", kSessionFormat},  {"command", options.command}, {"plan", plan.source.string()},
                 {"source", source.Describe()}, {"shots_planned", total},    {"created_utc", NowUtcIso8601()},
                 {"shots", json::array()}};
@@ -219,10 +225,9 @@ SessionResult RunSession(const SessionPlan& plan, FrameSource& source, const Sho
 
 ImportResult ImportFolder(const fs::path& photos_folder, const fs::path& pattern_json, const fs::path& session_folder,
                           const std::string& command, Progress* progress) {
-  if (!fs::is_directory(photos_folder)) {
-    throw Error(photos_folder.string(), "is not a folder", "give the folder that holds the photos (--photos)");
-  }
+  RequireFolder(photos_folder, "give the folder that holds the photos (--photos)");
   CheckPatternJson(pattern_json, "--pattern");
+  if (ClassifyPath(session_folder) == PathKind::kLinkLoop) RequireFolder(session_folder, "");
   const fs::path photos_abs = fs::weakly_canonical(photos_folder);
   const fs::path session_abs = fs::weakly_canonical(session_folder);
   if (photos_abs == session_abs) {
@@ -230,19 +235,25 @@ ImportResult ImportFolder(const fs::path& photos_folder, const fs::path& pattern
   }
   static const std::set<std::string> kImageExtensions = {".png", ".jpg", ".jpeg", ".tif", ".tiff", ".bmp"};
   std::vector<fs::path> files;
+  std::vector<fs::path> loops;  // entries named like photos that are symbolic link loops: rejected, with the reason
   for (const fs::directory_entry& e : fs::directory_iterator(photos_folder)) {
     std::string ext = e.path().extension().string();
     std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
-    if (e.is_regular_file() && kImageExtensions.count(ext) != 0) files.push_back(e.path());
+    if (kImageExtensions.count(ext) == 0) continue;
+    const PathKind kind = ClassifyPath(e.path());  // not e.is_regular_file(), which throws on a loop
+    if (kind == PathKind::kFile) files.push_back(e.path());
+    if (kind == PathKind::kLinkLoop) loops.push_back(e.path());
   }
   std::sort(files.begin(), files.end(), [](const fs::path& a, const fs::path& b) {
     return a.filename().string() < b.filename().string();
   });
-  if (files.empty()) {
+  std::sort(loops.begin(), loops.end());
+  if (files.empty() && loops.empty()) {
     throw Error(photos_folder.string(), "holds no photos (.png .jpg .jpeg .tif .tiff .bmp)", "check the folder");
   }
   // Decode every photo before writing anything.
   ImportResult result;
+  for (const fs::path& f : loops) result.rejected.emplace_back(f.filename().string(), PathProblem(PathKind::kLinkLoop, ""));
   std::vector<std::pair<fs::path, cv::Size>> readable;  // decoded size
   for (const fs::path& f : files) {
     std::string bytes;
@@ -269,13 +280,14 @@ ImportResult ImportFolder(const fs::path& photos_folder, const fs::path& pattern
       reasons += fmt::format("{}{}: {}", i ? ", " : "", result.rejected[i].first, result.rejected[i].second);
     }
     if (result.rejected.size() > 3) reasons += fmt::format(", and {} more", result.rejected.size() - 3);
-    throw Error(photos_folder.string(), fmt::format("none of its {} photos is readable ({})", files.size(), reasons),
+    throw Error(photos_folder.string(),
+                fmt::format("none of its {} photos is readable ({})", files.size() + loops.size(), reasons),
                 "replace or remove the damaged files and import again");
   }
   PrepareNewFolder(session_folder, false);
   const fs::path pattern_png = fs::path(pattern_json).replace_extension(".png");
   const auto [png_name, json_name] =
-      StorePattern(fs::is_regular_file(pattern_png) ? pattern_png : fs::path(), pattern_json, session_folder);
+      StorePattern(ClassifyPath(pattern_png) == PathKind::kFile ? pattern_png : fs::path(), pattern_json, session_folder);
   json manifest = {{"format", kSessionFormat},
                    {"command", command},
                    {"source", "import of " + photos_abs.string()},

@@ -51,6 +51,11 @@ CameraModel FromMrcal(const mrcal_cameramodel_t& m, const std::string& source) {
 
 }  // namespace
 
+bool IsMrcalLensModel(const std::string& name) {
+  mrcal_lensmodel_t lens;
+  return mrcal_lensmodel_from_name(&lens, name.c_str());
+}
+
 namespace {
 constexpr double kMaxDistortionParameter = 1e4;
 }  // namespace

@@ -24,6 +24,10 @@ struct CameraModel {
   void Check(const std::string& where) const;
 };
 
+// True if mrcal knows the lens model `name` (mrcal_lensmodel_from_name: the type and, for parametric families such
+// as LENSMODEL_SPLINED_STEREOGRAPHIC_order=3_Nx=16_Ny=12_fov_x_deg=100, well-formed parameters).
+bool IsMrcalLensModel(const std::string& name);
+
 // Reads a mrcal .cameramodel file (through libmrcal). Throws Error naming the file on any problem.
 CameraModel ReadCameraModel(const std::filesystem::path& path);
 // Parses the text of a .cameramodel file; `source` names it in errors.

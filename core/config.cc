@@ -8,6 +8,7 @@
 #include <cstdlib>
 #include <sstream>
 
+#include "core/decimal.h"
 #include "core/error.h"
 #include "core/file_io.h"
 
@@ -108,15 +109,16 @@ double ConfigMap::ToNumber(const YAML::Node& n, const std::string& key) const {
   for (const char* word : {".nan", ".inf", "+.inf", "-.inf", "nan", "inf", "+inf", "-inf", "infinity", "-infinity"}) {
     if (low == word) Fail(key, "is '" + s + "', not a finite number", "write a finite number");
   }
-  char* end = nullptr;
-  const double v = std::strtod(s.c_str(), &end);
-  if (s.empty() || end == s.c_str() || *end != '\0') {
-    Fail(key, "must be a number, got '" + s + "'", "write a number such as 1000 or 12.5");
+  // Decimal only (decimal.h): strtod would read 0x10 as 16.
+  const std::optional<double> v = ParseDecimal(s);
+  if (!v) {
+    const std::string problem = DecimalProblem(s);
+    if (problem.ends_with("is not a finite number")) Fail(key, "is '" + s + "', not a finite number", "write a finite number");
+    if (problem.ends_with("is out of range")) Fail(key, "is '" + s + "', beyond the range of numbers", "write a finite number");
+    Fail(key, fmt::format("must be a {}number, got '{}'", problem.ends_with("not a decimal number") ? "decimal " : "", s),
+         "write a number such as 1000 or 12.5");
   }
-  if (!std::isfinite(v)) {
-    Fail(key, "is '" + s + "', not a finite number", "write a finite number");
-  }
-  return v;
+  return *v;
 }
 
 double ConfigMap::Number(const std::string& key) const { return ToNumber(Get(key), key); }
@@ -171,13 +173,16 @@ std::vector<double> ParseNumberList(const std::string& text, size_t n, const std
     const auto b = item.find_first_not_of(" \t");
     const auto e = item.find_last_not_of(" \t");
     const std::string t = b == std::string::npos ? "" : item.substr(b, e - b + 1);
-    char* end = nullptr;
-    const double v = std::strtod(t.c_str(), &end);
-    if (t.empty() || *end != '\0') {
-      throw Error(option, fmt::format("'{}' is not a number in '{}'", t, text), fmt::format("write {} numbers separated by commas", n));
+    const std::optional<double> v = ParseDecimal(t);
+    if (!v) {
+      const std::string problem = DecimalProblem(t);
+      if (problem.ends_with("is not a finite number") || problem.ends_with("is out of range")) {
+        throw Error(option, fmt::format("'{}' is not finite in '{}'", t, text), "write finite numbers");
+      }
+      throw Error(option, fmt::format("{} in '{}'", problem, text),
+                  fmt::format("write {} decimal numbers separated by commas", n));
     }
-    if (!std::isfinite(v)) throw Error(option, fmt::format("'{}' is not finite in '{}'", t, text), "write finite numbers");
-    out.push_back(v);
+    out.push_back(*v);
   }
   if (out.size() != n) {
     throw Error(option, fmt::format("expected {} numbers, got {} in '{}'", n, out.size(), text),

@@ -34,6 +34,8 @@ TEST(Config, NumbersAreStrict) {
   EXPECT_THAT(MessageOf([&] { c.Number("c"); }), HasSubstr("not a finite number"));
   EXPECT_THAT(MessageOf([&] { c.Numbers("d", 3); }), HasSubstr("key 'd[2]' is '.nan', not a finite number"));
   EXPECT_THAT(MessageOf([&] { c.Numbers("d", 2); }), HasSubstr("must be a list of 2 numbers"));
+  // Decimal only (core/decimal.h): strtod, which this used to call, reads 0x10 as 16.
+  EXPECT_THAT(MessageOf([&] { c.Number("e"); }), HasSubstr("key 'e' must be a decimal number, got '0x10'"));
 }
 
 TEST(Config, NumberListOption) {
@@ -42,6 +44,10 @@ TEST(Config, NumberListOption) {
               HasSubstr("--viewpoint: expected 3 numbers, got 2"));
   EXPECT_THAT(MessageOf([] { ParseNumberList("1,x,2", 3, "--viewpoint"); }), HasSubstr("'x' is not a number"));
   EXPECT_THAT(MessageOf([] { ParseNumberList("1,nan,2", 3, "--viewpoint"); }), HasSubstr("'nan' is not finite"));
+  EXPECT_THAT(MessageOf([] { ParseNumberList("0,0,0x10", 3, "--viewpoint"); }),
+              HasSubstr("--viewpoint: '0x10' is not a decimal number in '0,0,0x10'"));
+  EXPECT_THAT(MessageOf([] { ParseNumberList("0,,500", 3, "--viewpoint"); }),
+              HasSubstr("'' is not a number in '0,,500'"));
 }
 
 }  // namespace

@@ -8,6 +8,7 @@
 #include <limits>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
+#include <zlib.h>
 
 #include "core/error.h"
 #include "core/image_decode.h"
@@ -139,6 +140,32 @@ void CheckImageHeader(std::string_view bytes, const std::string& source) {
   const std::string_view tail = bytes.substr(bytes.size() - std::min<size_t>(bytes.size(), 1024));
   if (std::string_view(declared.format) == "PNG" && tail.find("IEND") == std::string_view::npos) {
     throw Error(path.string(), "is a truncated PNG (no IEND chunk at its end)", "copy or export the file again");
+  }
+  // A PNG damaged inside (a flipped bit, an overwritten block): every chunk carries a CRC-32 of its type and data,
+  // checked here because libpng reports a mismatch by printing on stderr. Chunks are walked up to IEND; one that
+  // runs past the end of the file is the truncation above.
+  if (std::string_view(declared.format) == "PNG") {
+    const auto be32 = [&](size_t at) {
+      const auto* b = reinterpret_cast<const unsigned char*>(bytes.data()) + at;
+      return (uint32_t{b[0]} << 24) | (uint32_t{b[1]} << 16) | (uint32_t{b[2]} << 8) | uint32_t{b[3]};
+    };
+    for (size_t at = 8; at + 12 <= bytes.size();) {
+      const uint64_t length = be32(at);
+      if (at + 12 + length > bytes.size()) {
+        throw Error(path.string(), "is a truncated PNG (its last chunk runs past the end of the file)",
+                    "copy or export the file again");
+      }
+      const std::string_view type = bytes.substr(at + 4, 4);
+      const uint32_t crc = static_cast<uint32_t>(
+          ::crc32(0, reinterpret_cast<const Bytef*>(bytes.data() + at + 4), static_cast<uInt>(length + 4)));
+      if (crc != be32(at + 8 + length)) {
+        throw Error(path.string(),
+                    fmt::format("is a damaged PNG (its {} chunk at byte {} fails its CRC check)", type, at),
+                    "copy or export the file again");
+      }
+      if (type == "IEND") break;
+      at += 12 + length;
+    }
   }
   if (std::string_view(declared.format) == "JPEG" &&
       (declared.jpeg_scan == 0 || bytes.find("\xFF\xD9", declared.jpeg_scan) == std::string_view::npos)) {

@@ -71,6 +71,11 @@ TEST(ImageIo, RefusesHugeDeclaredSizesAndDamagedHeaders) {
   // Cut-off files are refused before decoding (libpng and libjpeg would decode them partly, with a warning).
   EXPECT_THAT(testing::MessageOf([&] { DecodeImage8(png.substr(0, png.size() / 2), "half.png"); }),
               HasSubstr("half.png: is a truncated PNG (no IEND chunk at its end)"));
+  // Damaged inside, its end intact: the chunk's CRC-32 says so (libpng would print it on stderr).
+  std::string flipped = png;
+  flipped[png.size() / 2] = static_cast<char>(flipped[png.size() / 2] ^ 0x40);
+  EXPECT_THAT(testing::MessageOf([&] { DecodeImage8(flipped, "flip.png"); }),
+              HasSubstr("flip.png: is a damaged PNG (its IDAT chunk at byte "));
   const std::string jpeg = Encode(Board(CV_8UC1), ".jpg");
   EXPECT_EQ(DecodeImage8(jpeg + "trailer", "trailer.jpg").width, Board(CV_8UC1).cols);
   EXPECT_THAT(testing::MessageOf([&] { DecodeImage8(jpeg.substr(0, jpeg.size() - 2), "cut.jpg"); }),

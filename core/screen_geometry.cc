@@ -29,6 +29,10 @@ Eigen::Vector3d ScreenCentreInScreen(const Monitor& m) {
   return m.is_flat() ? Eigen::Vector3d::Zero() : Eigen::Vector3d(0, 0, -m.radius_mm());
 }
 
+Eigen::Vector3d ViewpointFromScreenCentre(const Monitor& m, double distance_mm, const Eigen::Vector2d& offset_mm) {
+  return ScreenCentreInScreen(m) + Eigen::Vector3d(offset_mm.x(), offset_mm.y(), distance_mm);
+}
+
 Eigen::Vector2d UvFromDisplayPx(const Monitor& m, const Eigen::Vector2d& px) {
   return {2 * (px.x() + 0.5) / m.width_px - 1, 2 * (px.y() + 0.5) / m.height_px - 1};
 }
@@ -125,6 +129,19 @@ double FrontClearanceMm(const Monitor& m, const Eigen::Vector3d& viewpoint_in_sc
 void CheckViewpoint(const Monitor& m, const Eigen::Vector3d& viewpoint_in_screen, const std::string& where) {
   if (!viewpoint_in_screen.allFinite()) {
     throw Error(where, "viewpoint is not a finite point", "give x,y,z in mm in the screen frame");
+  }
+  // Farther than 1 km a 1.2 m wide screen spans under 0.07 deg: no camera resolves its pattern, and the
+  // geometry's numbers (fields of view, clearances) lose their precision and then overflow (1e160 mm printed an
+  // infinite distance and a 45 deg field of view).
+  const double distance_mm = (viewpoint_in_screen - ScreenCentreInScreen(m)).stableNorm();  // no overflow at 1e160
+  if (!(distance_mm <= kMaxViewpointDistanceMm)) {
+    const Eigen::Vector3d& v = viewpoint_in_screen;
+    throw Error(where,
+                fmt::format("viewpoint ({:g}, {:g}, {:g}) mm is {:.3g} mm from the screen centre, beyond 1 km "
+                            "(1e6 mm), where this {:.0f} mm wide screen spans {:.2g} deg",
+                            v.x(), v.y(), v.z(), distance_mm, m.width_mm,
+                            2 * std::atan(0.5 * m.width_mm / distance_mm) * kDegPerRad),
+                "give a viewpoint within 1 km of the screen (a camera typically stands 300-3000 mm away)");
   }
   // Below a micrometre the viewpoint is on the surface up to rounding.
   constexpr double kMinClearanceMm = 1e-3;

@@ -21,6 +21,13 @@ namespace curvecheck {
 // The screen centre, (0, 0, -R) for a cylinder and the origin for a flat monitor.
 Eigen::Vector3d ScreenCentreInScreen(const Monitor& m);
 
+// The viewpoint (screen frame) of a viewer `distance_mm` from the screen centre along the screen's normal there
+// (+z), moved across by `offset_mm` (x right, y up, parallel to the screen's tangent plane at the centre): the
+// screen centre + (x, y, distance). This is how a user measures a viewing position (`--distance-mm`, `--offset-mm`);
+// the frame's origin is on the cylinder axis, R behind the centre, so for 1000R, 600 mm in front of the centre
+// is z = -400. Its distance from the centre is sqrt(x^2 + y^2 + distance^2). Does not check the viewpoint.
+Eigen::Vector3d ViewpointFromScreenCentre(const Monitor& m, double distance_mm, const Eigen::Vector2d& offset_mm);
+
 // Display pixel coordinates <-> normalized surface coordinates (u, v), both -1..1 edge to edge.
 Eigen::Vector2d UvFromDisplayPx(const Monitor& m, const Eigen::Vector2d& display_px);
 Eigen::Vector2d DisplayPxFromUv(const Monitor& m, const Eigen::Vector2d& uv);
@@ -52,8 +59,13 @@ std::optional<SurfaceHit> IntersectSurface(const Monitor& m, const Eigen::Vector
 // (no part is seen edge-on or from behind).
 double FrontClearanceMm(const Monitor& m, const Eigen::Vector3d& viewpoint_in_screen);
 
-// Throws Error naming `where` if the viewpoint is not finite, or is on or behind the screen surface
-// (FrontClearanceMm <= 1e-3 mm: on the surface up to rounding, or behind it).
+// The farthest viewpoint CheckViewpoint accepts from the screen centre: 1 km (a 1.2 m wide screen spans
+// 0.07 deg there).
+inline constexpr double kMaxViewpointDistanceMm = 1e6;
+
+// Throws Error naming `where` if the viewpoint is not finite, farther than kMaxViewpointDistanceMm from the
+// screen centre, or on or behind the screen surface (FrontClearanceMm <= 1e-3 mm: on the surface up to rounding,
+// or behind it).
 void CheckViewpoint(const Monitor& m, const Eigen::Vector3d& viewpoint_in_screen, const std::string& where);
 
 }  // namespace curvecheck

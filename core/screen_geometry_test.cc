@@ -124,6 +124,52 @@ TEST(ScreenGeometry, FrontClearanceAndViewpointChecks) {
   } catch (const Error& e) {
     EXPECT_THAT(std::string(e.what()), ::testing::HasSubstr("--viewpoint: viewpoint (0, 0, -1200) mm is on or behind"));
   }
+  // Farther than 1 km from the screen centre (issue 17: 1e160 mm printed an infinite distance): refused with the
+  // span the screen would have (1198 mm at 1e160 mm: 6.9e-156 deg); 1 km itself is accepted.
+  EXPECT_NO_THROW(CheckViewpoint(m, ScreenCentreInScreen(m) + Eigen::Vector3d(0, 0, kMaxViewpointDistanceMm), "-v"));
+  EXPECT_THROW(CheckViewpoint(m, ScreenCentreInScreen(m) + Eigen::Vector3d(0, 0, 1.001e6), "-v"), Error);
+  EXPECT_THROW(CheckViewpoint(flat, {1e6, 0, 1e3}, "-v"), Error);
+  try {
+    CheckViewpoint(m, {0, 0, 1e160}, "--viewpoint");
+    ADD_FAILURE() << "accepted a viewpoint 1e160 mm away";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.where(), "--viewpoint");
+    EXPECT_THAT(e.problem(), ::testing::HasSubstr("is 1e+160 mm from the screen centre, beyond 1 km (1e6 mm), where "
+                                                  "this 1198 mm wide screen spans 6.9e-156 deg"));
+  }
+}
+
+}  // namespace
+}  // namespace curvecheck
+
+namespace curvecheck {
+namespace {
+
+// A viewer D mm in front of the screen centre along its normal, offset (x, y) across it. Analytic: the centre of a
+// cylinder of radius R is (0, 0, -R) with normal +z, so the viewpoint is (x, y, D - R); for a flat screen the
+// centre is the origin: (x, y, D). Checked also against the surface's own point and normal at (u, v) = (0, 0).
+TEST(ScreenGeometry, ViewpointFromScreenCentreIsDAlongTheNormalPlusTheOffset) {
+  const Monitor r1000 = MonitorFromDiagonal("49 1000R", 5120, 1440, 49, 1000);
+  const Monitor r1900 = MonitorFromDiagonal("34 1900R", 3440, 1440, 34, 1900);
+  const Monitor flat = MonitorFromDiagonal("27 flat", 2560, 1440, 27, 0);
+  using V3 = Eigen::Vector3d;
+  EXPECT_THAT(ViewpointFromScreenCentre(r1000, 600, {0, 0}), testing::EigenNear(V3(0, 0, -400), 1e-12));
+  // The issue's example: --viewpoint 0,0,600 is 2.5 m from a 1900R screen; --distance-mm 600 is 600 mm.
+  EXPECT_THAT(ViewpointFromScreenCentre(r1900, 600, {0, 0}), testing::EigenNear(V3(0, 0, -1300), 1e-12));
+  EXPECT_NEAR((V3(0, 0, 600) - ScreenCentreInScreen(r1900)).norm(), 2500, 1e-9);
+  EXPECT_THAT(ViewpointFromScreenCentre(flat, 600, {0, 0}), testing::EigenNear(V3(0, 0, 600), 1e-12));
+  EXPECT_THAT(ViewpointFromScreenCentre(r1000, 750, {120, -40}), testing::EigenNear(V3(120, -40, -250), 1e-12));
+  EXPECT_THAT(ViewpointFromScreenCentre(flat, 750, {120, -40}), testing::EigenNear(V3(120, -40, 750), 1e-12));
+  for (const Monitor* m : {&r1000, &r1900, &flat}) {
+    const V3 centre = SurfacePointFromUv(*m, {0, 0});
+    const V3 normal = SurfaceNormalFromUv(*m, {0, 0});
+    const V3 v = ViewpointFromScreenCentre(*m, 750, {0, 0});
+    EXPECT_THAT(v, testing::EigenNear(V3(centre + 750 * normal), 1e-9)) << m->name;
+    // With an offset: still 750 mm along the normal, and sqrt(750^2 + 120^2 + 40^2) from the centre.
+    const V3 w = ViewpointFromScreenCentre(*m, 750, {120, -40});
+    EXPECT_NEAR((w - centre).dot(normal), 750, 1e-9) << m->name;
+    EXPECT_NEAR((w - centre).norm(), std::sqrt(750.0 * 750 + 120 * 120 + 40 * 40), 1e-9) << m->name;
+  }
 }
 
 }  // namespace

@@ -11,6 +11,7 @@
 #include <utility>
 
 #include "core/error.h"
+#include "core/interrupt.h"
 
 namespace curvecheck {
 
@@ -29,12 +30,19 @@ ChildProcess ChildProcess::Start(const std::vector<std::string>& argv, const std
     ::close(out[1]);
     throw Error(argv[0], "cannot create a pipe", "check the process's file limit");
   }
+  // Forked and registered under one hold: an interruption stops every child it could see started.
+  const InterruptHold hold;
   const pid_t pid = ::fork();
   if (pid < 0) {
     for (int fd : {out[0], out[1], err[0], err[1]}) ::close(fd);
     throw Error(argv[0], "cannot start a process (fork failed)", "free some memory or processes");
   }
   if (pid == 0) {
+    // The parent blocks the interrupting signals in every thread (core/interrupt.h); the program must not inherit
+    // that, or SIGTERM would not stop it.
+    sigset_t none;
+    sigemptyset(&none);
+    ::sigprocmask(SIG_SETMASK, &none, nullptr);
     const int null_fd = ::open("/dev/null", O_RDONLY);
     if (null_fd >= 0) ::dup2(null_fd, STDIN_FILENO);
     ::dup2(out[1], STDOUT_FILENO);
@@ -43,6 +51,7 @@ ChildProcess ChildProcess::Start(const std::vector<std::string>& argv, const std
     ::execvp(c_argv[0], c_argv.data());
     ::_exit(127);
   }
+  RegisterChildProcess(pid);
   ::close(out[1]);
   ::close(err[1]);
   ChildProcess child;
@@ -75,6 +84,7 @@ void ChildProcess::Release() {
     int status = 0;
     while (::waitpid(pid_, &status, 0) < 0 && errno == EINTR) {
     }
+    UnregisterChildProcess(pid_);
     pid_ = -1;
   }
   if (out_fd_ >= 0) ::close(out_fd_);
@@ -91,10 +101,12 @@ int ChildProcess::Wait() {
   int status = 0;
   while (::waitpid(pid_, &status, 0) < 0) {
     if (errno != EINTR) {
+      UnregisterChildProcess(pid_);
       pid_ = -1;
       return 127;
     }
   }
+  UnregisterChildProcess(pid_);
   pid_ = -1;
   if (WIFEXITED(status)) return WEXITSTATUS(status);
   if (WIFSIGNALED(status)) return 128 + WTERMSIG(status);
@@ -106,6 +118,7 @@ std::optional<int> ChildProcess::TryWait() {
   int status = 0;
   const pid_t r = ::waitpid(pid_, &status, WNOHANG);
   if (r == 0 || (r < 0 && errno == EINTR)) return std::nullopt;
+  UnregisterChildProcess(pid_);
   pid_ = -1;
   if (r < 0) return 127;
   if (WIFEXITED(status)) return WEXITSTATUS(status);

@@ -4,6 +4,7 @@
 
 #include "core/config.h"
 #include "core/error.h"
+#include "core/path_check.h"
 
 namespace curvecheck {
 namespace internal {
@@ -24,8 +25,9 @@ std::string MonitorPresetText(const std::string& name) {
 }
 
 Monitor LoadMonitor(const std::string& spec) {
-  std::error_code ec;
-  if (std::filesystem::exists(spec, ec)) return MonitorFromConfig(ConfigMap::Load(spec));
+  const PathKind kind = ClassifyPath(spec);
+  if (kind == PathKind::kLinkLoop) RequireFile(spec);  // a loop is not "neither a preset nor a file"
+  if (kind != PathKind::kMissing && kind != PathKind::kUnreachable) return MonitorFromConfig(ConfigMap::Load(spec));
   const std::string name = spec == "default" ? kDefaultMonitorPreset : spec;
   const std::string text = MonitorPresetText(name);
   if (text.empty()) {

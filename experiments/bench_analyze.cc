@@ -36,6 +36,9 @@ struct SeedTrial {
 
 void BenchAnalyzeOptions::Check() const {
   if (seeds < 2) throw Error("--seeds", fmt::format("is {}; at least 2 are needed for a spread", seeds), "");
+  // As `sweep` (SweepOptions::Check): a checkerboard has 2 or more squares; 1000 bounds the features.
+  RequireInRange("--cols", "the number of squares across", cols, 2, 1000, "give 2 to 1000, e.g. 32");
+  RequireInRange("--rows", "the number of squares down", rows, 2, 1000, "give 2 to 1000, e.g. 9");
 }
 
 bool RunBenchAnalyze(const BenchAnalyzeOptions& a, const fs::path& out, std::ostream& log) {

@@ -21,7 +21,7 @@ struct BenchAnalyzeOptions {
   int seeds = 20;                 // photos (noise seeds 1..seeds); at least 2 for a spread
   int cols = 32, rows = 9;        // checkerboard squares
 
-  // Throws Error naming --seeds for fewer than 2 seeds.
+  // Throws Error naming the option for fewer than 2 seeds, or cols or rows outside 2..1000.
   void Check() const;
 };
 

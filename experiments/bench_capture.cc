@@ -12,6 +12,7 @@
 #include "core/image_io.h"
 #include "core/stats.h"
 #include "experiments/machine_info.h"
+#include "experiments/scene_lookup.h"
 #include "experiments/trial.h"
 #include "synth/synthetic_camera.h"
 
@@ -30,15 +31,12 @@ Spread Summarize(const std::vector<double>& v) {
 
 void BenchCaptureOptions::Check() const {
   CheckCount(runs, 1, 100, "--runs");
-  if (!std::filesystem::exists(scene)) {
-    throw Error("--scene", fmt::format("'{}' does not exist", scene),
-                "give a scene YAML, e.g. --scene datasets/scenes/default.yaml from the repository root");
-  }
 }
 
 void RunBenchCapture(const BenchCaptureOptions& a, std::ostream& log) {
   a.Check();
-  const SyntheticScene scene = LoadScene(a.scene);
+  // A file, or an embedded scene: the default works from any folder.
+  const SyntheticScene scene = FindScene(a.scene, "--scene");
   Image8 display;
   std::string display_source = a.display;
   if (a.display.empty()) {
@@ -54,7 +52,7 @@ void RunBenchCapture(const BenchCaptureOptions& a, std::ostream& log) {
   const std::string machine = DescribeMachine();
   const int ss = scene.optics.supersample;
   log << fmt::format(
-      "bench capture: {} ({} x {} px, {}x{} supersampling, blur {}, noise {}), display: {}\n{}\n", a.scene,
+      "bench capture: {} ({} x {} px, {}x{} supersampling, blur {}, noise {}), display: {}\n{}\n", SceneSource(a.scene),
       scene.camera.width, scene.camera.height, ss, ss, BlurName(scene.optics.blur), scene.sensor.noise ? "on" : "off",
       display_source, machine);
 

@@ -11,13 +11,13 @@
 namespace curvecheck::experiments {
 
 struct BenchCaptureOptions {
-  std::string scene = "datasets/scenes/default.yaml";  // scene file
+  std::string scene = "default";  // scene file, or the name of an embedded scene (scene_lookup.h)
   // Display image (PNG at the monitor's resolution); empty: the default checkerboard rendered for the camera.
   std::string display;
   int runs = 5;         // timed runs after the first (median reported)
   std::string output;   // CSV of every run; empty: none
 
-  // Throws Error naming the option for runs outside 1..100 or a scene file that does not exist.
+  // Throws Error naming the option for runs outside 1..100.
   void Check() const;
 };
 

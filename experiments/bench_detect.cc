@@ -12,6 +12,7 @@
 #include "core/stats.h"
 #include "detect/detect.h"
 #include "experiments/machine_info.h"
+#include "experiments/scene_lookup.h"
 #include "experiments/trial.h"
 #include "pattern/pattern_json.h"
 
@@ -80,15 +81,11 @@ struct Case {
 
 void BenchDetectOptions::Check() const {
   CheckCount(runs, 1, 100, "--runs");
-  if (!fs::exists(scene)) {
-    throw Error("--scene", fmt::format("'{}' does not exist", scene),
-                "give a scene file (datasets/scenes/*.yaml) or run from the repository root");
-  }
 }
 
 void RunBenchDetect(const BenchDetectOptions& a, const fs::path& dir, std::ostream& log) {
   a.Check();
-  SyntheticScene scene = LoadScene(a.scene);
+  SyntheticScene scene = FindScene(a.scene, "--scene");  // a file or an embedded scene
   if (a.uniform_display) {  // as the detect tests: no screen-door grid, finer supersampling
     scene.display.fill_factor = 1;
     scene.display.rgb_stripes = false;
@@ -96,7 +93,7 @@ void RunBenchDetect(const BenchDetectOptions& a, const fs::path& dir, std::ostre
   }
   Renderer renderer;
   const std::string machine = DescribeMachine();
-  log << fmt::format("bench detect: scene {}{} ({}x{} px camera), median of {} runs; {}\n", a.scene,
+  log << fmt::format("bench detect: scene {}{} ({}x{} px camera), median of {} runs; {}\n", SceneSource(a.scene),
                      a.uniform_display ? " with a uniform display" : "", scene.camera.width,
                      scene.camera.height, a.runs, machine);
   log << fmt::format("{:<14} {:<30} {:>9} {:>9} {:>6} {:>17} {:>8} {:>8}  {}\n", "pattern", "detector",

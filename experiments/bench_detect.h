@@ -14,12 +14,12 @@
 namespace curvecheck::experiments {
 
 struct BenchDetectOptions {
-  std::string scene = "datasets/scenes/default.yaml";     // scene file: its camera takes the photos
+  std::string scene = "default";  // scene file or embedded scene name (scene_lookup.h): its camera takes the photos
   int runs = 3;                                           // timed runs per detector (median reported)
   std::string patterns = "checkerboard,square,apriltag";  // which patterns to photograph
   bool uniform_display = false;  // display pixels uniform (fill factor 1, no RGB stripes), 4x4 supersampling
 
-  // Throws Error naming the option for runs outside 1..100 or a scene file that does not exist.
+  // Throws Error naming the option for runs outside 1..100.
   void Check() const;
 };
 

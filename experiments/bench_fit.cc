@@ -13,6 +13,7 @@
 #include "core/stats.h"
 #include "core/stopwatch.h"
 #include "experiments/machine_info.h"
+#include "experiments/scene_lookup.h"
 #include "synth/synthetic_camera.h"
 
 namespace curvecheck::experiments {
@@ -30,9 +31,9 @@ void RunBenchFit(const BenchFitOptions& a, std::ostream& log) {
   using testing::DisplayGrid;
   using testing::Observe;
   using testing::SceneSurface;
-  const SyntheticScene scene = LoadScene(a.scene);
+  const SyntheticScene scene = FindScene(a.scene, "--scene");  // a file or an embedded scene
   log << fmt::format("bench fit: {}; scene {}; noise {} px per coordinate; {} runs (median)\n",
-                     DescribeMachine(), a.scene, a.noise_px, a.runs);
+                     DescribeMachine(), SceneSource(a.scene), a.noise_px, a.runs);
   // One photo.
   std::mt19937_64 rng(1);
   const std::vector<PhotoObservations> one = {

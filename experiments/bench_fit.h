@@ -14,7 +14,7 @@
 namespace curvecheck::experiments {
 
 struct BenchFitOptions {
-  std::string scene = "datasets/scenes/default.yaml";  // scene file: its true monitor and camera
+  std::string scene = "default";  // scene file or embedded scene name (scene_lookup.h): its true monitor, camera
   int runs = 5;                                        // timed runs per case (median reported)
   int seeds = 1000;                                    // seeded single-photo fits for the radius statistics
   double noise_px = 0.1;                               // detection noise, px per coordinate

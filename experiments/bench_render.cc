@@ -6,6 +6,7 @@
 
 #include "core/correction.h"
 #include "core/error.h"
+#include "core/screen_geometry.h"
 #include "core/file_io.h"
 #include "core/gnuplot.h"
 #include "core/stats.h"
@@ -136,8 +137,10 @@ void RunBenchRender(const Monitor& monitor, const Eigen::Vector3d& viewpoint_in_
   const std::string machine = DescribeMachine();
   const Eigen::Vector3d& v = viewpoint_in_screen;
   const std::string title =
-      fmt::format("{} ({}x{}), viewpoint ({:g}, {:g}, {:g}) mm, {} on {}; median of {} runs\n{}",
+      fmt::format("{} ({}x{}), viewpoint ({:g}, {:g}, {:g}) mm ({:.1f} mm from the screen centre), {} on {}; "
+                  "median of {} runs\n{}",
                   monitor.name, monitor.width_px, monitor.height_px, v.x(), v.y(), v.z(),
+                  (v - ScreenCentreInScreen(monitor)).norm(),
                   PatternKindName(pattern.spec.kind), renderer.device_name(), a.runs, machine);
   log << title << "\n";
   log << fmt::format("{:<38} {:>10} {:>10} {:>10} {:>10} {:>10}\n", "setting", "median ms", "min ms",

@@ -14,6 +14,7 @@
 
 #include "core/config.h"
 #include "core/error.h"
+#include "core/path_check.h"
 #include "core/file_io.h"
 #include "core/gnuplot.h"
 #include "core/screen_geometry.h"
@@ -49,6 +50,7 @@ SyntheticScene LoadSceneWithOverrides(const std::string& name_or_path,
                                       const std::vector<std::string>& overrides) {
   std::error_code ec;
   if (overrides.empty()) return FindScene(name_or_path, "--scene");
+  if (ClassifyPath(name_or_path) == PathKind::kLinkLoop) RequireFile(name_or_path);
   if (fs::exists(name_or_path, ec)) return LoadScene(name_or_path, overrides);
   if (!IsEmbeddedScene(name_or_path)) return FindScene(name_or_path, "--scene");  // throws the lookup's error
   const std::string scene_file = "scenes/" + name_or_path + ".yaml";
@@ -636,7 +638,8 @@ const ShardFiles& ValidityShardFiles() {
                                 "curvecheck bench validity",
                                 "validity bench",
                                 "same grid, trials, seed, scene, jitter, board",
-                                {"cell", "reason", "trial_ms"}};
+                                {"cell", "reason", "trial_ms"},
+                                "/summary/trials"};
   return files;
 }
 

@@ -9,6 +9,7 @@
 #include "core/camera_model.h"
 #include "core/config.h"
 #include "core/error.h"
+#include "core/path_check.h"
 #include "datasets/dataset_files.h"
 
 namespace curvecheck::experiments {
@@ -28,6 +29,11 @@ std::vector<std::string> EmbeddedSceneNames() {
     if (p.parent_path() == kScenesDir && p.extension() == ".yaml") names.push_back(p.stem().string());
   }
   return names;
+}
+
+std::string SceneOptionHelp() {
+  return fmt::format("Scene YAML, or an embedded scene (works from any folder): {}",
+                     fmt::join(EmbeddedSceneNames(), ", "));
 }
 
 bool IsEmbeddedScene(const std::string& name) {
@@ -50,11 +56,12 @@ SyntheticScene LoadEmbeddedScene(const std::string& name, const std::string& opt
 }
 
 SyntheticScene FindScene(const std::string& name_or_path, const std::string& option) {
-  std::error_code ec;
-  if (fs::exists(name_or_path, ec)) return LoadScene(name_or_path);
+  const PathKind kind = ClassifyPath(name_or_path);
+  if (kind == PathKind::kLinkLoop) RequireFile(name_or_path);  // a loop is not "neither a file nor a scene"
+  if (kind != PathKind::kMissing && kind != PathKind::kUnreachable) return LoadScene(name_or_path);
   if (!IsEmbeddedScene(name_or_path)) {
     throw Error(option, fmt::format("'{}' is neither a file nor an embedded scene", name_or_path),
-                "give a scene YAML or a name from datasets/scenes/ (default, off-axis, radius-8pct, ...)");
+                fmt::format("give a scene YAML, or an embedded scene: {}", fmt::join(EmbeddedSceneNames(), ", ")));
   }
   return LoadEmbeddedScene(name_or_path, option);
 }

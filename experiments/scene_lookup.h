@@ -12,6 +12,9 @@ namespace curvecheck::experiments {
 // The names of the embedded scenes ("default", "off-axis", ...: datasets/scenes/<name>.yaml), sorted.
 std::vector<std::string> EmbeddedSceneNames();
 
+// "a scene YAML, or an embedded scene: bulge-2mm, close, default, ...": what a --scene option takes, for its help.
+std::string SceneOptionHelp();
+
 // True when `name` is an embedded scene.
 bool IsEmbeddedScene(const std::string& name);
 

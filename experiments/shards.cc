@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <charconv>
 #include <map>
 
 #include "core/error.h"
@@ -96,8 +97,22 @@ MergedShards ReadShards(const std::vector<fs::path>& dirs, const ShardFiles& fil
       throw Error(csv_path.string(), "has other columns than " + (first / files.csv).string(),
                   fmt::format("merge only the shards of one {} command", files.what));
     }
+    if (!files.rows_pointer.empty()) {
+      const nlohmann::json::json_pointer at(files.rows_pointer);
+      if (meta.contains(at) && meta[at].is_number_unsigned() && meta[at].get<size_t>() != t.rows.size()) {
+        throw Error(csv_path.string(),
+                    fmt::format("holds {} rows, but {} beside it says {} (the file is cut short or was edited)",
+                                t.rows.size(), files.json, meta[at].get<size_t>()),
+                    fmt::format("run this shard again, or give the {} that `{}` wrote", files.csv, files.producer));
+      }
+    }
     for (auto& row : t.rows) {
-      const long index = std::stol(row[0]);
+      long index = -1;
+      const auto [end, ec] = std::from_chars(row[0].data(), row[0].data() + row[0].size(), index);
+      if (ec != std::errc() || end != row[0].data() + row[0].size() || index < 0) {
+        throw Error(csv_path.string(), fmt::format("has the index '{}', not a whole number", row[0]),
+                    fmt::format("give the {} that `{}` wrote, unedited", files.csv, files.producer));
+      }
       const auto [it, inserted] = owner.emplace(index, d);
       if (!inserted) {
         throw Error(csv_path.string(),

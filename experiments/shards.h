@@ -36,6 +36,9 @@ struct ShardFiles {
   std::string what;      // "sweep": "a shard of a different sweep"
   std::string same;  // what must be equal, for the fix: "same factors, methods, scene, scale, seed, models"
   std::vector<std::string> required_columns;  // of the CSV besides "index" (SweepTable::FromCsv)
+  // JSON pointer to the JSON's count of the CSV's rows ("/rows"); "" or absent from a file: not checked. A CSV
+  // cut short (inside its header, say) still parses; this count is what tells it from a shard with no points.
+  std::string rows_pointer;
 };
 
 // The folders to merge: each given folder with files.json, or, for a folder without one, its subfolders that
@@ -49,8 +52,9 @@ struct MergedShards {
 };
 
 // Reads the shards in `dirs` (ShardDirs). Throws Error naming the file for unreadable JSON or CSV, a JSON of
-// another format, shards of a different grid (the differing keys named), other columns, or overlapping shards
-// (the same index twice).
+// another format, shards of a different grid (the differing keys named), other columns, a CSV with another
+// number of rows than its JSON states (files.rows_pointer), a row whose index is not a whole number, or
+// overlapping shards (the same index twice).
 MergedShards ReadShards(const std::vector<std::filesystem::path>& dirs, const ShardFiles& files);
 
 }  // namespace curvecheck::experiments

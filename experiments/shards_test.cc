@@ -41,7 +41,7 @@ class ShardsRead : public ::testing::Test {
     WriteFileAtomic(folder_.path() / name / "t.csv", csv);
   }
   fs::path Dir(const std::string& name) const { return folder_.path() / name; }
-  const ShardFiles files_{"t.json", "t.csv", "t/1", "curvecheck t", "t run", "same grid", {"cell"}};
+  const ShardFiles files_{"t.json", "t.csv", "t/1", "curvecheck t", "t run", "same grid", {"cell"}, ""};
   TempFolder folder_{"curvecheck_shards_test", "shards test"};
 };
 
@@ -73,6 +73,37 @@ TEST_F(ShardsRead, JoinsShardsSortedByIndexAndRefusesMismatchesAndOverlaps) {
   Write("nocell", {{"seed", 1}}, "index,other\n4,x\n");
   EXPECT_THROW(ReadShards({Dir("nocell")}, files_), Error);
   EXPECT_THROW(ShardDirs({Dir("nowhere").string()}, files_), Error);
+}
+
+// A CSV cut short parses (a header with the required columns and no row), so the row count the JSON states is
+// what tells it from a shard that ran no point; an index that is not a whole number is refused by name too.
+TEST_F(ShardsRead, RefusesACsvWithOtherRowsThanItsJsonStatesAndABadIndex) {
+  ShardFiles files = files_;
+  files.rows_pointer = "/rows";
+  const auto write = [&](const std::string& name, const std::string& csv, int rows) {
+    fs::create_directories(Dir(name));
+    WriteFileAtomic(Dir(name) / "t.json", nlohmann::json{{"format", "t/1"}, {"grid", {{"seed", 1}}}, {"rows", rows}}.dump());
+    WriteFileAtomic(Dir(name) / "t.csv", csv);
+  };
+  write("cut", "index,cell,ext", 1);  // cut inside its header
+  try {
+    ReadShards({Dir("cut")}, files);
+    ADD_FAILURE() << "merged a shard whose CSV was cut in its header";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.where(), (Dir("cut") / "t.csv").string());
+    EXPECT_THAT(e.problem(), HasSubstr("holds 0 rows, but t.json beside it says 1"));
+  }
+  write("whole", "index,cell\n0,a\n", 1);
+  EXPECT_EQ(ReadShards({Dir("whole")}, files).table.rows.size(), 1u);
+  write("empty", "index,cell\n", 0);  // a shard with no point is a shard
+  EXPECT_EQ(ReadShards({Dir("empty")}, files).table.rows.size(), 0u);
+  write("badindex", "index,cell\n0x1,a\n", 1);
+  try {
+    ReadShards({Dir("badindex")}, files);
+    ADD_FAILURE() << "accepted the index 0x1";
+  } catch (const Error& e) {
+    EXPECT_THAT(e.problem(), HasSubstr("has the index '0x1', not a whole number"));
+  }
 }
 
 }  // namespace

@@ -298,6 +298,10 @@ void SweepOptions::Check() const {
   if (jobs < 1 || jobs > 256) throw Error("--jobs", fmt::format("is {}", jobs), "give 1 to 256 workers");
   if (!(tolerance_display_px > 0)) throw Error("--tolerance", "must be positive", "give display px, e.g. 0.5");
   if (seed < 0) throw Error("--seed", "must be 0 or more", "");
+  // 2 squares is the smallest checkerboard; 1000 across a 5120-px display leaves 5 px squares, below what the
+  // detectors find, and bounds the feature count a point allocates.
+  RequireInRange("--cols", "the number of squares across", cols, 2, 1000, "give 2 to 1000, e.g. 32");
+  RequireInRange("--rows", "the number of squares down", rows, 2, 1000, "give 2 to 1000, e.g. 9");
   Shard{shard_index, shard_count}.Check();
   AnalyzeOptions analyze;
   analyze.fit.models = ParseScreenModels(models, "--models");
@@ -393,7 +397,8 @@ void RunSweep(const SweepOptions& o, const fs::path& out, std::ostream& log) {
 const ShardFiles& SweepShardFiles() {
   static const ShardFiles files{"sweep.json",      "sweep.csv", "curvecheck.sweep/1", "curvecheck sweep",
                                 "sweep",           "same factors, methods, scene, scale, seed, models",
-                                {"method", "reason"}};
+                                {"method", "reason"},
+                                "/rows"};
   return files;
 }
 

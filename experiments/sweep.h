@@ -39,7 +39,8 @@ struct SweepOptions {
   std::string command_line;           // provenance in sweep.json and sweep.txt
 
   // Throws Error naming the option for a camera scale outside (0, 1], jobs outside 1..256, a tolerance that is
-  // not positive, a negative seed, a shard outside 1..shard_count, or unknown screen models.
+  // not positive, a negative seed, cols or rows outside 2..1000, a shard outside 1..shard_count, or unknown
+  // screen models.
   void Check() const;
 };
 

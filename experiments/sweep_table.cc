@@ -65,6 +65,26 @@ std::string Segments(const SweepTable& t, const std::vector<size_t>& rows, const
   return s;
 }
 
+// "2 render_refused, 1 not_found": the failures among `rows` by reason ("" when none failed).
+std::string FailureCounts(const SweepTable& t, const std::vector<size_t>& rows) {
+  std::map<std::string, int> reasons;
+  for (size_t r : rows) {
+    if (Outcome(t, r) != "ok") ++reasons[Outcome(t, r)];
+  }
+  std::string s;
+  for (const auto& [reason, n] : reasons) s += fmt::format("{}{} {}", s.empty() ? "" : ", ", n, reason);
+  return s;
+}
+
+// What a chart of `rows` says when none of them succeeded ("" when one did): an all-failing sweep is a result,
+// and its chart must say so rather than look like an empty plot.
+std::string NoSuccessNote(const SweepTable& t, const std::vector<size_t>& rows) {
+  for (size_t r : rows) {
+    if (Outcome(t, r) == "ok") return "";
+  }
+  return fmt::format("no point succeeded: {} of {} failed ({})", rows.size(), rows.size(), FailureCounts(t, rows));
+}
+
 std::string Stats(const SweepTable& t, const std::vector<size_t>& rows) {
   std::map<std::string, int> reasons;
   int ok = 0;
@@ -245,14 +265,18 @@ std::vector<std::filesystem::path> WriteSweepCharts(const SweepTable& t, const s
     const std::vector<size_t> rows = MethodRows(t, method);
     if (rows.empty()) continue;
     const std::string base = "sweep-" + method;
+    // p95_or_floor: the p95, or the floor line for a point without one (gnuplot skips a point whose plotted
+    // column is NaN, so the floor is written here rather than chosen in the script).
     std::string data = "# " + factors[0].name + (factors.size() > 1 ? " " + factors[1].name : std::string()) +
-                       " p95_display_px radius_error_mm radius_sigma_mm reason_code letter\n";
-    double lowest = 0.5 * tolerance_display_px;
+                       " p95_display_px radius_error_mm radius_sigma_mm reason_code letter p95_or_floor\n";
+    double lowest = 0.5 * tolerance_display_px, highest = 0;
     for (size_t r : rows) {
       const double p95 = t.Num(r, "verification_p95_display_px");
       if (std::isfinite(p95) && p95 > 0) lowest = std::min(lowest, p95);
+      if (std::isfinite(p95) && p95 > 0) highest = std::max(highest, p95);
     }
     const double floor_y = std::pow(10.0, std::floor(std::log10(lowest)) - 1);
+    bool any_p95 = false, all_p95 = true, any_radius = false;
     for (size_t r : rows) {
       const std::string o = Outcome(t, r);
       const auto it = std::find(reasons.begin(), reasons.end(), o);
@@ -260,20 +284,28 @@ std::vector<std::filesystem::path> WriteSweepCharts(const SweepTable& t, const s
       data += Cell(t.Num(r, factors[0].name)) + " ";
       if (factors.size() > 1) data += Cell(t.Num(r, factors[1].name)) + " ";
       const double p95 = t.Num(r, "verification_p95_display_px");
-      data += fmt::format("{} {} {} {} {}\n", Cell(std::isfinite(p95) && p95 > 0 ? p95 : kNaN),
-                          Cell(t.Num(r, "radius_error_mm")), Cell(t.Num(r, "radius_sigma_mm")), code,
-                          ReasonLetter(o));
+      const bool has_p95 = std::isfinite(p95) && p95 > 0;
+      any_p95 = any_p95 || has_p95;
+      all_p95 = all_p95 && has_p95;
+      any_radius = any_radius || std::isfinite(t.Num(r, "radius_error_mm"));
+      data += fmt::format("{} {} {} {} {} {}\n", Cell(has_p95 ? p95 : kNaN), Cell(t.Num(r, "radius_error_mm")),
+                          Cell(t.Num(r, "radius_sigma_mm")), code, ReasonLetter(o), Cell(has_p95 ? p95 : floor_y));
     }
     WriteFileAtomic(dir / (base + ".dat"), data);
     std::string script;
-    const std::string title = fmt::format("curvecheck sweep: {} ({} points)", method, rows.size());
+    const std::string none_ok = NoSuccessNote(t, rows);
+    const std::string title = fmt::format("curvecheck sweep: {} ({} points){}", method, rows.size(),
+                                          none_ok.empty() ? "" : "\n" + none_ok);
     if (factors.size() == 1) {
       const std::string& x = factors[0].name;
       script += "set multiplot layout 2,1 title " + GnuplotString(title) + "\n";
       script += "set grid\nset key outside right\nset logscale y\nset lmargin 12\nset rmargin 24\n"
                 "set offsets graph 0.03, graph 0.03, 0, 0\n";
-      script += fmt::format("set xlabel {}\nset ylabel 'verification p95, display px'\n", GnuplotString(x));
-      script += fmt::format("set yrange [{}:*]\n", floor_y * 0.5);
+      script += fmt::format("set xlabel {}\nset ylabel {}\n", GnuplotString(x),
+                            GnuplotString(all_p95 ? "verification p95, display px"
+                                                  : "verification p95, display px (bottom line: no p95)"));
+      // The upper end at least twice the tolerance, so that its line shows even when every p95 is far below it.
+      script += fmt::format("set yrange [{}:{}]\n", floor_y * 0.5, Cell(std::max(2 * tolerance_display_px, 1.5 * highest)));
       script += fmt::format("set arrow from graph 0, first {0} to graph 1, first {0} nohead dt 2 lc rgb 'gray40'\n",
                             tolerance_display_px);
       script += fmt::format("plot '{}.dat' using 1:($5==0?$2:1/0) with linespoints pt 7 lc rgb '#1a9850' title 'ok'",
@@ -283,15 +315,26 @@ std::vector<std::filesystem::path> WriteSweepCharts(const SweepTable& t, const s
         for (size_t r : rows) present = present || Outcome(t, r) == reasons[k];
         if (!present) continue;
         // Failures without a p95 (nothing detected) sit on the floor line.
-        script += fmt::format(", '' using 1:($5=={0}?($2==$2?$2:{1}):1/0) with points pt {2} ps 1.6 title {3}",
-                              k + 1, floor_y, 4 + static_cast<int>(k), GnuplotString(reasons[k]));
+        script += fmt::format(", '' using 1:($5=={0}?$7:1/0) with points pt {1} ps 1.6 title {2}", k + 1,
+                              4 + static_cast<int>(k), GnuplotString(reasons[k]));
       }
       script += "\nunset logscale y\nunset arrow\nset yrange [*:*]\n";
       script += "set ylabel 'cylinder radius error, mm (1 sigma bars)'\n";
-      script += fmt::format("plot '{}.dat' using 1:($5==0?$3:1/0):4 with yerrorbars pt 7 lc rgb '#1a9850' title 'ok', "
-                            "'' using 1:($5!=0?$3:1/0):4 with yerrorbars pt 6 lc rgb '#d73027' title 'failed point', "
-                            "0 with lines dt 2 lc rgb 'gray40' notitle\n",
-                            base);
+      if (any_radius) {
+        script += fmt::format(
+            "plot '{}.dat' using 1:($5==0?$3:1/0):4 with yerrorbars pt 7 lc rgb '#1a9850' title 'ok', "
+            "'' using 1:($5!=0?$3:1/0):4 with yerrorbars pt 6 lc rgb '#d73027' title 'failed point', "
+            "0 with lines dt 2 lc rgb 'gray40' notitle\n",
+            base);
+      } else {
+        // Nothing to plot (gnuplot refuses a plot whose points are all undefined): a labelled empty panel.
+        const SweepFactor& f = factors[0];
+        const double pad = f.stop != f.start ? 0.03 * std::abs(f.stop - f.start) : std::max(1.0, 0.05 * std::abs(f.start));
+        script += fmt::format("set xrange [{}:{}]\nset yrange [-1:1]\nset ytics ('0' 0)\n",
+                              Cell(std::min(f.start, f.stop) - pad), Cell(std::max(f.start, f.stop) + pad));
+        script += "set label 1 " + GnuplotString("no radius: no point gave a cylinder fit") +
+                  " at graph 0.5, graph 0.5 center\nplot NaN notitle\n";
+      }
       script += "unset multiplot\n";
     } else {
       const SweepFactor& f1 = factors[0];
@@ -318,8 +361,8 @@ std::vector<std::filesystem::path> WriteSweepCharts(const SweepTable& t, const s
         }
       }
       WriteFileAtomic(dir / (base + "-boundary.dat"), segs);
-      script += "set title " + GnuplotString(title + "\ncolour: verification p95 (display px, log); letters: failure "
-                                             "reason; black line: success boundary") + "\n";
+      script += "set title " + GnuplotString(title + "\ncolour: verification p95 (display px, log), grey: no p95; "
+                                             "letters: failure reason; black line: success boundary") + "\n";
       script += fmt::format("set xlabel {}\nset ylabel {}\n", GnuplotString(f1.name), GnuplotString(f2.name));
       script += "set logscale cb\nset cblabel 'verification p95, display px'\nset palette defined (0 '#1a9850', 1 "
                 "'#fee08b', 2 '#d73027')\n";
@@ -330,11 +373,16 @@ std::vector<std::filesystem::path> WriteSweepCharts(const SweepTable& t, const s
       script += "set style fill solid 1.0 noborder\nunset key\n";
       if (f1.count > 1) script += fmt::format("set xtics {}, {}\n", Cell(std::min(f1.start, f1.stop)), Cell(dx));
       if (f2.count > 1) script += fmt::format("set ytics {}, {}\n", Cell(std::min(f2.start, f2.stop)), Cell(dy));
+      // Cells without a p95 are grey; the palette layer only when some cell has one (its colour range would
+      // have no data otherwise).
+      if (!any_p95) script += "unset colorbox\n";
       script += fmt::format(
-          "plot '{0}.dat' using 1:2:({1}):({2}):3 with boxxyerror fc palette, "
+          "plot '{0}.dat' using 1:2:({1}):({2}) with boxxyerror fc rgb '#d9d9d9', {3}"
           "'' using 1:2:($6!=0?stringcolumn(7):'') with labels font ',16' tc rgb 'black', "
           "'{0}-boundary.dat' using 1:2:3:4 with vectors nohead lw 3 lc rgb 'black'\n",
-          base, Cell(0.5 * dx), Cell(0.5 * dy));
+          base, Cell(0.5 * dx), Cell(0.5 * dy),
+          any_p95 ? fmt::format("'' using 1:2:({}):({}):3 with boxxyerror fc palette, ", Cell(0.5 * dx), Cell(0.5 * dy))
+                  : std::string());
     }
     const std::filesystem::path png = dir / (base + ".png");
     WriteGnuplotChart(png, script, ChartSize{1200, factors.size() == 1 ? 900 : 800});

@@ -55,7 +55,9 @@ std::string SweepSummary(const SweepTable& table, const std::vector<SweepFactor>
 
 // Writes `dir`/sweep-<method>.png (+ .gp and .dat) for every method: 1 factor: verification p95 (display px,
 // log) and the radius error with its 1-sigma bar against the factor, failures marked by reason; 2 factors: a
-// heatmap of the p95 with failed cells lettered by reason and the success boundary drawn. Returns the PNGs.
+// heatmap of the p95 (grey where a cell has none) with failed cells lettered by reason and the success boundary
+// drawn. A method none of whose points succeeded still gets its chart, titled "no point succeeded: N of N failed
+// (reasons)"; a panel with nothing to plot is drawn empty with a label saying why. Returns the PNGs.
 std::vector<std::filesystem::path> WriteSweepCharts(const SweepTable& table, const std::vector<SweepFactor>& factors,
                                                     const std::vector<std::string>& methods,
                                                     double tolerance_display_px, const std::filesystem::path& dir);

@@ -454,6 +454,45 @@ PatternSpec PatternSpecFromConfig(const ConfigMap& c) {
   return s;
 }
 
+namespace {
+
+// Display px across the smallest element the pattern draws, measured at the pattern's centre: a checkerboard
+// square (kinds checkerboard, both) and a tag's bit cell (apriltag, both); nullopt where the centre misses the
+// display surface. Throws Error naming the monitor when an element is below its drawable minimum
+// (kMinSquareDisplayPx, kMinTagCellDisplayPx in pattern.h): a 1 x 1 px monitor cannot show a 16x5 board.
+void CheckDrawable(const Pattern& p, const Monitor& m, const Eigen::Vector3d& viewpoint) {
+  const auto span_px = [&](double size_mm) -> std::optional<double> {
+    const Eigen::Vector2d c = p.spec.centre_mm, hx(size_mm / 2, 0), hy(0, size_mm / 2);
+    const auto a = DisplayPxFromPattern(m, viewpoint, p.plane, c - hx), b = DisplayPxFromPattern(m, viewpoint, p.plane, c + hx);
+    const auto d = DisplayPxFromPattern(m, viewpoint, p.plane, c - hy), e = DisplayPxFromPattern(m, viewpoint, p.plane, c + hy);
+    if (!a || !b || !d || !e) return std::nullopt;
+    return std::min((*b - *a).norm(), (*e - *d).norm());
+  };
+  const auto check = [&](double size_mm, double min_px, const std::string& what, const std::string& element) {
+    const std::optional<double> px = span_px(size_mm);
+    if (!px || *px >= min_px) return;
+    throw Error(fmt::format("monitor '{}'", m.name),
+                fmt::format("{} x {} px cannot show the {}: its {} would be {:.2g} display px across, below the {:g} "
+                            "px it needs to be drawn",
+                            m.width_px, m.height_px, what, element, *px, min_px),
+                "give the monitor's real resolution in its spec, or a pattern of fewer, larger squares or tags "
+                "(e.g. --squares 4x3)");
+  };
+  if (HasBoard(p.spec.kind)) {
+    check(p.spec.square_mm, kMinSquareDisplayPx,
+          fmt::format("{} of {}x{} squares", PatternKindName(p.spec.kind), p.spec.cols, p.spec.rows), "squares");
+  }
+  if (p.spec.kind != PatternKind::kCheckerboard) {
+    check(p.spec.tag_mm / kTagCells, kMinTagCellDisplayPx,
+          p.spec.kind == PatternKind::kAprilTag
+              ? fmt::format("apriltag grid of {}x{} tags", p.spec.tag_cols, p.spec.tag_rows)
+              : fmt::format("{} of {}x{} squares", PatternKindName(p.spec.kind), p.spec.cols, p.spec.rows),
+          "tags' bit cells (1/8 of a tag)");
+  }
+}
+
+}  // namespace
+
 Pattern BuildPattern(const PatternSpec& spec, const Monitor& monitor,
                      const Eigen::Vector3d& viewpoint_in_screen, const PatternPlane& plane) {
   spec.Check("pattern spec");
@@ -479,6 +518,8 @@ Pattern BuildPattern(const PatternSpec& spec, const Monitor& monitor,
       p.spec.tag_mm = size_mm * kTagCells / kBothSquareCells;
       break;
   }
+
+  CheckDrawable(p, monitor, viewpoint_in_screen);
 
   PatternCells& cells = p.cells;
   cells.cell_mm = size_mm / layout.cells_per_size;

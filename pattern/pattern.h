@@ -102,9 +102,17 @@ struct Pattern {
   std::vector<Feature> features;
 };
 
+// The smallest elements a display can draw, in display px across (measured at the pattern's centre): a
+// checkerboard square below 4 px is a blur of anti-aliasing whose corners no detector finds; a tag's bit cell
+// (1/8 of the tag's black border) below 2 px makes the code unreadable.
+constexpr double kMinSquareDisplayPx = 4;
+constexpr double kMinTagCellDisplayPx = 2;
+
 // Builds the pattern for a monitor, viewpoint and plane: resolves fitted sizes, lays out the cells, and
 // projects every feature to the display with the geometry core. Throws Error if the spec is invalid, if the
-// viewpoint is invalid, or if no pattern of the requested layout fits in the visible part of the plane.
+// viewpoint is invalid, if no pattern of the requested layout fits in the visible part of the plane, or if its
+// squares or tag cells would be smaller on the display than kMinSquareDisplayPx / kMinTagCellDisplayPx (the
+// error names the monitor).
 Pattern BuildPattern(const PatternSpec& spec, const Monitor& monitor, const Eigen::Vector3d& viewpoint_in_screen,
                      const PatternPlane& plane);
 

@@ -10,6 +10,7 @@
 
 #include "core/error.h"
 #include "core/file_io.h"
+#include "core/image_hash.h"
 #include "core/monitor_json.h"
 #include "core/screen_geometry.h"
 
@@ -281,6 +282,50 @@ PatternFile ParsePatternJson(const std::string& text, const std::string& source)
     out.features.push_back(std::move(f));
   }
   return out;
+}
+
+std::string DisplayImageHash(const Image8& image) {
+  const int n = image.width * image.height, c = image.channels;
+  std::vector<uint8_t> gray;
+  bool is_gray = c == 1;
+  if (c >= 3) {  // equal B, G, R in every pixel: the same picture as a gray image
+    gray.resize(static_cast<size_t>(n));
+    is_gray = true;
+    for (int i = 0; i < n && is_gray; ++i) {
+      const uint8_t* px = &image.pixels[static_cast<size_t>(i) * c];
+      is_gray = px[0] == px[1] && px[1] == px[2];
+      gray[static_cast<size_t>(i)] = px[0];
+    }
+  }
+  const uint8_t* data = c == 1 ? image.pixels.data() : is_gray ? gray.data() : image.pixels.data();
+  const cv::Mat mat(image.height, image.width, CV_8UC(is_gray ? 1 : c), const_cast<uint8_t*>(data));
+  return HashImageContent(mat).Hex();
+}
+
+void CheckPatternBelongsToImage(const PatternFile& pattern, const std::filesystem::path& pattern_json,
+                                const std::filesystem::path& image_path, const Image8& image) {
+  const json& render = pattern.raw.contains("render") ? pattern.raw["render"] : json();
+  if (!render.is_object()) return;
+  const std::string recorded = render.contains("image") && render["image"].is_string() ? render["image"].get<std::string>() : "";
+  const std::string fix = fmt::format(
+      "give the display PNG together with the .json that `curvecheck render` wrote beside it (render again if it "
+      "is lost)");
+  if (render.contains("image_content_hash") && render["image_content_hash"].is_string()) {
+    const std::string hash = DisplayImageHash(image);
+    if (hash == render["image_content_hash"].get<std::string>()) return;
+    throw Error(pattern_json.string(),
+                fmt::format("was written for another image than {} ({}): its render.image_content_hash is {}, the "
+                            "image's is {}",
+                            image_path.string(), recorded.empty() ? "render.image not recorded"
+                                                                  : fmt::format("render.image is '{}'", recorded),
+                            render["image_content_hash"].get<std::string>().substr(0, 16), hash.substr(0, 16)),
+                fix);
+  }
+  if (!recorded.empty() && recorded != image_path.filename().string()) {
+    throw Error(pattern_json.string(),
+                fmt::format("was written for the image '{}' (render.image), not for {}", recorded, image_path.string()),
+                fix);
+  }
 }
 
 }  // namespace curvecheck

@@ -10,6 +10,7 @@
 
 #include "core/config.h"
 #include "core/error.h"
+#include "core/path_check.h"
 #include "core/screen_geometry.h"
 #include "datasets/monitor_presets.h"
 
@@ -264,30 +265,39 @@ void ReadImaging(const ConfigMap& m, Imaging* imaging) {
 
 // Applies one "dotted.key=value" override to the YAML document `root` (read from `path`, named in errors).
 void ApplyOverride(const std::string& o, const std::filesystem::path& path, YAML::Node* root) {
+  const std::string where = "--set " + o;
   const size_t eq = o.find('=');
   if (eq == std::string::npos || eq == 0) {
-    throw Error(o, "is not KEY=VALUE", "write e.g. optics.blur=none or true_monitor.lean_deg=0.5");
+    throw Error(where, "is not KEY=VALUE", "write e.g. optics.blur=none or true_monitor.lean_deg=0.5");
   }
   std::vector<std::string> keys;
   for (size_t start = 0, dot; start <= eq; start = dot + 1) {
     dot = std::min(o.find('.', start), eq);
     keys.push_back(o.substr(start, dot - start));
-    if (keys.back().empty()) throw Error(o, "has an empty key", "write e.g. optics.blur=none");
+    if (keys.back().empty()) throw Error(where, "has an empty key", "write e.g. optics.blur=none");
   }
   YAML::Node node;
   node.reset(*root);
   for (size_t i = 0; i + 1 < keys.size(); ++i) {
     if (node[keys[i]] && !node[keys[i]].IsMap()) {
-      throw Error(o, fmt::format("'{}' is not a mapping in {}", keys[i], path.string()), "set a field inside it");
+      throw Error(where, fmt::format("'{}' is not a mapping in {}", keys[i], path.string()), "set a field inside it");
     }
     YAML::Node child = node[keys[i]];
     node.reset(child);
   }
+  YAML::Node value;
   try {
-    node[keys.back()] = YAML::Load(o.substr(eq + 1));
+    value = YAML::Load(o.substr(eq + 1));
   } catch (const YAML::Exception& e) {
-    throw Error(o, fmt::format("has a value that is not YAML ({})", e.msg), "quote it or fix its syntax");
+    throw Error(where, fmt::format("has a value that is not YAML ({})", e.msg), "quote it or fix its syntax");
   }
+  // An empty value (or null, ~) loads as a null node, which the scene reader takes for an absent key: the file's
+  // value, or the default, would be used in silence (issue 17: `--set optics.blur_px=` read as 0 or ignored).
+  if (value.IsNull()) {
+    throw Error(where, "has no value after '='",
+                fmt::format("give one, e.g. {}=1.5, or leave out --set to keep the scene's value", o.substr(0, eq)));
+  }
+  node[keys.back()] = value;
 }
 
 }  // namespace
@@ -323,6 +333,7 @@ SyntheticScene ReadScene(const ConfigMap& c, const std::filesystem::path* scene_
   // The non-throwing exists: a monitor value that is no path (too long, a NUL byte) is a preset name or an error
   // of LoadMonitor, not a std::filesystem exception (fuzz_scene found "File name too long" escaping).
   std::error_code ec;
+  if (scene_dir && ClassifyPath(monitor_path) == PathKind::kLinkLoop) RequireFile(monitor_path);
   s.monitor =
       LoadMonitor(scene_dir && std::filesystem::exists(monitor_path, ec) ? monitor_path.string() : monitor_spec);
   s.truth.curvature_per_mm = s.monitor.curvature_per_mm;
@@ -371,11 +382,23 @@ SyntheticScene LoadScene(const std::filesystem::path& path, const std::vector<st
 
 CameraModel ScaledCamera(const CameraModel& camera, double scale) {
   if (!(scale > 0 && scale <= 1)) {
-    throw Error("imager scale", fmt::format("{} is not in (0, 1]", scale), "give a fraction such as 0.5");
+    throw Error("--scale", fmt::format("{} is not in (0, 1]", scale), "give the fraction of the imager to keep, such as 0.5");
   }
   if (camera.lensmodel.rfind("LENSMODEL_CAHVOR", 0) == 0 || camera.intrinsics.size() < 4) {
-    throw Error("imager scale", fmt::format("{} has no fx, fy, cx, cy core to scale", camera.lensmodel),
+    throw Error("--scale", fmt::format("the camera's lens model {} has no fx, fy, cx, cy core to scale", camera.lensmodel),
                 "use the full imager with this lens model");
+  }
+  // A photo must keep a size a board can be measured in: --scale 0.0001 made a 1 x 1 px photo that reported
+  // "60 of 60 features visible".
+  const double short_side_px = std::min(camera.width, camera.height) * scale;
+  if (!(short_side_px >= kMinScaledImagerPx - 0.5)) {
+    throw Error("--scale",
+                fmt::format("{:g} shrinks the {} x {} px imager to {} x {} px, below {} px on its short side, too "
+                            "small to detect a board in",
+                            scale, camera.width, camera.height, std::lround(camera.width * scale),
+                            std::lround(camera.height * scale), kMinScaledImagerPx),
+                fmt::format("give a scale of at least {:.3g}",
+                            static_cast<double>(kMinScaledImagerPx) / std::min(camera.width, camera.height)));
   }
   CameraModel c = camera;
   c.width = std::max(1, static_cast<int>(std::lround(camera.width * scale)));

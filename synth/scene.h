@@ -151,8 +151,12 @@ SyntheticScene LoadScene(const std::filesystem::path& path, const std::vector<st
 
 // The same lens on an imager scaled by `scale` (0 < scale <= 1; size rounded): fx, fy scaled, the principal
 // point moved so that q' + 0.5 = scale (q + 0.5), distortion unchanged (it acts on normalized coordinates). For
-// quick previews and tests. Throws Error for models without the fx, fy, cx, cy core (CAHVOR, CAHVORE).
+// quick previews and tests. Throws Error for models without the fx, fy, cx, cy core (CAHVOR, CAHVORE), and
+// for a scale that leaves fewer than kMinScaledImagerPx on the imager's short side (naming --scale).
 CameraModel ScaledCamera(const CameraModel& camera, double scale);
+// The smallest short side of a scaled imager, px: a 9-square board across it leaves 7 px per square, about the
+// least a corner detector works with.
+inline constexpr int kMinScaledImagerPx = 64;
 
 // The camera at `position` (screen frame, mm) looking at look_at: camera z toward look_at, x = z cross up,
 // y = z cross x (down). Throws Error if up is parallel to the viewing direction.

@@ -400,6 +400,26 @@ TEST(SceneReader, UnknownKeyIsNamed) {
   EXPECT_THAT(message, ::testing::HasSubstr("blur_px"));
 }
 
+// The imager keeps at least kMinScaledImagerPx on its short side (issue 17: --scale 0.0001 wrote a 1 x 1 photo
+// that reported every feature visible): 0.016 of 6000 x 4000 px is 96 x 64 px; 0.0158 (63 px) is refused.
+TEST(SceneReader, ScaledCameraKeepsAMeasurableSize) {
+  const CameraModel cam = ReadCameraModel(Datasets() / "cameras/default-24mp-opencv8.cameramodel");
+  ASSERT_EQ(cam.height, 4000);
+  const CameraModel small = ScaledCamera(cam, 0.016);
+  EXPECT_EQ(small.width, 96);
+  EXPECT_EQ(small.height, 64);
+  for (double scale : {0.0158, 0.0001}) {
+    try {
+      ScaledCamera(cam, scale);
+      ADD_FAILURE() << "accepted scale " << scale;
+    } catch (const Error& e) {
+      EXPECT_EQ(e.where(), "--scale");
+      EXPECT_THAT(e.problem(), ::testing::HasSubstr("px on its short side")) << scale;
+      EXPECT_EQ(e.fix(), "give a scale of at least 0.016");
+    }
+  }
+}
+
 // `--set` overrides: applied before the checks (which name them), or refused with what to write.
 TEST(SceneReader, OverridesAreAppliedAndChecked) {
   const std::filesystem::path scene = Datasets() / "scenes/default.yaml";
@@ -409,11 +429,14 @@ TEST(SceneReader, OverridesAreAppliedAndChecked) {
   EXPECT_EQ(s.display.bezel_mm, 0.0);
   EXPECT_EQ(s.optics.blur_px, 0.7);  // from the file
   const std::map<std::string, std::string> refused = {
-      {"optics", "is not KEY=VALUE"},
+      {"optics", "--set optics: is not KEY=VALUE"},
       {"optics..blur=none", "has an empty key"},
       {"monitor.name=x", "'monitor' is not a mapping"},
       {"optics.blur=[", "has a value that is not YAML"},
       {"optics.blur=box", "default.yaml with optics.blur=box: key 'optics.blur' is not none, gaussian or disc"},
+      {"optics.blur_px=", "--set optics.blur_px=: has no value after '='; give one, e.g. optics.blur_px=1.5"},
+      {"optics.blur_px=~", "--set optics.blur_px=~: has no value after '='"},
+      {"optics.blur_px=0x10", "key 'optics.blur_px' must be a decimal number, got '0x10'"},
   };
   for (const auto& [override_text, expected] : refused) {
     EXPECT_THAT(testing::MessageOf([&] { LoadScene(scene, {override_text}); }), ::testing::HasSubstr(expected))

@@ -75,9 +75,11 @@ TEST_F(CaptureCli, NoGphoto2Camera) {
 }
 
 TEST_F(CaptureCli, UsageErrors) {
-  EXPECT_EQ(Curvecheck({"capture"}).code, 2);
-  EXPECT_EQ(Curvecheck({"capture", "camera", "--frames", "0", "-o", "x.png"}).code, 2);
-  EXPECT_EQ(Curvecheck({"capture", "session", "--plan", (dir_ / "missing.yaml").string(), "-o", "s"}).code, 2);
+  // Usage errors exit 1, as every error (app/cli.h).
+  EXPECT_EQ(Curvecheck({"capture"}).code, 1);
+  ExpectFailure(Curvecheck({"capture", "camera", "--frames", "0", "-o", "x.png"}),
+                {"--frames: 0 is outside 1..1000", "see 'curvecheck capture camera --help'"});
+  EXPECT_EQ(Curvecheck({"capture", "session", "--plan", (dir_ / "missing.yaml").string(), "-o", "s"}).code, 1);
   const CliRun help = Curvecheck({"capture", "--help"});
   EXPECT_EQ(help.code, 0);
   for (const char* sub : {"camera", "gphoto2", "session", "import"}) EXPECT_THAT(help.out, HasSubstr(sub));

@@ -1,4 +1,4 @@
-// End-to-end tests of the `curvecheck` command line: exit codes (0 ok, 1 failure, 2 usage), one-line errors
+// End-to-end tests of the `curvecheck` command line: exit codes (0 ok, 1 any error), one-line errors
 // naming the file or option and the problem, and the figures `info` prints.
 #include "tests/cli_test_util.h"
 
@@ -49,12 +49,15 @@ TEST_F(Cli, HelpEverywhere) {
   EXPECT_THAT(Curvecheck({"info", "--help"}).out, HasSubstr("--viewpoint"));
 }
 
-TEST_F(Cli, UsageErrorsExitTwo) {
-  EXPECT_EQ(Curvecheck({}).code, 2);
-  EXPECT_EQ(Curvecheck({"frobnicate"}).code, 2);
+// One exit code for every error (app/cli.h): usage errors exit 1 like bad values, with one line pointing at the
+// subcommand's help (tests/robustness_values_cli_test.cc has the rest of the rule).
+TEST_F(Cli, UsageErrorsExitOne) {
+  EXPECT_EQ(Curvecheck({}).code, 1);
+  EXPECT_EQ(Curvecheck({"frobnicate"}).code, 1);
   const CliRun r = Curvecheck({"info", "--no-such-option"});
-  EXPECT_EQ(r.code, 2);
+  EXPECT_EQ(r.code, 1);
   EXPECT_THAT(r.err, HasSubstr("--no-such-option"));
+  EXPECT_THAT(r.err, HasSubstr("see 'curvecheck info --help'"));
 }
 
 TEST_F(Cli, InfoOnTheDefaultPreset) {

@@ -41,10 +41,10 @@ int RunSynth(const SynthArgs& a) {
   fs::path truth_path = fs::path(out).replace_extension(".truth.json");
   // The photo's camera model (mrcal format, the scene's lens at --scale): what `analyze --camera` needs next.
   const fs::path model_path = fs::path(out).replace_extension(".cameramodel");
-  RequireFile(a.display);  // before its pattern.json: a missing display or a link loop is named as itself
   const fs::path pattern_json = fs::path(a.display).replace_extension(".json");
   SyntheticScene scene = LoadScene(a.scene, a.overrides);
   if (a.scale) scene.camera = ScaledCamera(scene.camera, *a.scale);
+  RequireFile(a.display);  // before its pattern.json: a missing display or a link loop is named as itself
   // Every file read (the scene's camera model too) against every file written, and the outputs writable, before
   // the ray tracing. `--display X.truth.png -o X.png` names the display's pattern.json (X.truth.json) as the
   // photo's truth: the truth then takes the photo's whole file name, X.png.truth.json (said on stdout).

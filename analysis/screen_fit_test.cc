@@ -903,7 +903,7 @@ TEST(ScreenFitAdequacyTest, UnknownDetectionNoiseIsAssumedAndSaid) {
   EXPECT_FALSE(r.Chosen().adequate);
   EXPECT_EQ(r.status, "inadequate");
   ASSERT_FALSE(r.warnings.empty());
-  EXPECT_THAT(r.warnings[0], ::testing::HasSubstr("the assumed (not measured: expected_noise_px) detection noise"));
+  EXPECT_THAT(r.warnings[0], ::testing::HasSubstr("the assumed (not measured: --expected-noise) detection noise"));
   options.detection_noise_px = 0.3;
   EXPECT_EQ(FitScreen(scene.monitor, scene.camera, {photo}, options).status, "ok");
 }

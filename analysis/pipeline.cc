@@ -102,6 +102,9 @@ nlohmann::json ModelFitJson(const ModelFit& f) {
                       {"noise_px", f.noise_px},
                       {"bic", f.bic},
                       {"heldout_rms_px", Num(f.heldout_rms_px)},
+                      {"bic_white", Num(f.bic_white)},
+                      {"lens_field_rss_px2", Num(f.lens_field_rss_px2)},
+                      {"heldout_adjusted_px", Num(f.heldout_adjusted_px)},
                       {"curvature_per_mm", f.curvature_per_mm},
                       {"curvature_sigma_per_mm", f.curvature_sigma_per_mm},
                       {"radius_mm", f.radius_mm ? nlohmann::json(*f.radius_mm) : nlohmann::json(nullptr)},
@@ -554,6 +557,7 @@ nlohmann::json ResultJson(const AnalysisResult& r, const std::string& command_li
     f["detection_noise_px"] = Num(fit.detection_noise_px);
     f["detection_noise_assumed"] = fit.detection_noise_assumed;
     f["adequacy_limit_px"] = Num(fit.adequacy_limit_px);
+    f["lens_field_px"] = Num(fit.lens_field_px);
     f["warnings"] = fit.warnings;
     f["choice_reason"] = fit.choice_reason;
     f["assumptions"] = fit.assumptions;

@@ -149,6 +149,12 @@ struct FitOptions {
   // false: no lens-model-misfit row (the lens taken as exact beyond its calibration covariance), for tests of
   // other rows and for a lens known to be modelled exactly (the clean synthetic camera).
   bool measure_lens_misfit = true;
+  // The largest lens model misfit (RMS px per coordinate, as a fraction of the image width) that the model choice
+  // and the adequacy test accept as one (ScreenFitResult::lens_field_px): 1e-4, 0.6 px on a 6000 px imager. A
+  // calibrated lens model misfits by less than its calibration's residual: mrcal's tour reports 0.4 px RMS for
+  // OPENCV8 and 0.2 px for its splined model on a 6000 px camera (both with the detection noise in them); the
+  // synthetic presets use 0.1-0.2 px at 6000 px. Smooth residuals beyond it are a wrong screen model or wrong data.
+  double max_lens_misfit_relative = 1e-4;
   // Coverage probability of the interval (the coverage factor is Student's t at the effective degrees of freedom).
   double coverage_probability = 0.95;
 
@@ -226,6 +232,16 @@ struct ModelFit {
   // rms_px: RMS length of the 2D residual over the inliers; bic = n ln(RSS/n) + p ln(n) with n = 2 x inliers;
   // heldout_rms_px: RMS length of the residuals of features left out of the fit (k-fold), NaN when off.
   double rms_px = 0, bic = 0, heldout_rms_px = 0;
+  // Model choice with the lens model misfit as a correlated error (ScreenFitResult::lens_field_px): the residual
+  // covariance is sigma^2 I + B T B^T, B the misfit family's fields (FitOptions::misfit_field_degree, the same field
+  // in every photo), T their coefficients' prior of RMS lens_field_px. lens_field_rss_px2: the part of the inliers'
+  // residual sum that such a field explains (after the linearized refit of this model's parameters, with the
+  // prior's penalty); bic, chi2 and the adequacy test then use RSS - lens_field_rss_px2 and heldout_rms_px is
+  // compared as sqrt(heldout^2 - lens_field_rss_px2 / inliers) (heldout_adjusted_px). bic_white: the BIC of the
+  // plain residual sum. NaN (and bic = bic_white) when no misfit was measured.
+  double lens_field_rss_px2 = std::numeric_limits<double>::quiet_NaN();
+  double bic_white = std::numeric_limits<double>::quiet_NaN();
+  double heldout_adjusted_px = std::numeric_limits<double>::quiet_NaN();
   // Per-coordinate noise of this model's residuals, sqrt(RSS/(n - p)); scales this model's covariance.
   double noise_px = 0;
   // Goodness of fit against the detection noise sigma (ScreenFitResult::detection_noise_px), over the inliers:
@@ -299,6 +315,12 @@ struct ScreenFitResult {
   // (and chi2_p_value < adequacy_p_value).
   double detection_noise_px = 0;
   bool detection_noise_assumed = false;
+  // The lens model misfit's RMS (px per coordinate) the choice took as a correlated error (ModelFit::
+  // lens_field_rss_px2): the smallest estimate over the converged candidates (from their residuals' energy in the
+  // field family beyond the noise's share; the one least inflated by screen-shape error), capped at
+  // FitOptions::max_lens_misfit_relative of the image width; 0 when not measured or no candidate shows a field
+  // (then the choice and the adequacy test are the white-noise ones).
+  double lens_field_px = 0;
   double adequacy_limit_px = 0;
   // "inadequate" when the chosen model is not adequate (no candidate fits the photos to their noise; takes
   // precedence), else "ill_conditioned" when the chosen model or the cylinder candidate is ill-conditioned (the

@@ -20,7 +20,9 @@
 #include "analysis/screen_fit.h"
 #include "analysis/screen_fit_test_util.h"
 #include "core/test_util.h"
+#include "core/screen_geometry.h"
 #include "synth/lens_misfit.h"
+#include "synth/scene.h"
 #include "synth/synthetic_camera.h"
 
 namespace curvecheck {
@@ -255,6 +257,67 @@ TEST(UncertaintyBudgetTest, LensMisfitIsMeasuredFromTheResidualsAndCoversItsShif
     // The shift includes the noise's own (about the noise row); the row must not fall short of the shift.
     EXPECT_GT(std::sqrt(row2) + Row(f0, "detection noise").radius_mm, 0.7 * std::sqrt(shift2));
   }
+}
+
+// Model choice under a lens model misfit (issue 16): one photo from 1.5 m at 30 deg yaw (where the validity bench
+// saw richer models chosen in 22 of 48 trials, their intervals missing the truth), detections through a true lens
+// that departs from the model by random-cosine fields of 0.1 px RMS (synth/lens_misfit, a new lens per trial) plus
+// 0.05 px of noise, every model a candidate. Measured (seeds 300-307, lenses 700-707): the white-noise choice
+// (max_lens_misfit_relative 0) took a richer model in 6 of 8 trials, the choice with the misfit as a correlated
+// error in 2 (both of whose intervals held the truth), and the chosen interval held the truth in 8 of 8. A real
+// lean of 0.3 deg, beyond what the field explains, is still found.
+TEST(UncertaintyBudgetTest, LensMisfitIsNotTakenForScreenShape) {
+  SyntheticScene scene = DefaultScene();
+  const Eigen::Vector3d centre = ScreenCentreInScreen(scene.monitor);
+  const Eigen::Vector3d at =
+      centre + 1500 * (Eigen::AngleAxisd(30 * kPi / 180, Eigen::Vector3d::UnitY()) * Eigen::Vector3d::UnitZ());
+  scene.screen_from_cam = ScreenFromCamLookAt(at, centre, Eigen::Vector3d::UnitY());
+  const double true_radius = 1 / scene.monitor.curvature_per_mm;
+  constexpr double kNoise = 0.05, kField = 0.1;
+  constexpr int kTrials = 8;
+  FitOptions adjusted;
+  adjusted.detection_noise_px = kNoise;
+  FitOptions white = adjusted;
+  white.max_lens_misfit_relative = 0;
+  const auto photo = [&](int trial, const testing::SurfaceFn& surface) {
+    std::mt19937_64 rng(300 + static_cast<uint64_t>(trial));
+    PhotoObservations p = Observe(scene, DisplayGrid(scene.monitor, 31, 9), kNoise, rng, surface);
+    Imaging g = ImagingFromPreset(ImagingPreset::kIlc24);
+    g.lens_misfit_px = kField;
+    g.lens_seed = 700 + static_cast<uint64_t>(trial);
+    const LensMisfit m(g, scene.camera.width, scene.camera.height);
+    for (Eigen::Vector2d& q : p.detected_px) q += m.At(q);
+    return p;
+  };
+  int richer_adjusted = 0, richer_white = 0, covered = 0;
+  double mean_field = 0;
+  for (int t = 0; t < kTrials; ++t) {
+    const PhotoObservations p = photo(t, SceneSurface(scene));
+    const ScreenFitResult a = FitScreen(scene.monitor, scene.camera, {p}, adjusted);
+    const ScreenFitResult w = FitScreen(scene.monitor, scene.camera, {p}, white);
+    const ModelFit& c = a.Chosen();
+    std::cout << "trial " << t << ": lens field " << a.lens_field_px << " px; adjusted " << c.model << " R "
+              << (c.radius_mm ? *c.radius_mm : 0) << " [" << c.radius_ci95_mm[0] << ", " << c.radius_ci95_mm[1]
+              << "]; white " << w.Chosen().model << " R " << (w.Chosen().radius_mm ? *w.Chosen().radius_mm : 0)
+              << "\n";
+    mean_field += a.lens_field_px / kTrials;
+    EXPECT_TRUE(c.adequate) << c.adequacy_note;
+    richer_adjusted += c.model != "cylinder";
+    richer_white += w.Chosen().model != "cylinder";
+    covered += c.radius_mm && c.radius_ci95_mm[0] <= true_radius && true_radius <= c.radius_ci95_mm[1];
+  }
+  // The field is measured in the misfit family (Legendre, degree 6) and as the smallest over the candidates: a
+  // random-cosine field of 0.1 px puts part of its energy outside the family, so the figure is below 0.1 px.
+  EXPECT_GT(mean_field, 0.2 * kField);
+  EXPECT_LT(mean_field, 1.5 * kField);
+  EXPECT_LE(richer_adjusted, 2);
+  EXPECT_LE(2 * richer_adjusted, richer_white);
+  EXPECT_GE(covered, kTrials - 1);
+  EXPECT_GE(richer_white, 4) << "the white-noise choice no longer errs here: the test cannot fail";
+  // A lean of 0.3 deg (the cylinder's residuals 0.5 px, five times the field) is still a shape.
+  const ScreenFitResult lean = FitScreen(scene.monitor, scene.camera, {photo(0, testing::AxisLeanSurface(scene, 0.3))},
+                                         adjusted);
+  EXPECT_EQ(lean.Chosen().model, "cylinder+lean") << lean.choice_reason;
 }
 
 TEST(UncertaintyBudgetTest, PixelLockingAmplitudeIsRecovered) {

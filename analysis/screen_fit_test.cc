@@ -822,13 +822,16 @@ TEST(ScreenFitAdequacyTest, DisplayPositionsPerturbedByTwoPixelsAreInadequate) {
 }
 
 // Both significances are needed, at their thresholds. The fit does not depend on detection_noise_px, so the
-// same residuals are tested against noises that put the ratio just below and above 1.5 (floor off).
+// same residuals are tested against noises that put the ratio just below and above 1.5 (floor off). The test is
+// of the white-noise rule: the lens-misfit adjustment is off (white noise above the stated sigma puts energy in
+// every direction, the misfit family's too, and the adjustment would take about a tenth of it off the sum).
 TEST(ScreenFitAdequacyTest, StatisticalAndPracticalSignificanceAreBothNeeded) {
   const SyntheticScene scene = LoadScene(Scene("default"));
   FitOptions options;
   options.models = ParseScreenModels({"cylinder"}, "test");
   options.heldout_folds = 0;
   options.noise_floor_px = 0;
+  options.measure_lens_misfit = false;
   const auto fit = [&](const PhotoObservations& photo, double ratio, double noise_px) {
     options.detection_noise_px = noise_px / ratio;
     return FitScreen(scene.monitor, scene.camera, {photo}, options).Chosen();

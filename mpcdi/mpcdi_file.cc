@@ -63,7 +63,17 @@ std::string NowUtc() {
 
 // One ZIP member, deflated.
 void AddMember(zipFile zf, const std::string& name, std::string_view data, const fs::path& path) {
+  // The member's time stamp: now (minizip takes the full year; an all-zero date is an invalid 1980-01-00).
   zip_fileinfo info{};
+  const std::time_t t = std::chrono::system_clock::to_time_t(std::chrono::system_clock::now());
+  std::tm tm{};
+  gmtime_r(&t, &tm);
+  info.tmz_date.tm_sec = static_cast<uInt>(tm.tm_sec);
+  info.tmz_date.tm_min = static_cast<uInt>(tm.tm_min);
+  info.tmz_date.tm_hour = static_cast<uInt>(tm.tm_hour);
+  info.tmz_date.tm_mday = static_cast<uInt>(tm.tm_mday);
+  info.tmz_date.tm_mon = static_cast<uInt>(tm.tm_mon);
+  info.tmz_date.tm_year = static_cast<uInt>(tm.tm_year + 1900);
   if (zipOpenNewFileInZip64(zf, name.c_str(), &info, nullptr, 0, nullptr, 0, nullptr, Z_DEFLATED,
                             Z_DEFAULT_COMPRESSION, data.size() >= 0xffffffffu ? 1 : 0) != ZIP_OK ||
       zipWriteInFileInZip(zf, data.data(), static_cast<unsigned>(data.size())) != ZIP_OK ||

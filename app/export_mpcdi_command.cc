@@ -58,7 +58,7 @@ Correction FromResult(const fs::path& path) {
   const json& mj = r["inputs"]["monitor"];
   const json& fit = r["fit"];
   const std::string fix = "export the nominal correction with --monitor M [--radius-mm R], or measure again (README "
-                          "\"Analysing photos\")";
+                          "\"Analyze\")";
   if (fit["model"].is_null()) {
     throw Error(where, fmt::format("the analysis has no fit: {}", Text(fit, "failure")), fix);
   }
@@ -81,10 +81,18 @@ Correction FromResult(const fs::path& path) {
     throw Error(where, "the chosen model is flat: the fit has no radius to correct for", fix);
   }
   if (!fit.contains("radius_mm") || !fit["radius_mm"].is_number()) {
-    throw Error(where,
-                fmt::format("the fit of model {} has no radius (radius_status {})", model,
-                            Text(fit, "radius_status").empty() ? "?" : Text(fit, "radius_status")),
-                fix);
+    // The fit's own reason: its condition note, else its warnings, else the radius status.
+    std::string reason = Text(fit, "condition_note");
+    if (reason.empty() && fit.contains("warnings") && fit["warnings"].is_array()) {
+      for (const json& w : fit["warnings"]) {
+        if (w.is_string()) reason += (reason.empty() ? "" : "; ") + w.get<std::string>();
+      }
+    }
+    if (reason.empty()) reason = "radius_status " + (Text(fit, "radius_status").empty() ? "?" : Text(fit, "radius_status"));
+    if (fit.contains("radius_lower_bound_mm") && fit["radius_lower_bound_mm"].is_number()) {
+      reason += fmt::format(" (the radius is only bounded below, by {:.0f} mm)", fit["radius_lower_bound_mm"].get<double>());
+    }
+    throw Error(where, fmt::format("the fit of model {} has no radius: {}", model, reason), fix);
   }
   const double radius = fit["radius_mm"].get<double>();
   Correction c;

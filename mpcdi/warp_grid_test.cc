@@ -138,8 +138,8 @@ TEST(WarpGrid, DefaultGridInterpolatesWithinFiveHundredthsOfAPixel) {
 TEST(WarpGrid, RefusesBadGridsAndViewpointsTooNear) {
   const Monitor m = LoadMonitor("49in-5120x1440-1000r");
   EXPECT_THAT(MessageOf([&] { MakeWarpGrid(m, {0, 0, 500}, nullptr, 1, 10); }), ::testing::HasSubstr("--grid"));
-  // 100 mm in front of the centre (z = -900): behind the plane of the curved edges' ... the rays to the edges
-  // run away from the tangent plane.
+  // 100 mm in front of the centre (z = -900), behind the plane of the curved edges (174 mm in front of it): the
+  // rays through the edges run away from the tangent plane, which a planar source image cannot show.
   EXPECT_THAT(MessageOf([&] { MakeWarpGrid(m, {0, 0, -900}, nullptr, 9, 3); }),
               ::testing::HasSubstr("does not meet the plane of the source image"));
 }

@@ -17,6 +17,7 @@
 #include "app/capture_command.h"
 #include "app/capture_synth_command.h"
 #include "app/commands.h"
+#include "app/export_mpcdi_command.h"
 #include "app/present_command.h"
 #include "app/render_command.h"
 #include "app/render_options.h"
@@ -174,6 +175,8 @@ int Main(int argc, char** argv) {
 
   // `sweep` (issue 7 items 3-4): app/sweep_command.cc.
   AddSweepCommand(app, run);
+  // `export-mpcdi` (issue 19 part 3): app/export_mpcdi_command.cc.
+  AddExportMpcdiCommand(app, run);
 
   // `curvecheck --version`: the version the report page records (PROJECT_VERSION of CMakeLists.txt).
   app.set_version_flag("--version", std::string("curvecheck ") + CURVECHECK_VERSION, "Print the version and exit");

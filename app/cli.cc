@@ -22,6 +22,7 @@
 #include "app/render_options.h"
 #include "app/report_command.h"
 #include "app/sweep_command.h"
+#include "app/thirdparty_commands.h"
 #include "core/decimal.h"
 #include "core/error.h"
 
@@ -174,6 +175,9 @@ int Main(int argc, char** argv) {
 
   // `sweep` (issue 7 items 3-4): app/sweep_command.cc.
   AddSweepCommand(app, run);
+  // `pattern` and `check-screenshot` (issue 19): app/pattern_command.cc, app/check_screenshot_command.cc.
+  AddPatternCommand(app, run);
+  AddCheckScreenshotCommand(app, run);
 
   // `curvecheck --version`: the version the report page records (PROJECT_VERSION of CMakeLists.txt).
   app.set_version_flag("--version", std::string("curvecheck ") + CURVECHECK_VERSION, "Print the version and exit");

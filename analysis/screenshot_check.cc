@@ -26,7 +26,7 @@ struct EdgeSamples {
 // (row, col) swapped, i.e. the line is sampled per row and `across` is x. Returns false when an arm has fewer than
 // 4 usable samples.
 bool SampleLine(const cv::Mat& lin, bool transposed, double c_along, double c_across, double slope, int inner,
-                int arm, double half, EdgeSamples* out) {
+                int arm, double half, int only_side, EdgeSamples* out) {
   const int n_along = transposed ? lin.rows : lin.cols, n_across = transposed ? lin.cols : lin.rows;
   auto at = [&](int along, int across) {
     return transposed ? lin.at<double>(along, across) : lin.at<double>(across, along);
@@ -34,6 +34,7 @@ bool SampleLine(const cv::Mat& lin, bool transposed, double c_along, double c_ac
   out->t.clear(), out->across.clear();
   const int c = static_cast<int>(std::lround(c_along));
   for (int side : {-1, 1}) {
+    if (only_side != 0 && side != only_side) continue;
     int used = 0;
     for (int k = inner; k <= arm; ++k) {
       const int along = c + side * k;
@@ -105,9 +106,12 @@ double Percentile(std::vector<double> v, double q) {
 
 }  // namespace
 
-std::optional<EdgeAreaCorner> RefineXCornerByEdgeAreas(const cv::Mat& linear, const Eigen::Vector2d& guess,
-                                                       const Eigen::Vector2d& line_a, const Eigen::Vector2d& line_b,
-                                                       double max_arm_px, const EdgeAreaOptions& o) {
+namespace {
+
+// Both corner kinds: `one_sided` samples each line only on the side its direction points to (an L-corner's edges).
+std::optional<EdgeAreaCorner> RefineCornerByEdgeAreas(const cv::Mat& linear, const Eigen::Vector2d& guess,
+                                                      const Eigen::Vector2d& line_a, const Eigen::Vector2d& line_b,
+                                                      double max_arm_px, const EdgeAreaOptions& o, bool one_sided) {
   if (linear.type() != CV_64F || linear.channels() != 1) {
     throw Error("RefineXCornerByEdgeAreas", "the image must be CV_64F, one channel (linear light)");
   }
@@ -129,8 +133,13 @@ std::optional<EdgeAreaCorner> RefineXCornerByEdgeAreas(const cv::Mat& linear, co
   EdgeAreaCorner out;
   for (int round = 0; round < o.rounds; ++round) {
     EdgeSamples sh, sv;
-    if (!SampleLine(linear, false, c.x(), c.y(), slope_h, inner, arm, o.half_segment_px, &sh)) return std::nullopt;
-    if (!SampleLine(linear, true, c.y(), c.x(), slope_v, inner, arm, o.half_segment_px, &sv)) return std::nullopt;
+    const int side_h = one_sided ? (h.x() > 0 ? 1 : -1) : 0, side_v = one_sided ? (v.y() > 0 ? 1 : -1) : 0;
+    if (!SampleLine(linear, false, c.x(), c.y(), slope_h, inner, arm, o.half_segment_px, side_h, &sh)) {
+      return std::nullopt;
+    }
+    if (!SampleLine(linear, true, c.y(), c.x(), slope_v, inner, arm, o.half_segment_px, side_v, &sv)) {
+      return std::nullopt;
+    }
     const Quadratic qh = FitQuadratic(sh), qv = FitQuadratic(sv);
     // Intersection: y = qh(x - cx), x = qv(y - cy); fixed point (|slope_h slope_v| < 1 for lines 30 deg apart).
     Eigen::Vector2d p = c;
@@ -152,6 +161,20 @@ std::optional<EdgeAreaCorner> RefineXCornerByEdgeAreas(const cv::Mat& linear, co
   return out;
 }
 
+}  // namespace
+
+std::optional<EdgeAreaCorner> RefineXCornerByEdgeAreas(const cv::Mat& linear, const Eigen::Vector2d& guess,
+                                                       const Eigen::Vector2d& line_a, const Eigen::Vector2d& line_b,
+                                                       double max_arm_px, const EdgeAreaOptions& o) {
+  return RefineCornerByEdgeAreas(linear, guess, line_a, line_b, max_arm_px, o, false);
+}
+
+std::optional<EdgeAreaCorner> RefineLCornerByEdgeAreas(const cv::Mat& linear, const Eigen::Vector2d& guess,
+                                                       const Eigen::Vector2d& toward_a, const Eigen::Vector2d& toward_b,
+                                                       double max_arm_px, const EdgeAreaOptions& o) {
+  return RefineCornerByEdgeAreas(linear, guess, toward_a, toward_b, max_arm_px, o, true);
+}
+
 void ScreenshotCheckOptions::Check(const std::string& where) const {
   RequireInRange(where, "tolerance_px", tolerance_px, 1e-6, 1e6, "give a positive tolerance in display px");
   RequireInRange(where, "max_scale_deviation", max_scale_deviation, 0, 1, "give a fraction such as 0.01");
@@ -160,6 +183,7 @@ void ScreenshotCheckOptions::Check(const std::string& where) const {
   if (gamma) RequireInRange(where, "gamma", *gamma, 0.1, 10, "give a display gamma such as 2.2");
   RequireInRange(where, "corner_floor_px", corner_floor_px, 0, 10, "give px");
   RequireInRange(where, "tag_corner_floor_px", tag_corner_floor_px, 0, 10, "give px");
+  RequireInRange(where, "detector_floor_px", detector_floor_px, 0, 10, "give px");
   detect.Check(where);
 }
 
@@ -283,9 +307,27 @@ ScreenshotCheck CheckScreenshot(const cv::Mat& image, const PatternFile& pattern
     sf.exact_px = *f.display_px;
     sf.detected_px = d->px;
     sf.refinement = det.detector;
-    sf.sigma_px = o.tag_corner_floor_px;
+    sf.sigma_px = o.detector_floor_px;
     const int k = CornerIndex(d->id);
-    if (k >= 0 && per_row > 0) {
+    const size_t dot = d->id.rfind('.');
+    if (d->id[0] == 't' && dot != std::string::npos) {
+      // Tag corner t<id>.<j>: the black border's two sides run toward corners j + 1 and j + 3 (mod 4).
+      const int j = d->id[dot + 1] - '0';
+      const std::string tag = d->id.substr(0, dot + 1);
+      const auto a = by_id.find(tag + std::to_string((j + 1) % 4)), b = by_id.find(tag + std::to_string((j + 3) % 4));
+      if (a != by_id.end() && b != by_id.end() && a->second->display_px && b->second->display_px) {
+        const Eigen::Vector2d ta = *a->second->display_px - sf.exact_px, tb = *b->second->display_px - sf.exact_px;
+        if (const auto c = RefineLCornerByEdgeAreas(linear, d->px, ta, tb, 0.8 * std::min(ta.norm(), tb.norm()),
+                                                    o.edges)) {
+          sf.detected_px = c->px;
+          sf.sigma_px = std::hypot(c->sigma_px, o.tag_corner_floor_px);
+          sf.refinement = "edge-areas";
+          ++refined;
+        } else {
+          ++kept;
+        }
+      }
+    } else if (k >= 0 && per_row > 0) {
       // The two lines' directions and the arm limit from the neighbours' exact positions (directions only: the
       // measurement never uses the exact position itself).
       auto exact_of = [&](int kk) -> std::optional<Eigen::Vector2d> {
@@ -311,16 +353,14 @@ ScreenshotCheck CheckScreenshot(const cv::Mat& image, const PatternFile& pattern
         ++refined;
       } else {
         ++kept;
-        sf.sigma_px = o.tag_corner_floor_px;  // the detector's own refinement: its bound
       }
     }
     out.features.push_back(sf);
   }
   if (kept > 0) {
-    out.notes.push_back(fmt::format("{} board corners kept the detector's position (edge areas could not be sampled)",
-                                    kept));
+    out.notes.push_back(fmt::format("{} corners kept the detector's position (edge areas could not be sampled)", kept));
   }
-  if (refined > 0) out.notes.push_back(fmt::format("{} board corners measured by edge areas", refined));
+  if (refined > 0) out.notes.push_back(fmt::format("{} corners measured by edge areas", refined));
 
   std::vector<double> e;
   double sum2 = 0;

@@ -5,8 +5,11 @@
 // Detection: the detect/ library finds the board or the tags and names every feature by its pattern.json id (board
 // indexing and orientation, tag ids), so a correction that is tens of px off (`none`) is still matched feature by
 // feature, never by proximity to the exact position. Checkerboard inner corners ("c<k>") are then re-measured by
-// RefineXCornerByEdgeAreas (below), which is exact for box-filtered (analytically anti-aliased) images; tag corners
-// keep the detector's border-edge refinement (detect.h).
+// RefineXCornerByEdgeAreas (below), which is exact for box-filtered (analytically anti-aliased) images, and tag
+// corners ("t<id>.<k>") by RefineLCornerByEdgeAreas. The detector's own refinements are biased on such captures:
+// cornerSubPix 0.08 px max on the exact 49" render, the tag border-edge fit 0.21 px per axis toward the tag's
+// centre (a Gaussian prefilter on gamma-encoded code values moves edges toward black); edge areas read 0.0024 px
+// (board) and 0.0088 px (tags) max there.
 //
 // A capture that is not the display pixel for pixel is refused with the reason before anything is measured: a size
 // other than pattern.json's resolution (a scaled or cropped capture), or content scaled or shifted inside a capture
@@ -59,6 +62,13 @@ std::optional<EdgeAreaCorner> RefineXCornerByEdgeAreas(const cv::Mat& linear, co
                                                        const Eigen::Vector2d& line_a, const Eigen::Vector2d& line_b,
                                                        double max_arm_px, const EdgeAreaOptions& options = {});
 
+// The same for an L-corner (a tag's black border on white): each edge sampled on one arm only, the one that
+// `toward_a` / `toward_b` point along (from the corner toward the next corners of the border). Without the second arm
+// the linearization must be right (pattern.json's render gamma).
+std::optional<EdgeAreaCorner> RefineLCornerByEdgeAreas(const cv::Mat& linear, const Eigen::Vector2d& guess,
+                                                       const Eigen::Vector2d& toward_a, const Eigen::Vector2d& toward_b,
+                                                       double max_arm_px, const EdgeAreaOptions& options = {});
+
 struct ScreenshotCheckOptions {
   double tolerance_px = 0.5;  // the verdict's tolerance on max_px, display px (> 0)
   // Refusal of a capture that is not the display pixel for pixel (see top): |similarity scale - 1| and the
@@ -69,10 +79,12 @@ struct ScreenshotCheckOptions {
   // Linearization of code values for the edge areas, gamma: nullopt = pattern.json's render.display_gamma, else 2.2.
   std::optional<double> gamma;
   // Systematic bound of the corner measurement (standard uncertainty, px) added in quadrature to each corner's own
-  // sigma: measured on exact renders (screenshot_check_test: max 0.0025 px on the 49" 1000R). Tag corners (the
-  // detector's border-edge refinement) carry tag_corner_floor_px instead.
+  // sigma: measured on exact renders of the 49" 1000R (screenshot_check_test): board X-corners max 0.0024 px, tag
+  // L-corners max 0.0088 px. A corner the edge areas cannot sample keeps the detector's position with
+  // detector_floor_px (its measured bias on captures: 0.21 px per axis for tag corners).
   double corner_floor_px = 0.002;
-  double tag_corner_floor_px = 0.05;
+  double tag_corner_floor_px = 0.005;
+  double detector_floor_px = 0.3;
   DetectOptions detect;
   EdgeAreaOptions edges;
 

@@ -7,7 +7,7 @@
 // feature, never by proximity to the exact position. Checkerboard inner corners ("c<k>") are then re-measured by
 // RefineXCornerByEdgeAreas (below), which is exact for box-filtered (analytically anti-aliased) images, and tag
 // corners ("t<id>.<k>") by RefineLCornerByEdgeAreas. The detector's own refinements are biased on such captures:
-// cornerSubPix 0.08 px max on the exact 49" render, the tag border-edge fit 0.21 px per axis toward the tag's
+// cornerSubPix 0.08-0.10 px max on the exact 49" render, the tag border-edge fit 0.21 px per axis toward the tag's
 // centre (a Gaussian prefilter on gamma-encoded code values moves edges toward black); edge areas read 0.0024 px
 // (board) and 0.0088 px (tags) max there.
 //

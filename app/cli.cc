@@ -23,6 +23,7 @@
 #include "app/render_options.h"
 #include "app/report_command.h"
 #include "app/sweep_command.h"
+#include "app/thirdparty_commands.h"
 #include "core/decimal.h"
 #include "core/error.h"
 
@@ -177,6 +178,9 @@ int Main(int argc, char** argv) {
   AddSweepCommand(app, run);
   // `export-mpcdi` (issue 19 part 3): app/export_mpcdi_command.cc.
   AddExportMpcdiCommand(app, run);
+  // `pattern` and `check-screenshot` (issue 19): app/pattern_command.cc, app/check_screenshot_command.cc.
+  AddPatternCommand(app, run);
+  AddCheckScreenshotCommand(app, run);
 
   // `curvecheck --version`: the version the report page records (PROJECT_VERSION of CMakeLists.txt).
   app.set_version_flag("--version", std::string("curvecheck ") + CURVECHECK_VERSION, "Print the version and exit");

@@ -7,6 +7,7 @@
 #include <limits>
 #include <map>
 #include <optional>
+#include <tuple>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <set>
@@ -242,6 +243,9 @@ void AnalyzeOptions::Check(const std::string& where) const {
   detect.Check(where);
   verify.Check(where);
   fit.Check(where);
+  if (overlay_max_px < 0) {
+    throw Error(where, fmt::format("overlay_max_px is {}", overlay_max_px), "give 0 (keep none) or a size in px");
+  }
 }
 
 int AnalysisResult::UsedPhotos() const {
@@ -273,6 +277,18 @@ void AddPlausibilityWarnings(AnalysisResult& r) {
           p.name, off, stated.norm(), limit, p.input.pattern.string()));
     }
   }
+}
+
+// The image an overlay is drawn on: `gray` (8 or 16 bit) as 8 bit, scaled to at most max_px on its longer side
+// with INTER_AREA; and the scale (<= 1).
+std::pair<cv::Mat, double> OverlayBase(const cv::Mat& photo_gray, int max_px) {
+  cv::Mat gray = photo_gray;
+  if (gray.depth() == CV_16U) gray.convertTo(gray, CV_8U, 1.0 / 257);
+  const double scale = std::min(1.0, static_cast<double>(max_px) / std::max(gray.cols, gray.rows));
+  if (scale >= 1) return {gray.depth() == photo_gray.depth() ? gray.clone() : gray, 1.0};
+  cv::Mat small;
+  cv::resize(gray, small, cv::Size(), scale, scale, cv::INTER_AREA);
+  return {small, scale};
 }
 
 // The analysis with photos from `load` (which throws Error for a bad photo).
@@ -373,6 +389,12 @@ AnalysisResult AnalyzeWith(const CameraModel& camera, const std::filesystem::pat
           obs.display_px.push_back(c.display_px);
           // Less the detector's pixel-locking bias the verification estimated, when asked to (AnalyzeOptions).
           obs.detected_px.push_back(options.correct_pixel_locking ? c.detected_px - c.pixel_locking_px : c.detected_px);
+        }
+        if (options.overlay_max_px > 0) {
+          const auto [small, scale] = OverlayBase(gray, options.overlay_max_px);
+          pa.overlay_gray = small;
+          pa.overlay_scale = scale;
+          pa.overlay_max_px = options.overlay_max_px;
         }
         pa.fit_ids = obs.ids;
         pa.fit_index = static_cast<int>(observations.size());
@@ -693,15 +715,16 @@ std::optional<std::pair<Eigen::Vector2d, Eigen::Vector2d>> ClipSegment(const Eig
 std::string OverlayPng(const AnalysisResult& r, size_t i, double magnification, int max_px) {
   const PhotoAnalysis& p = r.photos.at(i);
   if (!p.used) throw Error(p.name, "has no overlay (the photo was not used)", "this is a bug");
-  cv::Mat gray = ReadPhotoGray(p.input.photo);
-  if (gray.depth() == CV_16U) gray.convertTo(gray, CV_8U, 1.0 / 257);
-  const double scale = std::min(1.0, static_cast<double>(max_px) / std::max(gray.cols, gray.rows));
+  // The image kept by the analysis (no second decode), else the photo read again.
   cv::Mat small;
-  if (scale < 1) {
-    cv::resize(gray, small, cv::Size(), scale, scale, cv::INTER_AREA);
+  double scale = 1;
+  if (!p.overlay_gray.empty() && p.overlay_max_px == max_px) {
+    small = p.overlay_gray;
+    scale = p.overlay_scale;
   } else {
-    small = gray;
+    std::tie(small, scale) = OverlayBase(ReadPhotoGray(p.input.photo), max_px);
   }
+  const cv::Size photo_size(r.camera.width, r.camera.height);  // a used photo has the camera model's size
   cv::Mat img;
   cv::cvtColor(small, img, cv::COLOR_GRAY2BGR);
   // Pixel centres at integers in both images: x_small = (x + 0.5) scale - 0.5.
@@ -713,7 +736,7 @@ std::string OverlayPng(const AnalysisResult& r, size_t i, double magnification, 
   // line's width).
   const Eigen::Vector2d margin(4.0 * thick / scale, 4.0 * thick / scale);
   const Eigen::Vector2d lo = Eigen::Vector2d(-0.5, -0.5) - margin;
-  const Eigen::Vector2d hi = Eigen::Vector2d(gray.cols - 0.5, gray.rows - 0.5) + margin;
+  const Eigen::Vector2d hi = Eigen::Vector2d(photo_size.width - 0.5, photo_size.height - 0.5) + margin;
   const auto vector = [&](const Eigen::Vector2d& q, const Eigen::Vector2d& v, const cv::Scalar& colour) {
     if (const auto s = ClipSegment(q, q + magnification * v, lo, hi)) {
       cv::line(img, at(s->first), at(s->second), colour, thick + 1, cv::LINE_AA);

@@ -18,6 +18,8 @@
 #include "core/gnuplot.h"
 #include "core/image_decode.h"
 
+#include <opencv2/imgcodecs.hpp>
+
 #ifndef CURVECHECK_VERSION
 #define CURVECHECK_VERSION "unknown"
 #endif
@@ -241,6 +243,27 @@ std::string FeaturesTable(const json& r) {
   }
   s << "</tbody></table></details>\n";
   return s.str();
+}
+
+// The overlay as the page embeds it: the PNG re-encoded as JPEG at the same size (issue 18: the demo's 3000 x 2000
+// overlay is 2.9 MB as PNG, 0.4 MB as JPEG at quality 92, so the page is 0.8 MB instead of 4.2 MB). The same pixels
+// are shown (no downscaling; the residual vectors are drawn magnified and several pixels wide, which JPEG keeps);
+// the lossless PNG stays beside result.json. Returns {MIME type, bytes}; the PNG as given if it cannot be decoded
+// or has transparency, or the JPEG is not smaller (a small flat image).
+std::pair<std::string, std::string> OverlayForPage(const std::string& png, const std::string& name) {
+  cv::Mat img;
+  try {
+    img = DecodeImage(png, name);
+  } catch (const Error&) {
+    return {"image/png", png};
+  }
+  if (img.depth() == CV_16U) img.convertTo(img, CV_8U, 1.0 / 257);
+  if (img.channels() == 4) return {"image/png", png};  // JPEG has no transparency; WriteOverlays writes none
+  std::vector<uchar> jpeg;
+  if (!cv::imencode(".jpg", img, jpeg, {cv::IMWRITE_JPEG_QUALITY, 92}) || jpeg.size() >= png.size()) {
+    return {"image/png", png};
+  }
+  return {"image/jpeg", std::string(reinterpret_cast<const char*>(jpeg.data()), jpeg.size())};
 }
 
 }  // namespace
@@ -471,12 +494,13 @@ std::string ReportHtml(const json& r, const ReportAssets& assets, const ReportOp
     }
     const auto png = assets.overlay_png.find(name);
     if (png != assets.overlay_png.end() && IsPng(png->second)) {
+      const auto [mime, bytes] = OverlayForPage(png->second, name);
       s << fmt::format(
-          "<figure id=\"overlay-{}\"><img class=\"overlay\" src=\"data:image/png;base64,{}\" alt=\"overlay of {}\">"
+          "<figure id=\"overlay-{}\"><img class=\"overlay\" src=\"data:{};base64,{}\" alt=\"overlay of {}\">"
           "<figcaption>Overlay of {}: the photo with the expected planar perspective grid (green), the verification "
           "residuals (red) and the screen fit's residuals (blue), both magnified (see the legend in the image).</figcaption>"
           "</figure>\n",
-          index, Base64(png->second), Html(name), Html(name));
+          index, mime, Base64(bytes), Html(name), Html(name));
     } else {
       const auto why = assets.overlay_missing.find(name);
       s << fmt::format("<p class=\"note\" id=\"overlay-{}\">No overlay image: {}.</p>\n", index,

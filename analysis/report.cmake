@@ -6,7 +6,7 @@ target_link_libraries(curvecheck_analysis_result_reader PUBLIC curvecheck_core n
 add_library(curvecheck_analysis_report STATIC ${CMAKE_CURRENT_SOURCE_DIR}/report.cc
             ${CMAKE_CURRENT_SOURCE_DIR}/report_charts.cc ${CMAKE_CURRENT_SOURCE_DIR}/report_format.cc)
 target_link_libraries(curvecheck_analysis_report PUBLIC curvecheck_analysis_result_reader curvecheck_core
-                      PRIVATE fmt::fmt)
+                      PRIVATE fmt::fmt opencv_imgcodecs)
 target_compile_definitions(curvecheck_analysis_report PRIVATE CURVECHECK_VERSION="${PROJECT_VERSION}")
 target_link_libraries(curvecheck_analysis INTERFACE curvecheck_analysis_report)
 
@@ -14,4 +14,4 @@ target_link_libraries(curvecheck_analysis INTERFACE curvecheck_analysis_report)
 # `curvecheck analyze` and trimmed) and draw charts with gnuplot.
 curvecheck_add_test(report_test
   SOURCES ${CMAKE_CURRENT_SOURCE_DIR}/result_reader_test.cc ${CMAKE_CURRENT_SOURCE_DIR}/report_test.cc
-  LIBS curvecheck_analysis_report curvecheck_core)
+  LIBS curvecheck_analysis_report curvecheck_core opencv_imgproc opencv_imgcodecs)

@@ -7,7 +7,8 @@
 // mm, one section per photo (detection and verification numbers, camera position, the overlay, a residual map),
 // every feature, and the provenance (command, camera model, monitor, patterns, photos, software).
 //
-// Self-contained: images are PNG data: URIs (overlays as given, charts drawn by gnuplot from the result's
+// Self-contained: images are data: URIs (overlays re-encoded as JPEG at their own size, which keeps the page small:
+// 0.8 MB for the demo instead of 4.2 MB with the PNG; charts are PNG drawn by gnuplot from the result's
 // numbers, core/gnuplot.h); no script, style or image is fetched from anywhere and the page names no URL. Every
 // string from the document is HTML-escaped.
 //

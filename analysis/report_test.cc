@@ -1,7 +1,7 @@
 // The HTML report from real result.json documents (the fuzz corpus, written by `curvecheck analyze`): the key
-// figures carry the document's exact numbers, every image is an embedded PNG, strings are escaped, warnings of
-// the fit are shown, missing overlays are said. What it does not prove: that a browser renders the page (that is
-// tests/report_browser_test.cc, in headless Chromium).
+// figures carry the document's exact numbers, every image is embedded (charts PNG, photo overlays JPEG), strings
+// are escaped, warnings of the fit are shown, missing overlays are said. What it does not prove: that a browser
+// renders the page (that is tests/report_browser_test.cc, in headless Chromium).
 #include "analysis/report.h"
 
 #include <fmt/format.h>
@@ -16,6 +16,11 @@
 #include "core/error.h"
 #include "core/file_io.h"
 #include "core/gnuplot.h"
+#include "core/image_decode.h"
+
+#include <iostream>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 
 namespace curvecheck {
 namespace {
@@ -139,6 +144,59 @@ TEST(Report, MissingOverlaysAreSaidNotFailed) {
   assets = LoadReportAssets(r, dir, "result.json");
   EXPECT_EQ(assets.overlay_png.count("photo-exact.png"), 1u);
   EXPECT_EQ(Count(ReportHtml(r, assets, NoCharts()), "<img "), 1);
+}
+
+// Issue 18: a photo-like overlay is embedded as JPEG at its own size (the page stays small without showing less);
+// a small flat image (gnuplot's PNG above) stays PNG because JPEG would not be smaller.
+TEST(Report, APhotoOverlayIsEmbeddedAsJpegOfTheSameSizeAndPixels) {
+  const json r = Corpus("cylinder-1080r.json");
+  // 1200 x 800 gray texture (smooth noise, like a photo's sensor noise over a pattern) with one red and one green
+  // 3 px line, as WriteOverlays draws them.
+  cv::Mat noise(100, 150, CV_8UC1), img;
+  cv::randu(noise, 40, 220);
+  cv::Mat big;
+  cv::resize(noise, big, cv::Size(1200, 800), 0, 0, cv::INTER_LINEAR);
+  cv::merge(std::vector<cv::Mat>{big, big, big}, img);
+  img.rowRange(400, 403).setTo(cv::Scalar(0, 0, 255));
+  img.colRange(600, 603).setTo(cv::Scalar(0, 160, 0));
+  std::vector<uchar> png;
+  ASSERT_TRUE(cv::imencode(".png", img, png));
+  ReportAssets assets;
+  assets.overlay_png["photo-exact.png"] = std::string(png.begin(), png.end());
+  const std::string html = ReportHtml(r, assets, NoCharts());
+  const std::string head = "src=\"data:image/jpeg;base64,";
+  ASSERT_EQ(Count(html, head), 1);
+  EXPECT_EQ(Count(html, "src=\"data:image/png;"), 0);
+  const size_t begin = html.find(head) + head.size();
+  const std::string b64 = html.substr(begin, html.find('"', begin) - begin);
+  EXPECT_LT(b64.size(), png.size() / 2);  // measured 0.19x the PNG's size
+  // Base64 back to bytes (RFC 4648), then the same size and nearly the same pixels: mean |difference| < 1.5 grey
+  // levels, the lines still there (measured 0.85).
+  std::string bytes;
+  int bits = 0, value = 0;
+  for (const char c : b64) {
+    const auto at = std::string_view("ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/").find(c);
+    if (at == std::string_view::npos) continue;
+    value = (value << 6) | static_cast<int>(at);
+    bits += 6;
+    if (bits >= 8) {
+      bits -= 8;
+      bytes.push_back(static_cast<char>((value >> bits) & 0xff));
+    }
+  }
+  const cv::Mat shown = DecodeImage(bytes, "the page's overlay");
+  ASSERT_EQ(shown.size(), img.size());
+  ASSERT_EQ(shown.type(), img.type());
+  cv::Mat diff;
+  cv::absdiff(shown, img, diff);
+  const cv::Scalar mean = cv::mean(diff);
+  std::cout << "jpeg " << b64.size() * 3 / 4 << " bytes against png " << png.size() << "; mean |difference| "
+            << (mean[0] + mean[1] + mean[2]) / 3 << " grey levels\n";
+  EXPECT_LT((mean[0] + mean[1] + mean[2]) / 3, 1.5);
+  EXPECT_GT(shown.at<cv::Vec3b>(401, 100)[2], 200);  // the red line
+  EXPECT_LT(shown.at<cv::Vec3b>(401, 100)[0], 60);
+  EXPECT_GT(shown.at<cv::Vec3b>(100, 601)[1], 120);  // the green line
+  EXPECT_LT(shown.at<cv::Vec3b>(100, 601)[2], 60);
 }
 
 TEST(Report, WithoutAFitThePageSaysWhyAndKeepsTheVerification) {

@@ -56,6 +56,8 @@ int RunAnalyze(AnalyzeArgs a) {
   a.options.fit.pitch_tolerance_relative = a.pitch_tolerance_percent / 100;
   a.options.lens_covariance = a.lens_covariance;
   a.options.detect.detector = ParseDetector(a.detector, "analyze options");
+  // The overlays are drawn on the image the analysis keeps (no second decode of each photo).
+  a.options.overlay_max_px = a.no_overlays ? 0 : kOverlayMaxPx;
   a.options.Check("analyze options");
   if (!(a.magnification > 0) || !std::isfinite(a.magnification)) {
     throw Error("--magnify", fmt::format("{} is not a positive finite factor", a.magnification), "give e.g. 50");

@@ -632,8 +632,13 @@ cv::Mat DecodePhotoGray(std::string_view bytes, const std::string& source) {
     throw Error(path.string(), "has an unsupported pixel type (not 8 or 16 bit integers)",
                 "give an 8 or 16 bit photo");
   }
-  if (img.channels() == 3) cv::cvtColor(img, img, cv::COLOR_BGR2GRAY);
-  if (img.channels() == 4) cv::cvtColor(img, img, cv::COLOR_BGRA2GRAY);
+  // Into a new Mat: cvtColor in place first copies the whole colour image (72 MB at 24 MP; a sixth of `analyze`'s
+  // time in a profile, issue 18).
+  if (img.channels() == 3 || img.channels() == 4) {
+    cv::Mat gray;
+    cv::cvtColor(img, gray, img.channels() == 3 ? cv::COLOR_BGR2GRAY : cv::COLOR_BGRA2GRAY);
+    img = gray;
+  }
   if (img.channels() != 1) {
     throw Error(path.string(), fmt::format("has {} channels", img.channels()), "give a gray or colour photo");
   }

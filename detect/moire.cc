@@ -38,15 +38,32 @@ MoireMeasure MeasureMoire(const cv::Mat& photo_gray, const MoireOptions& o) {
   MoireMeasure m;
   const int n = o.patch_px;
   if (photo_gray.cols < 2 * n || photo_gray.rows < 2 * n) return m;
-  cv::Mat photo;
-  photo_gray.convertTo(photo, CV_32F);
+  const cv::Mat& photo = photo_gray;
 
   // Bright areas: the photo averaged over blocks of n/4 px (INTER_AREA: long enough to average strong moire
   // away), the patch's minimum there against 0.6 x the 99th percentile (an edge through a block takes it to
   // about half the white level).
   const int block = std::max(1, n / 4);
+  const cv::Size coarse_size(photo.cols / block, photo.rows / block);
   cv::Mat coarse;
-  cv::resize(photo, coarse, cv::Size(photo.cols / block, photo.rows / block), 0, 0, cv::INTER_AREA);
+  if (photo.cols % block == 0 && photo.rows % block == 0) {
+    // Whole blocks (INTER_AREA's integer-factor path: each output is its own block's mean): in strips of whole
+    // blocks converted to float one at a time, the same numbers as converting the whole photo, without its
+    // 96 MB float copy at 24 MP (a sixth of `analyze`'s time in a profile, issue 18).
+    coarse.create(coarse_size, CV_32F);
+    const int strip_rows = block * std::max(1, 512 / block);
+    cv::Mat strip;
+    for (int y = 0; y < photo.rows; y += strip_rows) {
+      const int rows = std::min(strip_rows, photo.rows - y);
+      photo.rowRange(y, y + rows).convertTo(strip, CV_32F);
+      cv::Mat out = coarse.rowRange(y / block, (y + rows) / block);
+      cv::resize(strip, out, out.size(), 0, 0, cv::INTER_AREA);
+    }
+  } else {
+    cv::Mat photo_f;
+    photo.convertTo(photo_f, CV_32F);
+    cv::resize(photo_f, coarse, coarse_size, 0, 0, cv::INTER_AREA);
+  }
   std::vector<float> levels(coarse.begin<float>(), coarse.end<float>());
   const size_t p99 = levels.size() * 99 / 100;
   std::nth_element(levels.begin(), levels.begin() + static_cast<std::ptrdiff_t>(p99), levels.end());
@@ -77,7 +94,8 @@ MoireMeasure MeasureMoire(const cv::Mat& photo_gray, const MoireOptions& o) {
   cv::Mat power = cv::Mat::zeros(n, n, CV_64F);
   double level = 0;
   for (size_t i = 0; i < corners.size(); i += step) {
-    cv::Mat patch = photo(cv::Rect(corners[i], cv::Size(n, n))).clone();
+    cv::Mat patch;
+    photo(cv::Rect(corners[i], cv::Size(n, n))).convertTo(patch, CV_32F);
     const double mean = cv::mean(patch)[0];
     level += mean;
     patch -= mean;

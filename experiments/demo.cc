@@ -47,8 +47,12 @@ bool RunDemo(const std::filesystem::path& out, std::ostream& log) {
   // 2. Capture: the synthetic camera photographs the display; 3. analyse the photo.
   const fs::path photo_png = out / "photo.png", truth_json = out / "photo.truth.json";
   const fs::path camera_path = datasets / "cameras" / fs::path(scene.camera_model_path).filename();
+  // The photo goes to the analysis in memory (the PNG is for the user); the analysis keeps it scaled for the
+  // overlay, which therefore reads nothing back (issue 18).
+  AnalyzeOptions analyze_options;
+  analyze_options.overlay_max_px = kOverlayMaxPx;
   const TrialAnalysis trial =
-      PhotographAndAnalyse(scene, display.image, {photo_png, pattern_json}, camera_path, AnalyzeOptions{});
+      PhotographAndAnalyse(scene, display.image, {photo_png, pattern_json}, camera_path, analyze_options);
   WriteSyntheticPhoto(photo_png, trial.photo);
   WriteFileAtomic(truth_json, TruthJson(scene, display.pattern.features).dump(1) + "\n");
   log << fmt::format("2. capture  synthetic {} x {} photo, {}x{} supersampled: {:.0f} ms -> {}\n",
@@ -64,13 +68,22 @@ bool RunDemo(const std::filesystem::path& out, std::ostream& log) {
     throw Error(photo_png.string(), "the demo's photo could not be analysed: " + r.photos.front().rejected,
                 "report this as a bug");
   }
-  const std::vector<fs::path> overlays = WriteOverlays(r, analysis_dir);
+  // The overlays drawn once, written and embedded from memory (not read back and decoded again).
   const fs::path result_json = analysis_dir / "result.json";
+  ReportAssets assets;
+  assets.source = result_json.string();
+  std::vector<fs::path> overlays;
+  for (size_t i = 0; i < r.photos.size(); ++i) {
+    if (!r.photos[i].used) continue;
+    std::string png = OverlayPng(r, i);
+    overlays.push_back(analysis_dir / OverlayFileName(r.photos[i].name));
+    WriteFileAtomic(overlays.back(), png);
+    assets.overlay_png[r.photos[i].name] = std::move(png);
+  }
   const nlohmann::json result = ResultJson(r, "curvecheck demo");
   WriteFileAtomic(result_json, result.dump(1) + "\n");
   const fs::path report_html = analysis_dir / "report.html";
-  WriteFileAtomic(report_html,
-                  ReportHtml(result, LoadReportAssets(result, analysis_dir, result_json.string())));
+  WriteFileAtomic(report_html, ReportHtml(result, assets));
   log << fmt::format(
       "3. analyze  {} features detected ({}), verification, fit of {} screen models: {:.0f} ms -> {}\n\n",
       r.photos.front().detection.features.size(), r.photos.front().detection.detector,

@@ -8,6 +8,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <opencv2/core.hpp>
+#include <memory>
 #include <vector>
 
 #include "core/image_io.h"
@@ -78,7 +79,9 @@ class DisplayLight {
   std::array<float, 256> gray_light_;                   // linear light per code (no stripes)
   // Mean light of each display pixel over its whole area (emitters at their light, black between them): what
   // ShadeArea uses where the optics blur the pixel structure away. Row-major, display size, N values per pixel.
-  std::vector<float> pixel_mean_light_;
+  // Filled in parallel (by display rows) without a zero fill first: at 5120 x 1440 x 3 it is 88 MB, whose zeroing
+  // and page faults on one thread were a visible serial part of every synthetic photo (issue 18).
+  std::unique_ptr<float[]> pixel_mean_light_;
 };
 
 // The radiance each camera pixel of `scene` collects from `display` (CV_32F, the camera's size, relative to a full

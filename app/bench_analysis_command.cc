@@ -194,6 +194,8 @@ void AddBenchValidity(CLI::App& bench, std::function<int()>& run) {
       ->capture_default_str();
   cmd->add_flag("--correct-pixel-locking", o.correct_pixel_locking,
                 "Analyse with the pixel-locking removed before the fit (analyze --correct-pixel-locking)");
+  cmd->add_flag("--keep-results", o.keep_results,
+                "Keep every trial's result.json in OUT/results (every candidate's fit, budget and model choice)");
   cmd->add_option("--shard", a->shard, "Run only shard i of n (trials k with k mod n = i - 1)")->capture_default_str();
   cmd->add_option("-o,--output", a->output,
                   "Output folder (validity_trials.csv, validity.csv, .json, .txt, .png)")

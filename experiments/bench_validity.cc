@@ -12,6 +12,7 @@
 #include <nlohmann/json.hpp>
 #include <random>
 
+#include "analysis/pipeline.h"
 #include "core/config.h"
 #include "core/error.h"
 #include "core/path_check.h"
@@ -164,6 +165,7 @@ struct Bench {
   std::map<std::string, SyntheticScene> scenes;  // per realism level, overrides applied
   PatternSpec spec;
   fs::path scratch;
+  fs::path results;  // BenchValidityOptions::keep_results: where the trials' result.json go; empty: not kept
   std::unique_ptr<Renderer> renderer;
 };
 
@@ -238,6 +240,10 @@ std::vector<std::string> RunTrial(Bench& b, int index, std::string* line) {
                                  return a;
                                }());
       const AnalysisResult& r = t.analysis;
+      if (!b.results.empty()) {
+        WriteFileAtomic(b.results / fmt::format("trial-{}.result.json", index),
+                        ResultJson(r, fmt::format("bench validity trial {} (seed {})", index, seed)).dump(1) + "\n");
+      }
       const PhotoAnalysis& photo = r.photos.front();
       photo_ms = t.photo_ms;
       detect_ms = photo.detection.time_ms;
@@ -684,6 +690,10 @@ bool RunBenchValidity(const BenchValidityOptions& o, const fs::path& out, std::o
   b.spec.rows = o.rows;
   b.scratch = out / fmt::format(".validity-scratch-{}", o.shard.index);
   fs::create_directories(b.scratch);
+  if (o.keep_results) {
+    b.results = out / "results";
+    fs::create_directories(b.results);
+  }
   const int total = b.grid.Cells() * o.trials;
   std::vector<int> mine;
   for (int k = 0; k < total; ++k) {

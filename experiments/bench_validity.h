@@ -53,6 +53,9 @@ struct BenchValidityOptions {
   double jitter_mm = 3;           // camera position jitter, per axis (1 sigma), mm
   double jitter_deg = 0.2;        // camera aim jitter, per axis (1 sigma), deg
   bool correct_pixel_locking = false;  // AnalyzeOptions::correct_pixel_locking (analyze --correct-pixel-locking)
+  // Keep every trial's result.json (OUT/results/trial-INDEX.result.json): every candidate's fit, budget and choice,
+  // to see why a trial missed.
+  bool keep_results = false;
   int cols = 32, rows = 9;        // checkerboard squares
   Shard shard;
   std::string command_line;  // provenance

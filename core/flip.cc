@@ -184,6 +184,13 @@ cv::Mat FeatureMagnitude(const cv::Mat& luminance, double ppd, bool points) {
   return magnitude;
 }
 
+// Features see the luminance Y/Yn = (Yy + 16)/116 of the unfiltered image.
+cv::Mat Luminance(const Opponent& o) {
+  cv::Mat y;
+  o.yy.convertTo(y, CV_32F, 1.0 / 116, 16.0 / 116);
+  return y;
+}
+
 void CheckImages(const cv::Mat& reference, const cv::Mat& test) {
   const int type = reference.type();
   if (reference.empty() || test.empty())
@@ -200,42 +207,49 @@ void CheckImages(const cv::Mat& reference, const cv::Mat& test) {
 
 }  // namespace
 
-FlipResult ComputeFlip(const cv::Mat& reference, const cv::Mat& test, double ppd) {
-  CheckImages(reference, test);
+FlipEvaluator::FlipEvaluator(const cv::Mat& reference, double ppd) {
+  CheckImages(reference, reference);
   if (!std::isfinite(ppd) || ppd <= 0)
     throw Error("FLIP", fmt::format("pixels per degree {} is not positive", ppd),
                 "give the viewer's pixels per degree (FlipPixelsPerDegree)");
-  const Opponent ref = ToOpponent(reference), tst = ToOpponent(test);
+  type_ = reference.type();
+  size_ = reference.size();
+  ppd_ = ppd;
+  const Opponent ref = ToOpponent(reference);
+  const std::array<cv::Mat, 3> lab = FilteredHuntLab(ref, ppd);
+  for (int k = 0; k < 3; ++k) lab_[k] = lab[k];
+  const cv::Mat y = Luminance(ref);
+  edges_ = FeatureMagnitude(y, ppd, false);
+  points_ = FeatureMagnitude(y, ppd, true);
+}
 
+FlipResult FlipEvaluator::Compare(const cv::Mat& test) const {
+  if (test.empty() || test.size() != size_ || test.type() != type_)
+    throw Error("FLIP",
+                fmt::format("the images differ in size or type ({}x{} type {} against {}x{} type {})", size_.width,
+                            size_.height, type_, test.cols, test.rows, test.type()),
+                "compare images of the same size and pixel type");
+  const Opponent tst = ToOpponent(test);
   // Colour: HyAB of the filtered, Hunt-adjusted colours, raised to q_c and redistributed to [0, 1].
-  const std::array<cv::Mat, 3> lab_ref = FilteredHuntLab(ref, ppd), lab_tst = FilteredHuntLab(tst, ppd);
+  const std::array<cv::Mat, 3> lab_tst = FilteredHuntLab(tst, ppd_);
   const double cmax =
       std::pow(HyAB(HuntLab({0, 1, 0}), HuntLab({0, 0, 1})), FlipConstants::kQc);  // green against blue
   const double knee = FlipConstants::kPc * cmax;
-
-  // Features on the luminance Y/Yn = (Yy + 16)/116 of the unfiltered images.
-  auto luminance = [](const Opponent& o) {
-    cv::Mat y;
-    o.yy.convertTo(y, CV_32F, 1.0 / 116, 16.0 / 116);
-    return y;
-  };
-  const cv::Mat y_ref = luminance(ref), y_tst = luminance(tst);
-  const cv::Mat edge_ref = FeatureMagnitude(y_ref, ppd, false), edge_tst = FeatureMagnitude(y_tst, ppd, false);
-  const cv::Mat point_ref = FeatureMagnitude(y_ref, ppd, true), point_tst = FeatureMagnitude(y_tst, ppd, true);
+  const cv::Mat y_tst = Luminance(tst);
+  const cv::Mat edge_tst = FeatureMagnitude(y_tst, ppd_, false), point_tst = FeatureMagnitude(y_tst, ppd_, true);
 
   FlipResult result;
-  result.error.create(reference.size(), CV_32FC1);
-  cv::parallel_for_(cv::Range(0, reference.rows), [&](const cv::Range& rows) {
+  result.error.create(size_, CV_32FC1);
+  cv::parallel_for_(cv::Range(0, size_.height), [&](const cv::Range& rows) {
     for (int r = rows.start; r < rows.end; ++r) {
-      for (int c = 0; c < reference.cols; ++c) {
-        const Eigen::Vector3d p(lab_ref[0].at<float>(r, c), lab_ref[1].at<float>(r, c), lab_ref[2].at<float>(r, c));
+      for (int c = 0; c < size_.width; ++c) {
+        const Eigen::Vector3d p(lab_[0].at<float>(r, c), lab_[1].at<float>(r, c), lab_[2].at<float>(r, c));
         const Eigen::Vector3d q(lab_tst[0].at<float>(r, c), lab_tst[1].at<float>(r, c), lab_tst[2].at<float>(r, c));
         const double power = std::pow(HyAB(p, q), FlipConstants::kQc);
         const double colour = power < knee ? FlipConstants::kPt / knee * power
                                            : FlipConstants::kPt + (power - knee) / (cmax - knee) * (1 - FlipConstants::kPt);
-        const double feature_difference =
-            std::max(std::abs(edge_ref.at<float>(r, c) - edge_tst.at<float>(r, c)),
-                     std::abs(point_ref.at<float>(r, c) - point_tst.at<float>(r, c)));
+        const double feature_difference = std::max(std::abs(edges_.at<float>(r, c) - edge_tst.at<float>(r, c)),
+                                                   std::abs(points_.at<float>(r, c) - point_tst.at<float>(r, c)));
         const double feature = std::pow(feature_difference / std::sqrt(2.0), FlipConstants::kQf);
         result.error.at<float>(r, c) = static_cast<float>(std::pow(colour, 1 - feature));
       }
@@ -245,6 +259,11 @@ FlipResult ComputeFlip(const cv::Mat& reference, const cv::Mat& test, double ppd
   cv::minMaxLoc(result.error, &lo, &result.max);
   result.mean = cv::mean(result.error)[0];
   return result;
+}
+
+FlipResult ComputeFlip(const cv::Mat& reference, const cv::Mat& test, double ppd) {
+  CheckImages(reference, test);
+  return FlipEvaluator(reference, ppd).Compare(test);
 }
 
 double FlipPixelsPerDegree(double distance_mm, double pixel_pitch_mm) {

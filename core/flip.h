@@ -37,6 +37,20 @@ struct FlipResult {
   double max = 0;
 };
 
+// FLIP against one reference, with the reference's half of the work (filtered colours, feature responses) done
+// once: for benches that compare many renderings with the same reference. Same inputs and errors as ComputeFlip.
+class FlipEvaluator {
+ public:
+  FlipEvaluator(const cv::Mat& reference, double pixels_per_degree);
+  FlipResult Compare(const cv::Mat& test) const;
+
+ private:
+  int type_ = 0;
+  cv::Size size_;
+  double ppd_ = 0;
+  cv::Mat lab_[3], edges_, points_;  // CV_32FC1: Hunt-adjusted L, a, b of the filtered image; feature magnitudes
+};
+
 // FLIP of `test` against `reference` viewed at `pixels_per_degree` (display pixels per degree of visual angle;
 // FlipPixelsPerDegree). Images: CV_8UC1 (grey) or CV_8UC3 (BGR, OpenCV's order) code values, or CV_32FC1 /
 // CV_32FC3 in [0, 1], all read as sRGB-encoded; both of the same size and type. Throws Error for empty, mismatched

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <memory>
 #include <opencv2/core.hpp>
 
 #include "core/correction.h"
@@ -58,6 +59,7 @@ struct FlipConfig {
   double ppd = 0;
   Pattern pattern;
   cv::Mat reference;  // CV_8UC1 code values
+  std::shared_ptr<FlipEvaluator> flip;  // against the reference
 };
 
 cv::Mat AsMat(const GrayImage& image) {
@@ -197,7 +199,8 @@ plot \
 std::string FlipGnuplotScript(const std::string& csv, const std::string& title) {
   return fmt::format(R"(set datafile separator ','
 set title {title}
-set logscale x
+set logscale xy
+set format y '%g'
 set xlabel 'render time of the frame (ms), device set-up excluded'
 set ylabel 'mean FLIP vs reference (exact, 16x16 rays per pixel), textured plane'
 set grid xtics ytics mxtics lc rgb '#dddddd'
@@ -208,6 +211,39 @@ plot \
   '{csv}' skip 1 using 12:10:2 with labels offset 0.8,0.5 left font ',7' notitle, \
   '< awk -F, "\$14 == 1" {csv} | sort -t, -k12 -g' using 12:10 with lines lw 2 lc rgb '#cc0000' title 'Pareto front 100 cm', \
   '< awk -F, "\$15 == 1" {csv} | sort -t, -k13 -g' using 13:11 with lines lw 2 dt 2 lc rgb '#cc0000' title 'Pareto front 25 cm'
+)",
+                     fmt::arg("title", GnuplotString(title)), fmt::arg("csv", csv));
+}
+
+// The warp's render-scale sweep alone (thesis Fig 5.7): per-fragment warp, one line per filter and distance.
+std::string SweepCsv(const std::vector<Row>& rows) {
+  std::string s = "# mean FLIP of the per-fragment warp by render scale (see render_bench.csv)\n"
+                  "scale,filter,flip_mean_100cm,flip_mean_25cm,render_ms_100cm,render_ms_25cm\n";
+  for (WarpFilter f : {WarpFilter::kBilinear, WarpFilter::kCubic}) {
+    for (const Row& r : rows) {
+      const MethodOptions& m = r.method;
+      if (m.method != Method::kWarp || m.warp_grid_cols != 0 || m.warp_filter != f) continue;
+      s += fmt::format("{:g},{},{},{},{},{}\n", m.warp_scale, f == WarpFilter::kCubic ? "cubic" : "bilinear",
+                       CsvNumber(r.flip[0]), CsvNumber(r.flip[1]), CsvNumber(r.flip_ms[0]), CsvNumber(r.flip_ms[1]));
+    }
+  }
+  return s;
+}
+
+std::string SweepGnuplotScript(const std::string& csv, const std::string& title) {
+  return fmt::format(R"(set datafile separator ','
+set title {title}
+set xlabel 'render scale of the first pass (x display size per axis)'
+set ylabel 'mean FLIP vs reference, textured plane'
+set logscale y
+set format y '%g'
+set grid xtics ytics lc rgb '#dddddd'
+set key outside right top
+plot \
+  '< grep ",bilinear," {csv}' using 1:3 with linespoints pt 7 lw 2 title 'bilinear 100 cm', \
+  '< grep ",cubic," {csv}' using 1:3 with linespoints pt 5 lw 2 title 'cubic 100 cm', \
+  '< grep ",bilinear," {csv}' using 1:4 with linespoints pt 6 dt 2 title 'bilinear 25 cm', \
+  '< grep ",cubic," {csv}' using 1:4 with linespoints pt 4 dt 2 title 'cubic 25 cm'
 )",
                      fmt::arg("title", GnuplotString(title)), fmt::arg("csv", csv));
 }
@@ -223,6 +259,7 @@ FlipConfig MakeFlipConfig(Renderer& renderer, const Monitor& monitor, const Patt
   reference.method.antialiasing = AntiAliasing::kSupersample;
   reference.method.supersample = kReferenceSupersample;
   c.reference = AsMat(renderer.Render(monitor, c.viewpoint, c.pattern, reference));
+  c.flip = std::make_shared<FlipEvaluator>(c.reference, c.ppd);
   return c;
 }
 
@@ -296,7 +333,7 @@ void RunBenchRender(const Monitor& monitor, const Eigen::Vector3d& viewpoint_in_
       try {
         RenderTiming t;
         const cv::Mat image = AsMat(renderer.Render(monitor, c.viewpoint, c.pattern, options, &t));
-        const FlipResult f = ComputeFlip(c.reference, image, c.ppd);
+        const FlipResult f = c.flip->Compare(image);
         row.flip[d] = f.mean;
         row.flip_ms[d] = t.render_ms;
         if (maps_wanted) {
@@ -345,6 +382,10 @@ void RunBenchRender(const Monitor& monitor, const Eigen::Vector3d& viewpoint_in_
   WriteGnuplotChart(png, GnuplotScript(csv.filename().string(), title), {1400, 900});
   const fs::path flip_png = dir / "render_bench_flip.png";
   WriteGnuplotChart(flip_png, FlipGnuplotScript(csv.filename().string(), title), {1400, 900});
+  const fs::path sweep_csv = dir / "render_scale_sweep.csv";
+  WriteFileAtomic(sweep_csv, SweepCsv(rows));
+  WriteGnuplotChart(dir / "render_scale_sweep.png", SweepGnuplotScript(sweep_csv.filename().string(), title),
+                    {1200, 800});
   log << fmt::format("wrote {}, {} and {}; {} (time against FLIP) and FLIP / mapping-error maps in {}\n",
                      csv.string(), png.string(), gp.string(), flip_png.string(), maps.string());
 }

@@ -158,9 +158,10 @@ void MarkParetoFront(std::vector<Row>& rows) {
 
 std::string CsvNumber(double v) { return std::isfinite(v) ? fmt::format("{:.6g}", v) : ""; }
 
-std::string Csv(const std::vector<Row>& rows, const std::string& header) {
-  std::string s = header;
-  s += "method,setting,median_ms,min_ms,upload_ms,rms_px,p99_px,max_px,missing_pixels,flip_mean_100cm,"
+// The column names come first (what CSV readers take as the header); the provenance lines (`footer`, each
+// starting with '#') follow the data, where gnuplot and the project's readers skip them as comments.
+std::string Csv(const std::vector<Row>& rows, const std::string& footer) {
+  std::string s = "method,setting,median_ms,min_ms,upload_ms,rms_px,p99_px,max_px,missing_pixels,flip_mean_100cm,"
        "flip_mean_25cm,render_ms_100cm,render_ms_25cm,flip_pareto_100cm,flip_pareto_25cm,pareto\n";
   for (const Row& r : rows) {
     s += fmt::format("{},\"{}\",{:.3f},{:.3f},{:.3f},{:.6g},{:.6g},{:.6g},{},{},{},{},{},{},{},{}\n",
@@ -169,7 +170,7 @@ std::string Csv(const std::vector<Row>& rows, const std::string& header) {
                      CsvNumber(r.flip[1]), CsvNumber(r.flip_ms[0]), CsvNumber(r.flip_ms[1]),
                      r.flip_pareto[0] ? 1 : 0, r.flip_pareto[1] ? 1 : 0, r.pareto ? 1 : 0);
   }
-  return s;
+  return s + footer;
 }
 
 // gnuplot script: worst mapping error against median render time, log-log, one colour per method, every point
@@ -217,8 +218,7 @@ plot \
 
 // The warp's render-scale sweep alone (thesis Fig 5.7): per-fragment warp, one line per filter and distance.
 std::string SweepCsv(const std::vector<Row>& rows) {
-  std::string s = "# mean FLIP of the per-fragment warp by render scale (see render_bench.csv)\n"
-                  "scale,filter,flip_mean_100cm,flip_mean_25cm,render_ms_100cm,render_ms_25cm\n";
+  std::string s = "scale,filter,flip_mean_100cm,flip_mean_25cm,render_ms_100cm,render_ms_25cm\n";
   for (WarpFilter f : {WarpFilter::kBilinear, WarpFilter::kCubic}) {
     for (const Row& r : rows) {
       const MethodOptions& m = r.method;
@@ -227,7 +227,7 @@ std::string SweepCsv(const std::vector<Row>& rows) {
                        CsvNumber(r.flip[0]), CsvNumber(r.flip[1]), CsvNumber(r.flip_ms[0]), CsvNumber(r.flip_ms[1]));
     }
   }
-  return s;
+  return s + "# mean FLIP of the per-fragment warp by render scale (rows of render_bench.csv)\n";
 }
 
 std::string SweepGnuplotScript(const std::string& csv, const std::string& title) {

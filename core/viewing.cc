@@ -1,7 +1,9 @@
 #include "core/viewing.h"
 
+#include <algorithm>
 #include <cmath>
 
+#include "core/flip.h"
 #include "core/math_util.h"
 #include "core/screen_geometry.h"
 
@@ -45,6 +47,39 @@ ViewingGeometry DescribeViewing(const Monitor& m, const Eigen::Vector3d& o) {
   g.pixels_per_degree_horizontal = 1.0 / (ax * kDegPerRad);
   g.pixels_per_degree_vertical = 1.0 / (ay * kDegPerRad);
   return g;
+}
+
+double NearestSurfaceDistanceMm(const Monitor& m, const Eigen::Vector3d& o) {
+  const double v = std::clamp(-2 * o.y() / m.height_mm, -1.0, 1.0);  // y = -v H/2 on the surface
+  const double dy = -0.5 * v * m.height_mm - o.y();
+  auto horizontal2 = [&](double u) {
+    const Eigen::Vector3d p = SurfacePointFromUv(m, {u, 0.0});
+    return (p.x() - o.x()) * (p.x() - o.x()) + (p.z() - o.z()) * (p.z() - o.z());
+  };
+  constexpr int kSteps = 4096;
+  int best = 0;
+  double best_d2 = horizontal2(-1.0);
+  for (int i = 1; i <= kSteps; ++i) {
+    const double d2 = horizontal2(-1.0 + 2.0 * i / kSteps);
+    if (d2 < best_d2) best_d2 = d2, best = i;
+  }
+  double lo = -1.0 + 2.0 * std::max(best - 1, 0) / kSteps, hi = -1.0 + 2.0 * std::min(best + 1, kSteps) / kSteps;
+  const double g = 0.5 * (std::sqrt(5.0) - 1);
+  for (int it = 0; it < 60; ++it) {
+    const double a = hi - g * (hi - lo), b = lo + g * (hi - lo);
+    if (horizontal2(a) < horizontal2(b)) {
+      hi = b;
+    } else {
+      lo = a;
+    }
+  }
+  const double h2 = std::min(best_d2, horizontal2(0.5 * (lo + hi)));
+  return std::sqrt(h2 + dy * dy);
+}
+
+double ViewerPixelsPerDegree(const Monitor& m, const Eigen::Vector3d& o) {
+  CheckViewpoint(m, o, "viewpoint");
+  return FlipPixelsPerDegree(NearestSurfaceDistanceMm(m, o), m.pixel_pitch_mm());
 }
 
 }  // namespace curvecheck

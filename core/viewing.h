@@ -24,4 +24,16 @@ struct ViewingGeometry {
 // Throws Error if the viewpoint is invalid (CheckViewpoint).
 ViewingGeometry DescribeViewing(const Monitor& m, const Eigen::Vector3d& viewpoint_in_screen);
 
+// Distance from the viewpoint to the nearest point of the display surface (the active area), mm. The surface's
+// height depends only on v and its horizontal position only on u, so v is clamped analytically and u is found by
+// a dense search refined by golden sections (exact to 1e-9 of the width for a smooth single minimum per bracket).
+double NearestSurfaceDistanceMm(const Monitor& m, const Eigen::Vector3d& viewpoint_in_screen);
+
+// The pixels per degree at which FLIP judges a rendering for this viewer (thesis 3.3): FLIP's flat-display
+// formula, distance * (Nx / W) * pi/180, with the distance to the nearest point of the curved surface and W its
+// arc length. It equals the angular density at that point when the nearest ray meets the surface at a right
+// angle, which holds for viewpoints inside the cylinder sector (the thesis restricts them to it). Throws Error
+// if the viewpoint is invalid.
+double ViewerPixelsPerDegree(const Monitor& m, const Eigen::Vector3d& viewpoint_in_screen);
+
 }  // namespace curvecheck

@@ -247,6 +247,7 @@ TEST_F(Cli, BenchRenderWritesCsvAndChart) {
   ASSERT_EQ(r.code, 0) << r.err;
   const std::string csv = Slurp(dir_ / "bench" / "render_bench.csv");
   EXPECT_THAT(csv, HasSubstr("method,setting,median_ms"));
+  EXPECT_THAT(csv, HasSubstr("flip_mean_100cm,flip_mean_25cm"));
   EXPECT_THAT(csv, HasSubstr("exact,\"exact analytic\""));
   // The Pareto flags follow their definition: a row is marked iff no other row is at least as fast and at
   // least as accurate, and strictly better in one.
@@ -267,8 +268,16 @@ TEST_F(Cli, BenchRenderWritesCsvAndChart) {
       else cell += ch;
     }
     f.push_back(cell);
-    ASSERT_EQ(f.size(), 10u) << line;
-    rows.push_back({std::stod(f[2]), std::stod(f[7]), f[9] == "1"});
+    ASSERT_EQ(f.size(), 16u) << line;
+    rows.push_back({std::stod(f[2]), std::stod(f[7]), f[15] == "1"});
+    // The FLIP axis: a mean FLIP in [0, 1] at 100 cm for every setting the flat monitor allows; the exact
+    // method's analytic anti-aliasing is within 0.02 of its 16 x 16 supersampled reference.
+    ASSERT_FALSE(f[9].empty()) << line;
+    EXPECT_GE(std::stod(f[9]), 0.0) << line;
+    EXPECT_LE(std::stod(f[9]), 1.0) << line;
+    if (f[1] == "exact analytic") {
+      EXPECT_LT(std::stod(f[9]), 0.02);
+    }
   }
   ASSERT_GE(rows.size(), 8u);
   for (const Row& row : rows) {
@@ -278,7 +287,10 @@ TEST_F(Cli, BenchRenderWritesCsvAndChart) {
     EXPECT_EQ(row.pareto, !dominated);
   }
   EXPECT_TRUE(fs::exists(dir_ / "bench" / "render_bench.png"));
+  EXPECT_TRUE(fs::exists(dir_ / "bench" / "render_bench_flip.png"));
+  EXPECT_TRUE(fs::exists(dir_ / "bench" / "maps" / "reference_100cm.png"));
   EXPECT_THAT(r.out, HasSubstr("Pareto front"));
+  EXPECT_THAT(r.out, HasSubstr("FLIP Pareto front at 25 cm"));
 }
 
 // `bench models` on the 1 deg lean scene (embedded), small grid, one seed: the model that contains the truth

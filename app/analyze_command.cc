@@ -10,6 +10,7 @@
 #include <filesystem>
 #include <iostream>
 #include <memory>
+#include <optional>
 
 #include "analysis/pipeline.h"
 #include "analysis/report.h"
@@ -39,6 +40,7 @@ struct AnalyzeArgs {
   std::string command_line;
   std::string lens_covariance;
   double pitch_tolerance_percent = 0.1;
+  std::optional<double> prefilter_sigma_px;
 };
 
 int RunAnalyze(AnalyzeArgs a) {
@@ -54,6 +56,14 @@ int RunAnalyze(AnalyzeArgs a) {
                 "give a percentage from 0 to 50, e.g. 0.1");
   }
   a.options.fit.pitch_tolerance_relative = a.pitch_tolerance_percent / 100;
+  if (a.prefilter_sigma_px) {
+    const double p = *a.prefilter_sigma_px;
+    if (!(p == -1 || (p >= 0 && p <= 10))) {
+      throw Error("--prefilter-sigma", fmt::format("{} px is not a prefilter", p),
+                  "give -1 (auto: from the moire measured in the photo), 0 (none) or a sigma up to 10 px");
+    }
+    a.options.detect.prefilter_sigma_px = p;
+  }
   a.options.lens_covariance = a.lens_covariance;
   a.options.detect.detector = ParseDetector(a.detector, "analyze options");
   // The overlays are drawn on the image the analysis keeps (no second decode of each photo).
@@ -192,6 +202,10 @@ void AddAnalyzeCommand(CLI::App& app, std::function<int()>& run) {
                   "Tolerance of the datasheet's pixel pitch, percent (half-width of a rectangular distribution; "
                   "its u = tolerance/sqrt(3) is the budget's pixel-pitch row: u(R)/R = u(p)/p)")
       ->capture_default_str();
+  cmd->add_option("--prefilter-sigma", args->prefilter_sigma_px,
+                  "Gaussian prefilter of the detector, sigma in camera px: -1 auto (default: against the moire "
+                  "measured in the photo, and 2 x the display pitch for the refinement), 0 none, or a fixed sigma "
+                  "(result.json records the one used: inputs.photos[].detection.moire.filter_sigma_px)");
   cmd->add_flag("--correct-pixel-locking", args->options.correct_pixel_locking,
                 "Remove the detector's pixel-locking (estimated with the verification's error field, reported in "
                 "result.json either way) from the detections before the screen fit (experimental: see README)");

@@ -18,6 +18,7 @@
 #include "app/capture_synth_command.h"
 #include "app/commands.h"
 #include "app/export_mpcdi_command.h"
+#include "app/plan_command.h"
 #include "app/present_command.h"
 #include "app/render_command.h"
 #include "app/render_options.h"
@@ -165,6 +166,8 @@ int Main(int argc, char** argv) {
   AddAnalyzeCommand(app, run);
   // `report` (issue 7 item 1): the HTML page of a result.json; app/report_command.cc.
   AddReportCommand(app, run);
+  // `plan` (issue 20 part 1): the capture plan; app/plan_command.cc.
+  AddPlanCommand(app, run);
   AddBenchCommand(app, run);
   // `present` (issue 3 item 8): the fullscreen presenter; app/present_command.cc.
   AddPresentCommand(app, run);

@@ -9,6 +9,7 @@
 #include <functional>
 
 #include "core/config.h"
+#include "core/look_at.h"  // defines ScreenFromCamLookAt, declared in scene.h too
 #include "core/error.h"
 #include "core/path_check.h"
 #include "core/screen_geometry.h"
@@ -299,24 +300,6 @@ void ApplyOverride(const std::string& o, const std::filesystem::path& path, YAML
   }
   node[keys.back()] = value;
 }
-
-}  // namespace
-
-Pose ScreenFromCamLookAt(const Eigen::Vector3d& position, const Eigen::Vector3d& look_at,
-                         const Eigen::Vector3d& up) {
-  const Eigen::Vector3d z = (look_at - position).normalized();
-  const Eigen::Vector3d x = z.cross(up).normalized();
-  if (!x.allFinite() || x.norm() < 0.5) {
-    throw Error("camera", "the up vector is parallel to the viewing direction", "give another up vector");
-  }
-  Eigen::Matrix3d r;
-  r.col(0) = x;
-  r.col(1) = z.cross(x);
-  r.col(2) = z;
-  return Pose(r, position);
-}
-
-namespace {
 
 // The scene reader of both SceneFromConfig overloads. `scene_dir` null: the scene is in no folder, so its monitor
 // is a preset name or a path as given, and `read_camera` reads the camera model it names.

@@ -2,7 +2,7 @@
 // realistic synthetic photos (`capture synth`, imaging preset ilc24) at every planned position, analyse them in one
 // `analyze` run and hold the measured radius sigma to the prediction within a factor 1.3, for two seeds of the
 // photos (sensor noise and the true lens's misfit field both drawn anew). Also: plan.json's contract, and the
-// refusals of bad input.
+// refusals of bad input. Three seeds of the photos: 2, 3 and 4.
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
@@ -71,7 +71,20 @@ TEST_F(PlanCli, PredictedRadiusSigmaWithinAFactor1p3OfTheMeasuredOne) {
   const double predicted = plan["predicted_radius_sigma_mm"];
   EXPECT_LE(predicted, 2.0);
   EXPECT_TRUE(plan["target_reached"]);
-  for (int seed : {2, 3}) {
+  // The verification capability against analyze's U on the photo from the eye point (the suite's ref.png).
+  {
+    const CliRun a = Curvecheck({"analyze", "--camera", (Dir() / "ref.cameramodel").string(), "--pattern",
+                                 (Dir() / "p.json").string(), (Dir() / "ref.png").string(), "-o",
+                                 (Dir() / "an-eye").string(), "--no-report", "--no-overlays", "--no-fit"});
+    ASSERT_EQ(a.code, 0) << a.err;
+    const nlohmann::json result = nlohmann::json::parse(Slurp(Dir() / "an-eye" / "result.json"));
+    const double u = result["verification"]["expanded_uncertainty_display_px"];
+    const double u_predicted = plan["predicted_verification_u_display_px"];
+    std::cout << "verification U: predicted " << u_predicted << ", measured " << u << " display px\n";
+    EXPECT_GE(u, u_predicted / 1.3);
+    EXPECT_LE(u, u_predicted * 1.3);
+  }
+  for (int seed : {2, 3, 4}) {
     std::vector<std::string> args = {"analyze", "--camera", (Dir() / "ref.cameramodel").string(), "--pattern",
                                      (Dir() / "p.json").string()};
     for (size_t i = 0; i < plan["positions"].size(); ++i) {

@@ -21,6 +21,7 @@ namespace curvecheck {
 namespace {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+constexpr double kPi = 3.14159265358979323846;
 
 // The features the plan observes: those of the pattern with a display position.
 struct PlanFeatures {
@@ -96,12 +97,31 @@ struct SmoothField {
   }
 };
 
-// The detections of one placement: the true projections, plus the lens field, plus independent Gaussian noise of
-// the placement's expected level per coordinate. Only features inside the imager are kept.
+// The detector's pixel-locking (DetectionNoiseModel::pixel_locking_fraction): its phase offsets per coordinate, drawn
+// once per simulated detector and common to its photos.
+struct PixelLockingBias {
+  double fraction = 0;
+  Eigen::Vector2d phase = Eigen::Vector2d::Zero();
+  PixelLockingBias(double fraction_, std::mt19937_64& rng) : fraction(fraction_) {
+    std::uniform_real_distribution<double> uniform(0, 2 * kPi);
+    phase = Eigen::Vector2d(uniform(rng), uniform(rng));
+  }
+  Eigen::Vector2d At(const Eigen::Vector2d& q, double noise_px) const {
+    Eigen::Vector2d b;
+    for (int c = 0; c < 2; ++c) b[c] = fraction * noise_px * std::sin(2 * kPi * (q[c] - std::floor(q[c])) + phase[c]);
+    return b;
+  }
+  // The independent Gaussian part's sigma: the total RMS per coordinate stays noise_px.
+  double GaussianSigma(double noise_px) const { return noise_px * std::sqrt(std::max(0.0, 1 - 0.5 * fraction * fraction)); }
+};
+
+// The detections of one placement: the true projections, plus the lens field, plus the detector's pixel-locking and
+// independent Gaussian noise (together of the placement's expected level per coordinate). Only features inside the
+// imager are kept.
 PhotoObservations Simulate(const Monitor& m, const CameraModel& camera, const PlanFeatures& f,
-                           const PlanPlacement& place, const SmoothField& lens, std::mt19937_64& rng,
-                           const std::string& name) {
-  std::normal_distribution<double> noise(0, place.noise_px);
+                           const PlanPlacement& place, const SmoothField& lens, const PixelLockingBias& locking,
+                           std::mt19937_64& rng, const std::string& name) {
+  std::normal_distribution<double> noise(0, locking.GaussianSigma(place.noise_px));
   const std::vector<Eigen::Vector2d> q = ProjectFeatures(m, camera, place.screen_from_cam, f.display_px, nullptr);
   PhotoObservations obs;
   obs.photo = name;
@@ -113,7 +133,8 @@ PhotoObservations Simulate(const Monitor& m, const CameraModel& camera, const Pl
     }
     obs.ids.push_back(f.ids[i]);
     obs.display_px.push_back(f.display_px[i]);
-    obs.detected_px.push_back(q[i] + lens.At(q[i]) + Eigen::Vector2d(nx, ny));
+    const Eigen::Vector2d image = q[i] + lens.At(q[i]);
+    obs.detected_px.push_back(image + locking.At(image, place.noise_px) + Eigen::Vector2d(nx, ny));
   }
   return obs;
 }
@@ -140,9 +161,12 @@ DetectionNoiseModel DefaultDetectionNoiseModel() {
   DetectionNoiseModel m;
   m.camera_px_per_display_px_to_noise_px = {{0.097, 0.036}, {0.133, 0.031}, {0.167, 0.030}, {0.195, 0.030},
                                             {0.234, 0.0325}, {0.266, 0.029}, {0.292, 0.031}, {0.390, 0.031}};
+  // The pixel-locking amplitude (the mean of x and y of fit.uncertainty_budget.detector_systematic.
+  // pixel_locking_amplitude_px) over fit.noise_px on the same 16 photos: median 0.84 (0.39-1.13).
+  m.pixel_locking_fraction = 0.84;
   m.source = "fit.noise_px of analyze on 16 realistic synthetic photos (ilc24 chain, quarter and half resolution, "
              "0.1-0.4 camera px per display px, yaw 0-40 deg): median 0.030 px, range 0.013-0.037 px; docs/bench/"
-             "plan_bench.txt";
+             "plan_bench.txt; pixel-locking amplitude 0.84 of it (median)";
   return m;
 }
 
@@ -163,6 +187,10 @@ double DetectionNoiseModel::NoisePx(double m) const {
 void DetectionNoiseModel::Check(const std::string& where) const {
   const auto& t = camera_px_per_display_px_to_noise_px;
   if (t.empty()) throw Error(where, "the detection noise model has no rows", "give at least one (m, noise_px) row");
+  if (!(pixel_locking_fraction >= 0 && pixel_locking_fraction <= std::sqrt(2.0))) {
+    throw Error(where, fmt::format("pixel-locking fraction {}", pixel_locking_fraction),
+                "give 0 to sqrt(2) (the sinusoid's RMS is at most the noise)");
+  }
   for (size_t i = 0; i < t.size(); ++i) {
     if (!(t[i].first > 0) || !(t[i].second > 0) || !std::isfinite(t[i].first) || !std::isfinite(t[i].second)) {
       throw Error(where, fmt::format("noise model row {} ({}, {}) is not positive and finite", i, t[i].first, t[i].second),
@@ -297,9 +325,11 @@ std::pair<double, std::vector<PlanBudgetRow>> PredictRadiusSigma(const Monitor& 
   for (int s = 0; s < options.seeds; ++s) {
     std::mt19937_64 rng(options.seed + 7919u * static_cast<unsigned>(s));
     const SmoothField lens(camera, options.fit.misfit_field_degree, options.lens_misfit_relative * camera.width, rng);
+    const PixelLockingBias locking(options.noise.pixel_locking_fraction, rng);
     std::vector<PhotoObservations> photos;
     for (size_t i = 0; i < placements.size(); ++i) {
-      photos.push_back(Simulate(monitor, camera, f, placements[i], lens, rng, fmt::format("planned-{}", i + 1)));
+      photos.push_back(
+          Simulate(monitor, camera, f, placements[i], lens, locking, rng, fmt::format("planned-{}", i + 1)));
     }
     const ScreenFitResult r = FitScreen(monitor, camera, photos, fit_options);
     const ModelFit& c = r.Chosen();
@@ -424,7 +454,8 @@ CapturePlan PlanCapture(const Monitor& monitor, const CameraModel& camera, const
     const PlanFeatures f = FeaturesOf(pattern);
     std::mt19937_64 rng(options.seed);
     const SmoothField lens(camera, options.fit.misfit_field_degree, options.lens_misfit_relative * camera.width, rng);
-    const PhotoObservations obs = Simulate(monitor, camera, f, v, lens, rng, "eye");
+    const PixelLockingBias locking(options.noise.pixel_locking_fraction, rng);
+    const PhotoObservations obs = Simulate(monitor, camera, f, v, lens, locking, rng, "eye");
     VerifyOptions verify;
     verify.tolerance_display_px = options.tolerance_display_px;
     const Verification r = VerifyCorrection(pattern, camera, obs.ids, obs.detected_px, verify);

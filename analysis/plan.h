@@ -35,6 +35,11 @@ namespace curvecheck {
 // between the rows, constant beyond the ends. Values: DefaultDetectionNoiseModel.
 struct DetectionNoiseModel {
   std::vector<std::pair<double, double>> camera_px_per_display_px_to_noise_px;  // ascending in m
+  // Part of that noise is the detector's pixel-locking: a bias A sin(2 pi phase + psi) per coordinate at each
+  // detection's subpixel phase (analysis/screen_fit.h EstimatePixelLocking), A = this fraction of the noise, psi
+  // common to the photos (a property of the detector); the rest is independent Gaussian noise, so that the total
+  // RMS per coordinate is the noise (A^2/2 + g^2 = noise^2). The budget's detector-systematic row measures A.
+  double pixel_locking_fraction = 0;
   std::string source;  // where the rows come from (printed with the plan)
 
   double NoisePx(double camera_px_per_display_px) const;

@@ -1,8 +1,8 @@
 // `curvecheck plan` end to end (issue 20 part 1): plan for the default scene's camera at quarter resolution, take the
 // realistic synthetic photos (`capture synth`, imaging preset ilc24) at every planned position, analyse them in one
-// `analyze` run and hold the measured radius sigma to the prediction within a factor 1.3, for two seeds of the
-// photos (sensor noise and the true lens's misfit field both drawn anew). Also: plan.json's contract, and the
-// refusals of bad input. Three seeds of the photos: 2, 3 and 4.
+// `analyze` run and hold the measured radius sigma to the prediction within a factor 1.3, for three seeds of
+// the photos (sensor noise and the true lens's misfit field both drawn anew), and the predicted verification U against
+// analyze's on the photo from the eye point. Also: plan.json's contract, and the refusals of bad input.
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 

@@ -500,6 +500,16 @@ CapturePlan PlanCapture(const Monitor& monitor, const CameraModel& camera, const
                   fmt::join(options.heights_mm, ","), 100 * options.imager_margin,
                   options.min_feature_spacing_camera_px, options.max_obliquity_deg),
   };
+  const auto& rows = options.noise.camera_px_per_display_px_to_noise_px;
+  for (const PlanPlacement& p : plan.positions) {
+    if (p.camera_px_per_display_px < 0.9 * rows.front().first || p.camera_px_per_display_px > 1.1 * rows.back().first) {
+      plan.assumptions.push_back(fmt::format(
+          "the detection noise is extrapolated: the planned positions see {:.3g} camera px per display px, the noise "
+          "was measured over {:.3g}-{:.3g} (held constant beyond)",
+          p.camera_px_per_display_px, rows.front().first, rows.back().first));
+      break;
+    }
+  }
   return plan;
 }
 
@@ -640,7 +650,7 @@ std::string PlanChartScript(const CapturePlan& plan, const std::string& data_fil
       "plot {}\n"
       "set xlabel \"yaw about the screen centre (deg)\"\n"
       "set cblabel \"distance (mm)\"\n"
-      "plot {} using 2:3:1 with points pointtype 7 palette title \"one point per distance\"\n"
+      "plot {} using 2:3:1 with points pointtype 7 palette notitle\n"
       "unset multiplot\n",
       by_distance, file);
 }

@@ -44,8 +44,10 @@ Pose CentreFromCam(const Monitor& m, const Pose& screen_from_cam) {
 }
 
 // The camera's projections of the features on the nominal screen (NaN behind the camera).
-std::vector<Eigen::Vector2d> ProjectFeatures(const Monitor& m, const CameraModel& camera, const Pose& screen_from_cam,
-                                             const std::vector<Eigen::Vector2d>& display_px, Eigen::VectorXd* depth) {
+std::vector<Eigen::Vector2d> ProjectFeatures(const Monitor& m, const CameraModel& camera,
+                                             const Pose& screen_from_cam,
+                                             const std::vector<Eigen::Vector2d>& display_px,
+                                             Eigen::VectorXd* depth) {
   const Pose cam_from_screen = screen_from_cam.Inverse();
   std::vector<Eigen::Vector3d> points;
   for (const Eigen::Vector2d& px : display_px) {
@@ -68,8 +70,8 @@ double Median(std::vector<double> v) {
 }
 
 // A smooth field over the image common to every photo (the lens model misfit the plan assumes): Legendre
-// polynomials of total degree <= `degree` with seeded N(0, 1) coefficients per coordinate, scaled so that its RMS
-// over a 32 x 32 grid of the imager is rms_px per coordinate (the budget's own misfit family,
+// polynomials of total degree <= `degree` with seeded N(0, 1) coefficients per coordinate, scaled so that its
+// RMS over a 32 x 32 grid of the imager is rms_px per coordinate (the budget's own misfit family,
 // FitOptions::misfit_field_degree).
 struct SmoothField {
   Eigen::VectorXd ax, ay;
@@ -87,7 +89,8 @@ struct SmoothField {
     ax.resize(b.cols());
     ay.resize(b.cols());
     for (long i = 0; i < b.cols(); ++i) ax[i] = unit(rng), ay[i] = unit(rng);
-    const double ms = ((b * ax).squaredNorm() + (b * ay).squaredNorm()) / (2.0 * static_cast<double>(grid.size()));
+    const double ms =
+        ((b * ax).squaredNorm() + (b * ay).squaredNorm()) / (2.0 * static_cast<double>(grid.size()));
     scale = ms > 0 ? rms_px / std::sqrt(ms) : 0;
   }
   Eigen::Vector2d At(const Eigen::Vector2d& q) const {
@@ -97,8 +100,8 @@ struct SmoothField {
   }
 };
 
-// The detector's pixel-locking (DetectionNoiseModel::pixel_locking_fraction): its phase offsets per coordinate, drawn
-// once per simulated detector and common to its photos.
+// The detector's pixel-locking (DetectionNoiseModel::pixel_locking_fraction): its phase offsets per
+// coordinate, drawn once per simulated detector and common to its photos.
 struct PixelLockingBias {
   double fraction = 0;
   Eigen::Vector2d phase = Eigen::Vector2d::Zero();
@@ -108,21 +111,25 @@ struct PixelLockingBias {
   }
   Eigen::Vector2d At(const Eigen::Vector2d& q, double noise_px) const {
     Eigen::Vector2d b;
-    for (int c = 0; c < 2; ++c) b[c] = fraction * noise_px * std::sin(2 * kPi * (q[c] - std::floor(q[c])) + phase[c]);
+    for (int c = 0; c < 2; ++c)
+      b[c] = fraction * noise_px * std::sin(2 * kPi * (q[c] - std::floor(q[c])) + phase[c]);
     return b;
   }
   // The independent Gaussian part's sigma: the total RMS per coordinate stays noise_px.
-  double GaussianSigma(double noise_px) const { return noise_px * std::sqrt(std::max(0.0, 1 - 0.5 * fraction * fraction)); }
+  double GaussianSigma(double noise_px) const {
+    return noise_px * std::sqrt(std::max(0.0, 1 - 0.5 * fraction * fraction));
+  }
 };
 
-// The detections of one placement: the true projections, plus the lens field, plus the detector's pixel-locking and
-// independent Gaussian noise (together of the placement's expected level per coordinate). Only features inside the
-// imager are kept.
+// The detections of one placement: the true projections, plus the lens field, plus the detector's
+// pixel-locking and independent Gaussian noise (together of the placement's expected level per coordinate).
+// Only features inside the imager are kept.
 PhotoObservations Simulate(const Monitor& m, const CameraModel& camera, const PlanFeatures& f,
-                           const PlanPlacement& place, const SmoothField& lens, const PixelLockingBias& locking,
-                           std::mt19937_64& rng, const std::string& name) {
+                           const PlanPlacement& place, const SmoothField& lens,
+                           const PixelLockingBias& locking, std::mt19937_64& rng, const std::string& name) {
   std::normal_distribution<double> noise(0, locking.GaussianSigma(place.noise_px));
-  const std::vector<Eigen::Vector2d> q = ProjectFeatures(m, camera, place.screen_from_cam, f.display_px, nullptr);
+  const std::vector<Eigen::Vector2d> q =
+      ProjectFeatures(m, camera, place.screen_from_cam, f.display_px, nullptr);
   PhotoObservations obs;
   obs.photo = name;
   for (size_t i = 0; i < q.size(); ++i) {
@@ -152,21 +159,23 @@ std::string Fixed(double v, int digits) { return std::isfinite(v) ? fmt::format(
 }  // namespace
 
 DetectionNoiseModel DefaultDetectionNoiseModel() {
-  // fit.noise_px of `analyze` on single realistic synthetic photos (datasets/scenes/default.yaml: 24 MP OPENCV8
-  // lens, imaging preset ilc24, the 16 x 5 checkerboard rendered for the eye 1.5 m in front of the centre of the
-  // 49" 1000R monitor), by camera px per display px m (f pitch / distance): quarter resolution (f = 1250 px) at
-  // 1000-3000 mm and yaw 0/25/40 deg, half resolution (f = 2500 px) at 1500, 2200 (yaw 25) and 3000 mm; the median
-  // per m where several yaws were measured. 16 photos, 0.013-0.037 px, median 0.030: no trend with m over 0.1-0.4
-  // (the scatter between yaws at one distance is larger than any trend); the ends are held constant beyond.
+  // fit.noise_px of `analyze` on single realistic synthetic photos (datasets/scenes/default.yaml: 24 MP
+  // OPENCV8 lens, imaging preset ilc24, the 16 x 5 checkerboard rendered for the eye 1.5 m in front of the
+  // centre of the 49" 1000R monitor), by camera px per display px m (f pitch / distance): quarter resolution
+  // (f = 1250 px) at 1000-3000 mm and yaw 0/25/40 deg, half resolution (f = 2500 px) at 1500, 2200 (yaw 25)
+  // and 3000 mm; the median per m where several yaws were measured. 16 photos, 0.013-0.037 px, median 0.030:
+  // no trend with m over 0.1-0.4 (the scatter between yaws at one distance is larger than any trend); the
+  // ends are held constant beyond.
   DetectionNoiseModel m;
-  m.camera_px_per_display_px_to_noise_px = {{0.097, 0.036}, {0.133, 0.031}, {0.167, 0.030}, {0.195, 0.030},
+  m.camera_px_per_display_px_to_noise_px = {{0.097, 0.036},  {0.133, 0.031}, {0.167, 0.030}, {0.195, 0.030},
                                             {0.234, 0.0325}, {0.266, 0.029}, {0.292, 0.031}, {0.390, 0.031}};
   // The pixel-locking amplitude (the mean of x and y of fit.uncertainty_budget.detector_systematic.
   // pixel_locking_amplitude_px) over fit.noise_px on the same 16 photos: median 0.84 (0.39-1.13).
   m.pixel_locking_fraction = 0.84;
-  m.source = "fit.noise_px of analyze on 16 realistic synthetic photos (ilc24 chain, quarter and half resolution, "
-             "0.1-0.4 camera px per display px, yaw 0-40 deg): median 0.030 px, range 0.013-0.037 px; docs/bench/"
-             "plan_bench.txt; pixel-locking amplitude 0.84 of it (median)";
+  m.source =
+      "fit.noise_px of analyze on 16 realistic synthetic photos (ilc24 chain, quarter and half resolution, "
+      "0.1-0.4 camera px per display px, yaw 0-40 deg): median 0.030 px, range 0.013-0.037 px; docs/bench/"
+      "plan_bench.txt; pixel-locking amplitude 0.84 of it (median)";
   return m;
 }
 
@@ -186,15 +195,19 @@ double DetectionNoiseModel::NoisePx(double m) const {
 
 void DetectionNoiseModel::Check(const std::string& where) const {
   const auto& t = camera_px_per_display_px_to_noise_px;
-  if (t.empty()) throw Error(where, "the detection noise model has no rows", "give at least one (m, noise_px) row");
+  if (t.empty())
+    throw Error(where, "the detection noise model has no rows", "give at least one (m, noise_px) row");
   if (!(pixel_locking_fraction >= 0 && pixel_locking_fraction <= std::sqrt(2.0))) {
     throw Error(where, fmt::format("pixel-locking fraction {}", pixel_locking_fraction),
                 "give 0 to sqrt(2) (the sinusoid's RMS is at most the noise)");
   }
   for (size_t i = 0; i < t.size(); ++i) {
-    if (!(t[i].first > 0) || !(t[i].second > 0) || !std::isfinite(t[i].first) || !std::isfinite(t[i].second)) {
-      throw Error(where, fmt::format("noise model row {} ({}, {}) is not positive and finite", i, t[i].first, t[i].second),
-                  "");
+    if (!(t[i].first > 0) || !(t[i].second > 0) || !std::isfinite(t[i].first) ||
+        !std::isfinite(t[i].second)) {
+      throw Error(
+          where,
+          fmt::format("noise model row {} ({}, {}) is not positive and finite", i, t[i].first, t[i].second),
+          "");
     }
     if (i > 0 && !(t[i].first > t[i - 1].first)) {
       throw Error(where, "the noise model's rows are not in ascending order of camera px per display px", "");
@@ -207,7 +220,8 @@ void PlanOptions::Check(const std::string& where) const {
     if (v.empty()) throw Error(where, what + " is empty", "give at least one value");
     for (double x : v) {
       if (!std::isfinite(x) || (allow_zero ? x < 0 : x <= 0)) {
-        throw Error(where, fmt::format("{} holds {}", what, x), allow_zero ? "give values >= 0" : "give values > 0");
+        throw Error(where, fmt::format("{} holds {}", what, x),
+                    allow_zero ? "give values >= 0" : "give values > 0");
       }
     }
   };
@@ -218,7 +232,8 @@ void PlanOptions::Check(const std::string& where) const {
   }
   if (heights_mm.empty()) throw Error(where, "the heights are empty", "give at least one value (0)");
   if (!(target_radius_sigma_mm >= 0) || !std::isfinite(target_radius_sigma_mm)) {
-    throw Error(where, fmt::format("target radius sigma {} mm", target_radius_sigma_mm), "give a value > 0 (mm)");
+    throw Error(where, fmt::format("target radius sigma {} mm", target_radius_sigma_mm),
+                "give a value > 0 (mm)");
   }
   if (!(tolerance_display_px > 0) || !std::isfinite(tolerance_display_px)) {
     throw Error(where, fmt::format("tolerance {} display px", tolerance_display_px), "give a value > 0");
@@ -228,7 +243,8 @@ void PlanOptions::Check(const std::string& where) const {
   }
   if (!(imager_margin >= 0 && imager_margin < 0.4)) throw Error(where, "imager margin outside [0, 0.4)", "");
   if (!(min_feature_spacing_camera_px > 0)) throw Error(where, "minimum feature spacing must be > 0 px", "");
-  if (!(max_obliquity_deg > 0 && max_obliquity_deg < 90)) throw Error(where, "maximum obliquity outside (0, 90) deg", "");
+  if (!(max_obliquity_deg > 0 && max_obliquity_deg < 90))
+    throw Error(where, "maximum obliquity outside (0, 90) deg", "");
   if (!(lens_misfit_relative >= 0 && lens_misfit_relative < 0.01)) {
     throw Error(where, fmt::format("lens misfit {} of the width", lens_misfit_relative), "give 0 to 0.01");
   }
@@ -238,8 +254,10 @@ void PlanOptions::Check(const std::string& where) const {
 }
 
 PlanPlacement EvaluatePlacement(const Monitor& monitor, const CameraModel& camera, const PatternFile& pattern,
-                                double distance_mm, double yaw_deg, double height_mm, const PlanOptions& options) {
-  if (!(distance_mm > 0)) throw Error("capture plan", fmt::format("distance {} mm", distance_mm), "give a distance > 0");
+                                double distance_mm, double yaw_deg, double height_mm,
+                                const PlanOptions& options) {
+  if (!(distance_mm > 0))
+    throw Error("capture plan", fmt::format("distance {} mm", distance_mm), "give a distance > 0");
   PlanPlacement p;
   p.distance_mm = distance_mm;
   p.yaw_deg = yaw_deg;
@@ -247,15 +265,18 @@ PlanPlacement EvaluatePlacement(const Monitor& monitor, const CameraModel& camer
   const double yaw = yaw_deg / kDegPerRad;
   const Eigen::Vector3d centre = ScreenCentreInScreen(monitor);
   p.look_at_in_screen_mm = centre;
-  p.position_in_screen_mm = centre + Eigen::Vector3d(distance_mm * std::sin(yaw), height_mm, distance_mm * std::cos(yaw));
+  p.position_in_screen_mm =
+      centre + Eigen::Vector3d(distance_mm * std::sin(yaw), height_mm, distance_mm * std::cos(yaw));
   p.screen_from_cam = ScreenFromCamLookAt(p.position_in_screen_mm, centre, Eigen::Vector3d::UnitY());
   if (FrontClearanceMm(monitor, p.position_in_screen_mm) <= 0) {
     p.why_not = "part of the screen faces away from the camera";
     return p;
   }
   const PlanFeatures f = FeaturesOf(pattern);
-  if (f.ids.empty()) throw Error("capture plan", "the pattern has no feature on the display", "render another pattern");
-  const std::vector<Eigen::Vector2d> q = ProjectFeatures(monitor, camera, p.screen_from_cam, f.display_px, nullptr);
+  if (f.ids.empty())
+    throw Error("capture plan", "the pattern has no feature on the display", "render another pattern");
+  const std::vector<Eigen::Vector2d> q =
+      ProjectFeatures(monitor, camera, p.screen_from_cam, f.display_px, nullptr);
   // The camera's resolving power: the image displacement of one display px along x and y, per feature.
   std::vector<Eigen::Vector2d> qx = f.display_px, qy = f.display_px;
   for (size_t i = 0; i < qx.size(); ++i) qx[i].x() += 1, qy[i].y() += 1;
@@ -265,8 +286,8 @@ PlanPlacement EvaluatePlacement(const Monitor& monitor, const CameraModel& camer
   std::vector<double> scale;
   int outside = 0;
   for (size_t i = 0; i < q.size(); ++i) {
-    const bool in = q[i].allFinite() && q[i].x() >= mx && q[i].y() >= my && q[i].x() <= camera.width - 1 - mx &&
-                    q[i].y() <= camera.height - 1 - my;
+    const bool in = q[i].allFinite() && q[i].x() >= mx && q[i].y() >= my &&
+                    q[i].x() <= camera.width - 1 - mx && q[i].y() <= camera.height - 1 - my;
     outside += !in;
     if (!in) continue;
     ++p.features;
@@ -309,7 +330,8 @@ PlanPlacement EvaluatePlacement(const Monitor& monitor, const CameraModel& camer
   return p;
 }
 
-std::pair<double, std::vector<PlanBudgetRow>> PredictRadiusSigma(const Monitor& monitor, const CameraModel& camera,
+std::pair<double, std::vector<PlanBudgetRow>> PredictRadiusSigma(const Monitor& monitor,
+                                                                 const CameraModel& camera,
                                                                  const PatternFile& pattern,
                                                                  const std::vector<PlanPlacement>& placements,
                                                                  const PlanOptions& options) {
@@ -324,7 +346,8 @@ std::pair<double, std::vector<PlanBudgetRow>> PredictRadiusSigma(const Monitor& 
   std::vector<std::string> order;
   for (int s = 0; s < options.seeds; ++s) {
     std::mt19937_64 rng(options.seed + 7919u * static_cast<unsigned>(s));
-    const SmoothField lens(camera, options.fit.misfit_field_degree, options.lens_misfit_relative * camera.width, rng);
+    const SmoothField lens(camera, options.fit.misfit_field_degree,
+                           options.lens_misfit_relative * camera.width, rng);
     const PixelLockingBias locking(options.noise.pixel_locking_fraction, rng);
     std::vector<PhotoObservations> photos;
     for (size_t i = 0; i < placements.size(); ++i) {
@@ -335,8 +358,8 @@ std::pair<double, std::vector<PlanBudgetRow>> PredictRadiusSigma(const Monitor& 
     const ModelFit& c = r.Chosen();
     if (!c.radius_sigma_mm) {
       throw Error("capture plan",
-                  fmt::format("the simulated fit gives no radius from these {} placement(s): {}", placements.size(),
-                              c.condition_note.empty() ? r.status : c.condition_note),
+                  fmt::format("the simulated fit gives no radius from these {} placement(s): {}",
+                              placements.size(), c.condition_note.empty() ? r.status : c.condition_note),
                   "allow closer or more oblique placements (--distances-mm, --yaws-deg)");
     }
     sum2 += *c.radius_sigma_mm * *c.radius_sigma_mm;
@@ -357,7 +380,8 @@ CapturePlan PlanCapture(const Monitor& monitor, const CameraModel& camera, const
   monitor.Check("monitor");
   camera.Check("camera model");
   if (monitor.is_flat()) {
-    throw Error("capture plan", fmt::format("monitor {} is flat: there is no radius to measure", monitor.name),
+    throw Error("capture plan",
+                fmt::format("monitor {} is flat: there is no radius to measure", monitor.name),
                 "plan for a curved monitor");
   }
   CapturePlan plan;
@@ -385,26 +409,37 @@ CapturePlan PlanCapture(const Monitor& monitor, const CameraModel& camera, const
   }
   if (usable.empty()) {
     std::string why;
-    for (const auto& [reason, n] : reasons) why += fmt::format("{}{} x '{}...'", why.empty() ? "" : ", ", n, reason);
-    throw Error("capture plan", fmt::format("no placement of the {} searched is usable ({})", plan.grid.size(), why),
+    for (const auto& [reason, n] : reasons)
+      why += fmt::format("{}{} x '{}...'", why.empty() ? "" : ", ", n, reason);
+    throw Error("capture plan",
+                fmt::format("no placement of the {} searched is usable ({})", plan.grid.size(), why),
                 "give other distances (--distances-mm), a wider lens or a smaller pattern");
   }
   // Best single photos first (the radius's Cramer-Rao bound at the expected noise). The curvature is the only
-  // parameter the photos share, so each photo adds its own information about it (its Schur complement after its
-  // pose): the best set of n distinct placements is, to first order, the n best single ones.
-  std::stable_sort(usable.begin(), usable.end(),
-                   [](const PlanPlacement* a, const PlanPlacement* b) { return a->radius_crb_mm < b->radius_crb_mm; });
+  // parameter the photos share, so each photo adds its own information about it (its Schur complement after
+  // its pose): the best set of n distinct placements is, to first order, the n best single ones.
+  std::stable_sort(usable.begin(), usable.end(), [](const PlanPlacement* a, const PlanPlacement* b) {
+    return a->radius_crb_mm < b->radius_crb_mm;
+  });
   const double target = options.target_radius_sigma_mm;
   const int fixed = options.photos > 0 ? options.photos : (target > 0 ? 0 : 4);
-  const int most = static_cast<int>(std::min<size_t>(usable.size(), static_cast<size_t>(fixed > 0 ? fixed : options.max_photos)));
+  const int most = static_cast<int>(
+      std::min<size_t>(usable.size(), static_cast<size_t>(fixed > 0 ? fixed : options.max_photos)));
   std::vector<PlanPlacement> set;
   std::pair<double, std::vector<PlanBudgetRow>> pred;
   for (int n = 1; n <= most; ++n) {
     set.push_back(*usable[static_cast<size_t>(n - 1)]);
     // With a fixed count only that count is predicted; otherwise every count until the target is met.
     if (fixed > 0 && n < most) continue;
-    pred = PredictRadiusSigma(monitor, camera, pattern, set, options);
-    plan.sigma_by_photos_mm.push_back(pred.first);
+    try {
+      pred = PredictRadiusSigma(monitor, camera, pattern, set, options);
+    } catch (const Error&) {
+      // Too few photos for a radius (ill-conditioned): more may give one; the last count must.
+      if (n == most) throw;
+      plan.sigma_by_photos_mm.emplace_back(n, kNaN);
+      continue;
+    }
+    plan.sigma_by_photos_mm.emplace_back(n, pred.first);
     if (fixed == 0 && pred.first <= target) break;
   }
   plan.positions = set;
@@ -424,16 +459,18 @@ CapturePlan PlanCapture(const Monitor& monitor, const CameraModel& camera, const
   if (target <= 0) {
     plan.target_note = fmt::format("no target given: {} photos planned", set.size());
   } else if (plan.target_reached) {
-    plan.target_note = fmt::format("{} photo(s) reach the target {:.3g} mm (predicted {:.3g} mm)", set.size(), target,
-                                   plan.predicted_radius_sigma_mm);
+    plan.target_note = fmt::format("{} photo(s) reach the target {:.3g} mm (predicted {:.3g} mm)", set.size(),
+                                   target, plan.predicted_radius_sigma_mm);
   } else if (target <= plan.radius_sigma_floor_mm) {
     plan.target_note = fmt::format(
-        "the target {:.3g} mm cannot be reached: the rows that no number of photos removes (pixel pitch, lens "
+        "the target {:.3g} mm cannot be reached: the rows that no number of photos removes (pixel pitch, "
+        "lens "
         "calibration) are already {:.3g} mm; a tighter pitch tolerance or lens calibration is needed",
         target, plan.radius_sigma_floor_mm);
   } else {
     plan.target_note = fmt::format(
-        "the target {:.3g} mm is not reached with {} photo(s) ({} usable placements searched): predicted {:.3g} mm, "
+        "the target {:.3g} mm is not reached with {} photo(s) ({} usable placements searched): predicted "
+        "{:.3g} mm, "
         "dominated by {} ({:.3g} mm); photograph from closer, with a longer lens or at a higher resolution",
         target, set.size(), usable.size(), plan.predicted_radius_sigma_mm, dominant, largest);
   }
@@ -449,11 +486,13 @@ CapturePlan PlanCapture(const Monitor& monitor, const CameraModel& camera, const
   (void)d;
   plan.verification_placement = v;
   if (!v.usable) {
-    plan.verification_note = fmt::format("from the eye point the camera cannot verify the pattern: {}", v.why_not);
+    plan.verification_note =
+        fmt::format("from the eye point the camera cannot verify the pattern: {}", v.why_not);
   } else {
     const PlanFeatures f = FeaturesOf(pattern);
     std::mt19937_64 rng(options.seed);
-    const SmoothField lens(camera, options.fit.misfit_field_degree, options.lens_misfit_relative * camera.width, rng);
+    const SmoothField lens(camera, options.fit.misfit_field_degree,
+                           options.lens_misfit_relative * camera.width, rng);
     const PixelLockingBias locking(options.noise.pixel_locking_fraction, rng);
     const PhotoObservations obs = Simulate(monitor, camera, f, v, lens, locking, rng, "eye");
     VerifyOptions verify;
@@ -468,45 +507,54 @@ CapturePlan PlanCapture(const Monitor& monitor, const CameraModel& camera, const
       plan.verification_tolerance_ratio = r.tolerance_ratio;
       plan.verification_conclusive = r.verdict == Verdict::kPass;
       plan.verification_note = fmt::format(
-          "a correct rendering photographed from the eye point: e = {:.3f}, U = {:.3f} display px (k = 2), T/U = "
+          "a correct rendering photographed from the eye point: e = {:.3f}, U = {:.3f} display px (k = 2), "
+          "T/U = "
           "{:.2f}: {} for T = {:.3g} display px{}",
           r.error_p95_display_px, r.expanded_uncertainty_display_px, r.tolerance_ratio,
           plan.verification_conclusive ? "conclusive (pass)" : "inconclusive", options.tolerance_display_px,
-          r.tolerance_ratio < 2 ? "; T/U below 2: the set-up is not fit for this tolerance (move closer, use a "
-                                  "longer focal length or a higher resolution)"
-                                : "");
+          r.tolerance_ratio < 2
+              ? "; T/U below 2: the set-up is not fit for this tolerance (move closer, use a "
+                "longer focal length or a higher resolution)"
+              : "");
     }
   }
 
   plan.assumptions = {
-      "the monitor is the nominal one (ideal cylinder of the stated radius and pitch); the photos show the pattern "
+      "the monitor is the nominal one (ideal cylinder of the stated radius and pitch); the photos show the "
+      "pattern "
       "of the given pattern.json",
-      fmt::format("detection noise per coordinate from the realistic chain's measurements, as a function of the "
-                  "camera px per display px ({})",
-                  options.noise.source),
-      fmt::format("lens model misfit of {:.3g} px RMS per coordinate ({:.2g} of the imager width), smooth and common "
-                  "to every photo",
-                  options.lens_misfit_relative * camera.width, options.lens_misfit_relative),
+      fmt::format(
+          "detection noise per coordinate from the realistic chain's measurements, as a function of the "
+          "camera px per display px ({})",
+          options.noise.source),
+      fmt::format(
+          "lens model misfit of {:.3g} px RMS per coordinate ({:.2g} of the imager width), smooth and common "
+          "to every photo",
+          options.lens_misfit_relative * camera.width, options.lens_misfit_relative),
       options.fit.intrinsics_covariance.size() > 0
           ? "lens calibration uncertainty from the camera model's intrinsics covariance"
           : "lens calibration taken as exact (no intrinsics covariance beside the camera model)",
-      fmt::format("the analysis fits the cylinder (the model a nominal curved screen selects); prediction = RMS over "
-                  "{} simulated detection draws of the fit's combined radius sigma (its whole budget)",
-                  options.seeds),
-      fmt::format("placements: camera looking at the screen centre, level; distance from the centre {} mm; yaw +-{} "
-                  "deg; height {} mm; usable when every feature is inside the imager with a {:.0f}% margin, features "
-                  ">= {:.0f} px apart and <= {:.0f} deg off their normal",
-                  fmt::join(options.distances_mm, ","), fmt::join(options.yaws_deg, ","),
-                  fmt::join(options.heights_mm, ","), 100 * options.imager_margin,
-                  options.min_feature_spacing_camera_px, options.max_obliquity_deg),
+      fmt::format(
+          "the analysis fits the cylinder (the model a nominal curved screen selects); prediction = RMS over "
+          "{} simulated detection draws of the fit's combined radius sigma (its whole budget)",
+          options.seeds),
+      fmt::format(
+          "placements: camera looking at the screen centre, level; distance from the centre {} mm; yaw +-{} "
+          "deg; height {} mm; usable when every feature is inside the imager with a {:.0f}% margin, features "
+          ">= {:.0f} px apart and <= {:.0f} deg off their normal",
+          fmt::join(options.distances_mm, ","), fmt::join(options.yaws_deg, ","),
+          fmt::join(options.heights_mm, ","), 100 * options.imager_margin,
+          options.min_feature_spacing_camera_px, options.max_obliquity_deg),
   };
   const auto& rows = options.noise.camera_px_per_display_px_to_noise_px;
   for (const PlanPlacement& p : plan.positions) {
-    if (p.camera_px_per_display_px < 0.9 * rows.front().first || p.camera_px_per_display_px > 1.1 * rows.back().first) {
-      plan.assumptions.push_back(fmt::format(
-          "the detection noise is extrapolated: the planned positions see {:.3g} camera px per display px, the noise "
-          "was measured over {:.3g}-{:.3g} (held constant beyond)",
-          p.camera_px_per_display_px, rows.front().first, rows.back().first));
+    if (p.camera_px_per_display_px < 0.9 * rows.front().first ||
+        p.camera_px_per_display_px > 1.1 * rows.back().first) {
+      plan.assumptions.push_back(
+          fmt::format("the detection noise is extrapolated: the planned positions see {:.3g} camera px per "
+                      "display px, the noise "
+                      "was measured over {:.3g}-{:.3g} (held constant beyond)",
+                      p.camera_px_per_display_px, rows.front().first, rows.back().first));
       break;
     }
   }
@@ -539,17 +587,26 @@ nlohmann::json PlanJson(const CapturePlan& plan, const Monitor& monitor, const C
                   {"width_mm", monitor.width_mm},
                   {"height_mm", monitor.height_mm},
                   {"radius_mm", monitor.radius_mm()}};
-  j["camera"] = {{"lensmodel", camera.lensmodel}, {"width", camera.width}, {"height", camera.height},
+  j["camera"] = {{"lensmodel", camera.lensmodel},
+                 {"width", camera.width},
+                 {"height", camera.height},
                  {"focal_px", camera.intrinsics.empty() ? kNaN : camera.intrinsics[0]}};
   j["positions"] = nlohmann::json::array();
   for (const PlanPlacement& p : plan.positions) j["positions"].push_back(placement(p));
   j["predicted_radius_sigma_mm"] = plan.predicted_radius_sigma_mm;
   j["predicted_radius_budget"] = nlohmann::json::array();
-  for (const PlanBudgetRow& row : plan.budget) j["predicted_radius_budget"].push_back({{"name", row.name}, {"radius_mm", row.radius_mm}});
+  for (const PlanBudgetRow& row : plan.budget)
+    j["predicted_radius_budget"].push_back({{"name", row.name}, {"radius_mm", row.radius_mm}});
   j["radius_sigma_floor_mm"] = plan.radius_sigma_floor_mm;
-  j["sigma_by_photos_mm"] = plan.sigma_by_photos_mm;
-  j["target_radius_sigma_mm"] = options.target_radius_sigma_mm > 0 ? nlohmann::json(options.target_radius_sigma_mm)
-                                                                    : nlohmann::json(nullptr);
+  j["sigma_by_photos_mm"] = nlohmann::json::array();
+  for (const auto& [n, sigma] : plan.sigma_by_photos_mm) {
+    j["sigma_by_photos_mm"].push_back(
+        {{"photos", n},
+         {"radius_sigma_mm", std::isfinite(sigma) ? nlohmann::json(sigma) : nlohmann::json(nullptr)}});
+  }
+  j["target_radius_sigma_mm"] = options.target_radius_sigma_mm > 0
+                                    ? nlohmann::json(options.target_radius_sigma_mm)
+                                    : nlohmann::json(nullptr);
   j["target_reached"] = plan.target_reached;
   j["target_note"] = plan.target_note;
   j["tolerance_display_px"] = options.tolerance_display_px;
@@ -577,18 +634,20 @@ std::string PlanText(const CapturePlan& plan, const PlanOptions& options) {
   std::ostringstream out;
   size_t usable = 0;
   for (const PlanPlacement& p : plan.grid) usable += p.usable;
-  out << fmt::format("capture plan: {} placements searched, {} usable; {} recommended\n\n", plan.grid.size(), usable,
-                     plan.positions.size());
-  out << fmt::format("{:>3} {:>8} {:>7} {:>7}   {:>24} {:>9} {:>9} {:>8} {:>9} {:>10}\n", "#", "dist mm", "yaw deg",
-                     "h mm", "position_mm (screen)", "spacing", "cam/disp", "obliq", "noise px", "1-photo mm");
+  out << fmt::format("capture plan: {} placements searched, {} usable; {} recommended\n\n", plan.grid.size(),
+                     usable, plan.positions.size());
+  out << fmt::format("{:>3} {:>8} {:>7} {:>7}   {:>24} {:>9} {:>9} {:>8} {:>9} {:>10}\n", "#", "dist mm",
+                     "yaw deg", "h mm", "position_mm (screen)", "spacing", "cam/disp", "obliq", "noise px",
+                     "1-photo mm");
   for (size_t i = 0; i < plan.positions.size(); ++i) {
     const PlanPlacement& p = plan.positions[i];
-    out << fmt::format("{:>3} {:>8.0f} {:>7.0f} {:>7.0f}   {:>24} {:>9.1f} {:>9.3f} {:>8.1f} {:>9.3f} {:>10.2f}\n", i + 1,
-                       p.distance_mm, p.yaw_deg, p.height_mm,
-                       fmt::format("[{:.0f}, {:.0f}, {:.0f}]", p.position_in_screen_mm.x(), p.position_in_screen_mm.y(),
-                                   p.position_in_screen_mm.z()),
-                       p.feature_spacing_camera_px, p.camera_px_per_display_px, p.max_obliquity_deg, p.noise_px,
-                       p.radius_crb_mm);
+    out << fmt::format(
+        "{:>3} {:>8.0f} {:>7.0f} {:>7.0f}   {:>24} {:>9.1f} {:>9.3f} {:>8.1f} {:>9.3f} {:>10.2f}\n", i + 1,
+        p.distance_mm, p.yaw_deg, p.height_mm,
+        fmt::format("[{:.0f}, {:.0f}, {:.0f}]", p.position_in_screen_mm.x(), p.position_in_screen_mm.y(),
+                    p.position_in_screen_mm.z()),
+        p.feature_spacing_camera_px, p.camera_px_per_display_px, p.max_obliquity_deg, p.noise_px,
+        p.radius_crb_mm);
   }
   out << fmt::format("\npredicted radius sigma: {:.3f} mm from {} photo(s)", plan.predicted_radius_sigma_mm,
                      plan.positions.size());
@@ -597,11 +656,12 @@ std::string PlanText(const CapturePlan& plan, const PlanOptions& options) {
                        plan.target_reached ? "reached" : "NOT reached");
   }
   out << "\n  " << plan.target_note << "\n  budget (u(R), mm):";
-  for (const PlanBudgetRow& row : plan.budget) out << fmt::format("  {} {}", row.name, Fixed(row.radius_mm, 3));
+  for (const PlanBudgetRow& row : plan.budget)
+    out << fmt::format("  {} {}", row.name, Fixed(row.radius_mm, 3));
   out << fmt::format("\n  floor that more photos do not remove: {:.3f} mm\n", plan.radius_sigma_floor_mm);
   if (plan.sigma_by_photos_mm.size() > 1) {
     out << "  sigma by number of photos (mm):";
-    for (size_t i = 0; i < plan.sigma_by_photos_mm.size(); ++i) out << fmt::format(" {}:{:.2f}", i + 1, plan.sigma_by_photos_mm[i]);
+    for (const auto& [n, sigma] : plan.sigma_by_photos_mm) out << fmt::format(" {}:{}", n, Fixed(sigma, 2));
     out << "\n";
   }
   out << fmt::format("\nverification (tolerance T = {:.3g} display px): {}\n", options.tolerance_display_px,
@@ -622,7 +682,8 @@ std::string PlanChartData(const CapturePlan& plan) {
   out << "# distance_mm yaw_deg single_photo_radius_crb_mm (NaN: placement not usable)\n";
   for (const auto& [yaw, row] : by_yaw) {
     if (yaw < 0) continue;  // mirrored yaws give the same figures
-    for (const auto& [d, s] : row) out << fmt::format("{} {} {}\n", d, yaw, std::isfinite(s) ? fmt::format("{:.6g}", s) : "NaN");
+    for (const auto& [d, s] : row)
+      out << fmt::format("{} {} {}\n", d, yaw, std::isfinite(s) ? fmt::format("{:.6g}", s) : "NaN");
     out << "\n\n";
   }
   return out.str();
@@ -639,11 +700,12 @@ std::string PlanChartScript(const CapturePlan& plan, const std::string& data_fil
   const std::string file = GnuplotString(data_file);
   std::string by_distance;
   for (size_t i = 0; i < yaws.size(); ++i) {
-    by_distance += fmt::format("{}{} index {} using 1:3 with linespoints title \"yaw {:g} deg\"", i ? ", " : "", file,
-                               i, yaws[i]);
+    by_distance += fmt::format("{}{} index {} using 1:3 with linespoints title \"yaw {:g} deg\"",
+                               i ? ", " : "", file, i, yaws[i]);
   }
   return fmt::format(
-      "set multiplot layout 1,2 title \"single-photo radius sigma at the expected detection noise (Cramer-Rao, "
+      "set multiplot layout 1,2 title \"single-photo radius sigma at the expected detection noise "
+      "(Cramer-Rao, "
       "height 0; gaps: placement not usable)\"\n"
       "set logscale y\nset grid\nset key top left\nset ylabel \"radius sigma (mm)\"\n"
       "set xlabel \"distance from the screen centre (mm)\"\n"

@@ -1,8 +1,9 @@
-// `curvecheck plan` end to end (issue 20 part 1): plan for the default scene's camera at quarter resolution, take the
-// realistic synthetic photos (`capture synth`, imaging preset ilc24) at every planned position, analyse them in one
-// `analyze` run and hold the measured radius sigma to the prediction within a factor 1.3, for three seeds of
-// the photos (sensor noise and the true lens's misfit field both drawn anew), and the predicted verification U against
-// analyze's on the photo from the eye point. Also: plan.json's contract, and the refusals of bad input.
+// `curvecheck plan` end to end (issue 20 part 1): plan for the default scene's camera at quarter resolution,
+// take the realistic synthetic photos (`capture synth`, imaging preset ilc24) at every planned position,
+// analyse them in one `analyze` run and hold the measured radius sigma to the prediction within a factor 1.3,
+// for three seeds of the photos (sensor noise and the true lens's misfit field both drawn anew), and the
+// predicted verification U against analyze's on the photo from the eye point. Also: plan.json's contract, and
+// the refusals of bad input.
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
@@ -31,36 +32,37 @@ class PlanCli : public ::testing::Test {
   }
   // The default scene with the camera at `position` looking at `look_at`, the photo noise and the true lens's
   // misfit drawn from `seed`.
-  static fs::path Scene(const std::string& name, const nlohmann::json& position, const nlohmann::json& look_at,
-                        int seed) {
+  static fs::path Scene(const std::string& name, const nlohmann::json& position,
+                        const nlohmann::json& look_at, int seed) {
     const fs::path path = Dir() / (name + ".yaml");
-    std::ofstream(path) << "format: curvecheck.scene/1\nmonitor: default\n"
-                        << "camera: {model: " << (Source() / "datasets/cameras/default-24mp-opencv8.cameramodel").string()
-                        << ", position_mm: " << position.dump() << ", look_at_mm: " << look_at.dump() << "}\n"
-                        << "optics: {supersample: 2, blur: gaussian, blur_px: 0.7, vignetting: 0.2, exposure: 0.9}\n"
-                        << "sensor: {gamma: 1, full_well_e: 20000, read_noise_e: 3, seed: " << seed << ", bits: 8}\n"
-                        << "imaging: {preset: ilc24, lens_seed: " << seed << "}\n";
+    std::ofstream(path)
+        << "format: curvecheck.scene/1\nmonitor: default\n"
+        << "camera: {model: " << (Source() / "datasets/cameras/default-24mp-opencv8.cameramodel").string()
+        << ", position_mm: " << position.dump() << ", look_at_mm: " << look_at.dump() << "}\n"
+        << "optics: {supersample: 2, blur: gaussian, blur_px: 0.7, vignetting: 0.2, exposure: 0.9}\n"
+        << "sensor: {gamma: 1, full_well_e: 20000, read_noise_e: 3, seed: " << seed << ", bits: 8}\n"
+        << "imaging: {preset: ilc24, lens_seed: " << seed << "}\n";
     return path;
   }
   static void SetUpTestSuite() {
     curvecheck::testing::FreshDir("plan_cli_test");
-    const CliRun r = Curvecheck({"render", "--monitor", "default", "--viewpoint", "0,0,500", "-o",
-                                 (Dir() / "p.png").string()});
+    const CliRun r = Curvecheck(
+        {"render", "--monitor", "default", "--viewpoint", "0,0,500", "-o", (Dir() / "p.png").string()});
     ASSERT_EQ(r.code, 0) << r.err;
-    const CliRun c = Curvecheck({"capture", "synth", "--scene", Scene("ref", {0, 0, 500}, {0, 0, -1000}, 1).string(),
-                                 "--display", (Dir() / "p.png").string(), "-o", (Dir() / "ref.png").string(),
-                                 "--scale", "0.25"});
+    const CliRun c = Curvecheck(
+        {"capture", "synth", "--scene", Scene("ref", {0, 0, 500}, {0, 0, -1000}, 1).string(), "--display",
+         (Dir() / "p.png").string(), "-o", (Dir() / "ref.png").string(), "--scale", "0.25"});
     ASSERT_EQ(c.code, 0) << c.err;
   }
   static void TearDownTestSuite() { fs::remove_all(Dir()); }
 };
 
-// The plan's prediction against analyze on photos from the planned positions, two seeds of the photos. The plan is
-// deterministic (its own simulated draws are seeded); the photos are not the plan's draws.
+// The plan's prediction against analyze on photos from the planned positions, two seeds of the photos. The
+// plan is deterministic (its own simulated draws are seeded); the photos are not the plan's draws.
 TEST_F(PlanCli, PredictedRadiusSigmaWithinAFactor1p3OfTheMeasuredOne) {
-  const CliRun p = Curvecheck({"plan", "--monitor", "default", "--camera", (Dir() / "ref.cameramodel").string(),
-                               "--pattern", (Dir() / "p.json").string(), "--target-sigma-mm", "2", "-o",
-                               (Dir() / "plan").string()});
+  const CliRun p = Curvecheck({"plan", "--monitor", "default", "--camera",
+                               (Dir() / "ref.cameramodel").string(), "--pattern", (Dir() / "p.json").string(),
+                               "--target-sigma-mm", "2", "-o", (Dir() / "plan").string()});
   ASSERT_EQ(p.code, 0) << p.err;
   EXPECT_THAT(p.out, ::testing::HasSubstr("predicted radius sigma"));
   const nlohmann::json plan = nlohmann::json::parse(Slurp(Dir() / "plan" / "plan.json"));
@@ -92,8 +94,8 @@ TEST_F(PlanCli, PredictedRadiusSigmaWithinAFactor1p3OfTheMeasuredOne) {
       const std::string name = "s" + std::to_string(seed) + "-" + std::to_string(i);
       const CliRun c = Curvecheck({"capture", "synth", "--scene",
                                    Scene(name, q["position_mm"], q["look_at_mm"], seed).string(), "--display",
-                                   (Dir() / "p.png").string(), "-o", (Dir() / (name + ".png")).string(), "--scale",
-                                   "0.25"});
+                                   (Dir() / "p.png").string(), "-o", (Dir() / (name + ".png")).string(),
+                                   "--scale", "0.25"});
       ASSERT_EQ(c.code, 0) << c.err;
       args.push_back((Dir() / (name + ".png")).string());
     }
@@ -104,8 +106,8 @@ TEST_F(PlanCli, PredictedRadiusSigmaWithinAFactor1p3OfTheMeasuredOne) {
     const nlohmann::json result = nlohmann::json::parse(Slurp(out / "result.json"));
     ASSERT_TRUE(result["fit"]["radius_sigma_mm"].is_number()) << a.out;
     const double measured = result["fit"]["radius_sigma_mm"];
-    std::cout << "seed " << seed << ": " << plan["positions"].size() << " planned photos, predicted " << predicted
-              << " mm, measured " << measured << " mm (ratio " << measured / predicted << ")\n";
+    std::cout << "seed " << seed << ": " << plan["positions"].size() << " planned photos, predicted "
+              << predicted << " mm, measured " << measured << " mm (ratio " << measured / predicted << ")\n";
     EXPECT_GE(measured, predicted / 1.3) << "seed " << seed;
     EXPECT_LE(measured, predicted * 1.3) << "seed " << seed;
   }
@@ -114,12 +116,12 @@ TEST_F(PlanCli, PredictedRadiusSigmaWithinAFactor1p3OfTheMeasuredOne) {
 TEST_F(PlanCli, RefusesBadInput) {
   ExpectOneLineFailure(Curvecheck({"plan", "--monitor", "default", "-o", (Dir() / "x").string()}),
                        {"--camera", "--sensor-px"});
-  ExpectOneLineFailure(Curvecheck({"plan", "--monitor", "default", "--sensor-px", "6000", "--focal-px", "5000", "-o",
-                                   (Dir() / "x").string()}),
+  ExpectOneLineFailure(Curvecheck({"plan", "--monitor", "default", "--sensor-px", "6000", "--focal-px",
+                                   "5000", "-o", (Dir() / "x").string()}),
                        {"--sensor-px"});
   // A flat monitor has no radius to plan for.
-  ExpectOneLineFailure(Curvecheck({"plan", "--monitor", "27in-2560x1440-flat", "--sensor-px", "6000,4000", "--focal-px",
-                                   "5000", "-o", (Dir() / "x").string()}),
+  ExpectOneLineFailure(Curvecheck({"plan", "--monitor", "27in-2560x1440-flat", "--sensor-px", "6000,4000",
+                                   "--focal-px", "5000", "-o", (Dir() / "x").string()}),
                        {"flat"});
   EXPECT_FALSE(fs::exists(Dir() / "x" / "plan.json"));
 }

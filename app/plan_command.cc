@@ -15,6 +15,7 @@
 #include "analysis/plan.h"
 #include "app/cli.h"
 #include "app/output_paths.h"
+#include "core/decimal.h"
 #include "core/error.h"
 #include "core/file_io.h"
 #include "core/gnuplot.h"
@@ -42,14 +43,11 @@ struct PlanArgs {
 std::vector<double> Numbers(const std::string& text, const std::string& option) {
   std::vector<double> out;
   for (const std::string& part : SplitList(text, ',')) {
-    try {
-      size_t used = 0;
-      out.push_back(std::stod(part, &used));
-      if (used != part.size()) throw std::invalid_argument(part);
-    } catch (const std::exception&) {
+    const std::optional<double> v = ParseDecimal(part);
+    if (!v)
       throw Error(option, fmt::format("'{}' is not a number", part),
                   "give a comma-separated list, e.g. 1000,1500");
-    }
+    out.push_back(*v);
   }
   if (out.empty()) throw Error(option, "is empty", "give a comma-separated list, e.g. 1000,1500");
   return out;

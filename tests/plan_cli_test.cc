@@ -113,17 +113,23 @@ TEST_F(PlanCli, PredictedRadiusSigmaWithinAFactor1p3OfTheMeasuredOne) {
   }
 }
 
-TEST_F(PlanCli, RefusesBadInput) {
-  ExpectOneLineFailure(Curvecheck({"plan", "--monitor", "default", "-o", (Dir() / "x").string()}),
+// Bad input needs no photos: a suite of its own, without PlanCli's render and capture.
+TEST(PlanCliInput, RefusesBadInput) {
+  const fs::path dir = curvecheck::testing::FreshDir("plan_cli_input_test");
+  const auto Curvecheck = [&](const std::vector<std::string>& args) {
+    return curvecheck::testing::RunBinary(CURVECHECK_BINARY, args, dir);
+  };
+  ExpectOneLineFailure(Curvecheck({"plan", "--monitor", "default", "-o", (dir / "x").string()}),
                        {"--camera", "--sensor-px"});
   ExpectOneLineFailure(Curvecheck({"plan", "--monitor", "default", "--sensor-px", "6000", "--focal-px",
-                                   "5000", "-o", (Dir() / "x").string()}),
+                                   "5000", "-o", (dir / "x").string()}),
                        {"--sensor-px"});
   // A flat monitor has no radius to plan for.
   ExpectOneLineFailure(Curvecheck({"plan", "--monitor", "27in-2560x1440-flat", "--sensor-px", "6000,4000",
-                                   "--focal-px", "5000", "-o", (Dir() / "x").string()}),
+                                   "--focal-px", "5000", "-o", (dir / "x").string()}),
                        {"flat"});
-  EXPECT_FALSE(fs::exists(Dir() / "x" / "plan.json"));
+  EXPECT_FALSE(fs::exists(dir / "x" / "plan.json"));
+  fs::remove_all(dir);
 }
 
 }  // namespace

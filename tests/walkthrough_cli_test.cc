@@ -47,11 +47,13 @@ std::vector<Block> ReadBlocks(const fs::path& md) {
   std::istringstream in(Slurp(md));
   std::vector<Block> blocks;
   bool open = false;
+  size_t indent = 0;  // of the opening fence (a block inside a list item): taken off its lines
   int n = 0;
   for (std::string line; std::getline(in, line);) {
     ++n;
-    if (!line.starts_with("```")) {
-      if (open) blocks.back().text += line + "\n";
+    const size_t first = std::min(line.find_first_not_of(' '), line.size());
+    if (line.compare(first, 3, "```") != 0) {
+      if (open) blocks.back().text += line.substr(std::min(first, indent)) + "\n";
       continue;
     }
     if (open) {
@@ -59,7 +61,8 @@ std::vector<Block> ReadBlocks(const fs::path& md) {
       continue;
     }
     open = true;
-    blocks.push_back({line.substr(3), n, ""});
+    indent = first;
+    blocks.push_back({line.substr(first + 3), n, ""});
   }
   EXPECT_FALSE(open) << md << ": a fence is not closed";
   return blocks;
@@ -170,7 +173,7 @@ TEST(Walkthrough, RunsEndToEndWithSyntheticPhotosInPlaceOfTheCamera) {
   std::string printed;
   for (const Block& b : BlocksOfKind(all, {"sh walkthrough", "sh stand-in"})) {
     const Stopwatch watch;
-    const ProcessResult r = RunProcess({"env", path, "bash", "-eu", "-o", "pipefail", "-c", b.text}, dir);
+    const ProcessResult r = RunProcess({"env", path, "CURVECHECK_SOURCE_DIR=" + SourceDir().string(), "bash", "-eu", "-o", "pipefail", "-c", b.text}, dir);
     std::cout << "docs/walkthrough.md:" << b.line << " (" << b.kind << "): exit " << r.status << ", "
               << watch.Ms() / 1000 << " s\n";
     printed += r.stdout_text;

@@ -184,6 +184,7 @@ TEST(Walkthrough, RunsEndToEndWithSyntheticPhotosInPlaceOfTheCamera) {
               << watch.Ms() / 1000 << " s\n";
     printed += r.stdout_text;
     ASSERT_EQ(r.status, 0) << "docs/walkthrough.md:" << b.line << " (```" << b.kind << ") failed in " << dir
+                           << " (kept)"
                            << "\n--- stderr\n" << Tail(r.stderr_text) << "\n--- stdout\n" << Tail(r.stdout_text);
   }
 
@@ -253,6 +254,8 @@ TEST(Walkthrough, RunsEndToEndWithSyntheticPhotosInPlaceOfTheCamera) {
           << "docs/walkthrough.md:" << b.line << ": no printed line is like\n  " << q << "\nprinted:\n" << Tail(printed);
     }
   }
+  std::error_code ec;
+  if (!HasFailure()) fs::remove_all(dir, ec);  // kept after a failure, to look at
 }
 
 }  // namespace

@@ -210,7 +210,39 @@ nlohmann::json BudgetJson(const ModelFit& f, const std::string& first_photo) {
       {"bound_px", Num(b.misfit_bound_px)},
       {"method", "each detection paired with its nearest neighbour in the same photo; statistic = mean of r_i . r_j "
                  "/ 2 over the pairs; RMS = sqrt((statistic - noise share) / kappa), kappa the share a unit-RMS "
-                 "field of the assumed family leaves after the fit; bound adds 2 sigma of the statistic under noise"}};
+                 "field of the assumed family (Legendre, the model choice's) leaves after the fit; bound adds 2 "
+                 "sigma of the statistic under noise"},
+      {"correlation",
+       {{"feature_spacing_px", Num(b.misfit_spacing_px)},
+        {"length_px", Num(b.misfit_length_px)},
+        {"variance_px2", Num(b.misfit_variance_px2)},
+        {"variance_sd_px2", Num(b.misfit_variance_sd_px2)},
+        {"rms_px", Num(std::sqrt(std::max(0.0, b.misfit_variance_px2)))},
+        {"weighted_chi2", Num(b.misfit_fit_chi2)},
+        {"components", [&] {
+           nlohmann::json a = nlohmann::json::array();
+           for (const UncertaintyBudget::FieldComponent& component : b.misfit_components) {
+             a.push_back({{"length_px", component.length_px},
+                          {"variance_px2", component.variance_px2},
+                          {"variance_sd_px2", component.variance_sd_px2}});
+           }
+           return a;
+         }()},
+        {"lags", [&] {
+           nlohmann::json a = nlohmann::json::array();
+           for (const UncertaintyBudget::Lag& l : b.misfit_lags) {
+             a.push_back({{"lag_spacings", l.lag_spacings},
+                          {"pairs", l.pairs},
+                          {"statistic_px2", l.statistic_px2},
+                          {"noise_share_px2", l.noise_share_px2},
+                          {"field_share_px2", l.field_share_px2}});
+           }
+           return a;
+         }()},
+        {"method", "what the row propagates: mean r_a . r_b / 2 over pairs in the same photo at 0-1.5, 1.5-3, 3-6, "
+                   "6-12, 12-24 feature spacings, fitted by a stationary Gaussian field (variance s^2, covariance "
+                   "exp(-d^2 / 2 L^2)) after the fit's linearized refit plus the noise's share; L from 1-32 feature "
+                   "spacings, the best weighted fit"}}}};
   j["correlations"] = "rows are independent of one another and combined in quadrature; within a row the curvature "
                       "and the camera positions are correlated (their covariance is carried into the axis-frame z)";
   if (!b.note.empty()) j["note"] = b.note;

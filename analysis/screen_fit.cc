@@ -7,6 +7,7 @@
 #include <Eigen/Dense>
 #include <Eigen/Geometry>
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 #include <memory>
@@ -437,12 +438,17 @@ std::optional<Linearization> Linearize(const Setup& setup, const ModelWork& w, B
 // Bias fields over the image of RMS `bound_px` per coordinate (Legendre polynomials of total degree <= `degree`,
 // the same field in every photo), propagated through G; the covariance of q over seeded draws. The detector
 // systematic's smooth part and the lens model misfit.
-QuantityVariance SystematicVariance(const Setup& setup, const Linearization& lin, double bound_px, int degree) {
-  const FitOptions& o = *setup.options;
-  const int n = static_cast<int>(lin.obs.size()), nq = static_cast<int>(lin.g.rows());
+// The active observations' detected positions, in Linearization order.
+std::vector<Eigen::Vector2d> DetectedPoints(const Setup& setup, const Linearization& lin) {
   std::vector<Eigen::Vector2d> points;
   for (size_t i : lin.obs) points.push_back(setup.obs[i].detected);
-  const Eigen::MatrixXd basis = LegendreFieldBasis(points, setup.camera->width, setup.camera->height, degree);
+  return points;
+}
+
+QuantityVariance SystematicVariance(const Setup& setup, const Linearization& lin, double bound_px,
+                                    const Eigen::MatrixXd& basis) {
+  const FitOptions& o = *setup.options;
+  const int n = static_cast<int>(lin.obs.size()), nq = static_cast<int>(lin.g.rows());
   const long terms = basis.cols();
   // A detection bias delta shifts the residual q - detected by -delta, and q by -G (-delta) = G delta.
   Eigen::MatrixXd gx(nq, n), gy(nq, n);
@@ -461,6 +467,179 @@ QuantityVariance SystematicVariance(const Setup& setup, const Linearization& lin
     cov += dq * dq.transpose();
   }
   return QuantityVariance::FromCovariance(cov / o.systematic_field_draws, setup.photos);
+}
+
+// The misfit field's RMS s and correlation length L, from the residuals' correlation at several lags
+// (UncertaintyBudget::misfit_length_px, misfit_lags). The neighbour statistic alone cannot tell a field smooth over
+// the whole image (which moves the radius) from errors correlated over a few features only (the detector's
+// pixel-locking beat, demosaicing, moire: they average out over the board): propagated as a smooth field, the
+// latter gave radius sigmas 1.4-3x the scatter of seeded trials (bench validity, realistic camera). Per lag bin j
+// (pairs in the same photo at a distance of [0, 1.5), [1.5, 3), [3, 6), [6, 12), [12, 24) feature spacings),
+// S_j = mean of r_a . r_b / 2 has E[S_j] = s^2 kappa_j(L) + sigma^2 nu_j: kappa_j the same mean of the stationary
+// Gaussian field of unit variance and covariance exp(-d^2 / 2 L^2) after the linearized refit, exactly from its
+// random-feature basis Phi (E[e_a . e_b] = (R R^T)_ab, R = (I - J (J^T J)^+ J^T) Phi), nu_j the refit's share
+// -(J (J^T J)^+ J^T)_ab. For each L of a grid (1 to 32 feature spacings, at most the image width) s^2 >= 0 is
+// fitted by weighted least squares (weights pairs_j / sigma^4: S_j's variance under noise); the L of the smallest
+// weighted misfit is kept, with s^2's standard error. Pairs beyond kMaxPairsPerLag per bin are thinned evenly.
+void EstimateMisfitCorrelation(const Setup& setup, const Linearization& lin,
+                               const std::vector<Eigen::Vector2d>& residual, double sigma_px,
+                               const std::vector<std::pair<int, int>>& neighbours, UncertaintyBudget* bud) {
+  const FitOptions& o = *setup.options;
+  constexpr size_t kMaxPairsPerLag = 6000;
+  constexpr std::array<double, 6> kLagEdges = {0, 1.5, 3, 6, 12, 24};
+  const int n = static_cast<int>(lin.obs.size());
+  const std::vector<Eigen::Vector2d> points = DetectedPoints(setup, lin);
+  std::vector<double> nn;
+  for (const auto& [a, b] : neighbours) nn.push_back((points[static_cast<size_t>(a)] - points[static_cast<size_t>(b)]).norm());
+  if (nn.size() < 8 || !(sigma_px > 0)) return;
+  std::nth_element(nn.begin(), nn.begin() + static_cast<long>(nn.size() / 2), nn.end());
+  const double spacing = nn[nn.size() / 2];
+  if (!(spacing > 0)) return;
+  const size_t bins = kLagEdges.size() - 1;
+  std::vector<std::vector<std::pair<int, int>>> lag(bins);
+  for (int a = 0; a < n; ++a) {
+    for (int b = a + 1; b < n; ++b) {
+      if (setup.obs[lin.obs[static_cast<size_t>(a)]].photo != setup.obs[lin.obs[static_cast<size_t>(b)]].photo) continue;
+      const double d = (points[static_cast<size_t>(a)] - points[static_cast<size_t>(b)]).norm() / spacing;
+      for (size_t j = 0; j < bins; ++j) {
+        if (d >= kLagEdges[j] && d < kLagEdges[j + 1]) lag[j].emplace_back(a, b);
+      }
+    }
+  }
+  for (auto& l : lag) {
+    if (l.size() <= kMaxPairsPerLag) continue;
+    std::vector<std::pair<int, int>> thin;
+    const double step = static_cast<double>(l.size()) / kMaxPairsPerLag;
+    for (size_t i = 0; i < kMaxPairsPerLag; ++i) thin.push_back(l[static_cast<size_t>(i * step)]);
+    l.swap(thin);
+  }
+  const Eigen::MatrixXd jp = lin.j_obs * lin.normal_pinv;  // 2n x t
+  const double s4 = std::pow(sigma_px, 4);
+  struct Bin { double lag = 0, stat = 0, nu = 0, weight = 0; int pairs = 0; };
+  std::vector<Bin> stats;
+  std::vector<size_t> used_bins;
+  for (size_t j = 0; j < bins; ++j) {
+    if (lag[j].size() < 8) continue;
+    Bin bin;
+    bin.pairs = static_cast<int>(lag[j].size());
+    for (const auto& [a, b] : lag[j]) {
+      bin.lag += (points[static_cast<size_t>(a)] - points[static_cast<size_t>(b)]).norm() / spacing;
+      bin.stat += 0.5 * residual[static_cast<size_t>(a)].dot(residual[static_cast<size_t>(b)]);
+      for (int c = 0; c < 2; ++c) bin.nu -= 0.5 * jp.row(2 * a + c).dot(lin.j_obs.row(2 * b + c));
+    }
+    bin.lag /= bin.pairs, bin.stat /= bin.pairs, bin.nu /= bin.pairs;
+    bin.weight = bin.pairs / s4;
+    stats.push_back(bin);
+    used_bins.push_back(j);
+  }
+  if (stats.size() < 2) return;
+  // kappa_j(L) for each length of the grid.
+  std::vector<double> lengths;
+  std::vector<Eigen::VectorXd> kappas;
+  for (double factor : {1.0, 2.0, 4.0, 8.0, 16.0, 32.0}) {
+    const double length = std::min(factor * spacing, static_cast<double>(setup.camera->width));
+    if (!lengths.empty() && length <= lengths.back()) continue;
+    const Eigen::MatrixXd phi = GaussianFieldBasis(points, length, o.misfit_features, o.systematic_field_seed + 2);
+    const long d = phi.cols();
+    Eigen::MatrixXd dx = Eigen::MatrixXd::Zero(2 * n, d), dy = Eigen::MatrixXd::Zero(2 * n, d);
+    for (int i = 0; i < n; ++i) dx.row(2 * i) = phi.row(i), dy.row(2 * i + 1) = phi.row(i);
+    const Eigen::MatrixXd rx = dx - jp * (lin.j_obs.transpose() * dx);
+    const Eigen::MatrixXd ry = dy - jp * (lin.j_obs.transpose() * dy);
+    const double variance = phi.squaredNorm() / n;  // the field's mean variance at the points (1 but for sampling)
+    Eigen::VectorXd kappa(static_cast<long>(stats.size()));
+    for (size_t k = 0; k < stats.size(); ++k) {
+      double sum = 0;
+      for (const auto& [a, b] : lag[used_bins[k]]) {
+        for (int c = 0; c < 2; ++c) {
+          sum += 0.5 * (rx.row(2 * a + c).dot(rx.row(2 * b + c)) + ry.row(2 * a + c).dot(ry.row(2 * b + c)));
+        }
+      }
+      kappa[static_cast<long>(k)] = sum / stats[k].pairs / variance;
+    }
+    lengths.push_back(length);
+    kappas.push_back(kappa);
+  }
+  // The statistics beyond the noise's share, and their weights: a pair's product has a variance of about
+  // (sigma^2 + s^2)^2 / 2 (s^2 from the nearest lag); pairs overlap, so the weights are relative and the standard
+  // errors are scaled by the fit's own scatter (Birge ratio) when it exceeds them.
+  const long m = static_cast<long>(stats.size());
+  Eigen::VectorXd y(m), w(m);
+  for (long k = 0; k < m; ++k) y[k] = stats[static_cast<size_t>(k)].stat - sigma_px * sigma_px * stats[static_cast<size_t>(k)].nu;
+  const double total = sigma_px * sigma_px + std::max(0.0, y[0]);
+  for (long k = 0; k < m; ++k) w[k] = stats[static_cast<size_t>(k)].pairs / (total * total);
+  // Non-negative weighted least squares of y on one or two of the kappa vectors (a short- and a long-range
+  // component: detector errors correlated over a few features, and the lens's smooth field); the best fit wins,
+  // a second component only when it lowers chi^2 by more than 2 (one parameter more, AIC).
+  struct Choice {
+    double cost = kInf;
+    std::vector<std::pair<size_t, double>> parts;  // (length index, variance)
+    Eigen::MatrixXd covariance;
+  };
+  Choice best;
+  const auto consider = [&](const std::vector<size_t>& idx) {
+    const long p = static_cast<long>(idx.size());
+    Eigen::MatrixXd a(m, p);
+    for (long c = 0; c < p; ++c) a.col(c) = kappas[idx[static_cast<size_t>(c)]];
+    const Eigen::MatrixXd normal = a.transpose() * w.asDiagonal() * a;
+    if (normal.determinant() <= 1e-300 * std::pow(normal.norm(), static_cast<double>(p))) return;
+    const Eigen::VectorXd x = normal.ldlt().solve(a.transpose() * w.asDiagonal() * y);
+    if ((x.array() < 0).any()) return;  // the one-component fits cover the boundary
+    const Eigen::VectorXd e = y - a * x;
+    const double cost = e.dot(w.asDiagonal() * e) + 2.0 * p;
+    if (cost >= best.cost) return;
+    best.cost = cost;
+    best.parts.clear();
+    for (long c = 0; c < p; ++c) best.parts.emplace_back(idx[static_cast<size_t>(c)], x[c]);
+    const double birge = m > p ? std::max(1.0, (cost - 2.0 * p) / static_cast<double>(m - p)) : 1.0;
+    best.covariance = birge * normal.inverse();
+  };
+  for (size_t i = 0; i < lengths.size(); ++i) {
+    consider({i});
+    for (size_t j = i + 1; j < lengths.size() && m > 2; ++j) consider({i, j});
+  }
+  if (best.parts.empty()) {  // every one-component fit was negative: no correlated error seen
+    best.parts = {{lengths.size() - 1, 0.0}};
+    const double kw = kappas.back().dot(w.asDiagonal() * kappas.back());
+    best.covariance = Eigen::MatrixXd::Constant(1, 1, kw > 0 ? 1 / kw : kInf);
+    const Eigen::VectorXd e = y;
+    best.cost = e.dot(w.asDiagonal() * e) + 2.0;
+  }
+  bud->misfit_components.clear();
+  Eigen::VectorXd model = Eigen::VectorXd::Zero(m);
+  for (size_t c = 0; c < best.parts.size(); ++c) {
+    const auto& [li, v] = best.parts[c];
+    bud->misfit_components.push_back(
+        {lengths[li], v, std::sqrt(std::max(0.0, best.covariance(static_cast<long>(c), static_cast<long>(c))))});
+    model += v * kappas[li];
+  }
+  // The long-range component is the one that moves the radius; the summary fields name it.
+  const UncertaintyBudget::FieldComponent& longest = bud->misfit_components.back();
+  bud->misfit_length_px = longest.length_px;
+  bud->misfit_variance_px2 = longest.variance_px2;
+  bud->misfit_variance_sd_px2 = longest.variance_sd_px2;
+  bud->misfit_lags.clear();
+  for (long k = 0; k < m; ++k) {
+    const size_t kk = static_cast<size_t>(k);
+    bud->misfit_lags.push_back({stats[kk].lag, stats[kk].pairs, stats[kk].stat, sigma_px * sigma_px * stats[kk].nu, model[k]});
+  }
+  const double best_cost = best.cost;
+  bud->misfit_spacing_px = spacing;
+  bud->misfit_fit_chi2 = best_cost;
+}
+
+// A stationary Gaussian field of variance s2 px^2 per coordinate and correlation length length_px over the image,
+// common to every photo, propagated through G exactly from its random-feature basis: cov(q) = s2 / v (G_x Phi
+// Phi^T G_x^T + G_y Phi Phi^T G_y^T), v the basis's mean variance at the points.
+QuantityVariance GaussianFieldVariance(const Setup& setup, const Linearization& lin, double s2, double length_px) {
+  const FitOptions& o = *setup.options;
+  const int n = static_cast<int>(lin.obs.size()), nq = static_cast<int>(lin.g.rows());
+  const Eigen::MatrixXd phi =
+      GaussianFieldBasis(DetectedPoints(setup, lin), length_px, o.misfit_features, o.systematic_field_seed + 2);
+  Eigen::MatrixXd gx(nq, n), gy(nq, n);
+  for (int i = 0; i < n; ++i) gx.col(i) = lin.g.col(2 * i), gy.col(i) = lin.g.col(2 * i + 1);
+  const Eigen::MatrixXd mx = gx * phi, my = gy * phi;
+  const double variance = phi.squaredNorm() / n;
+  return QuantityVariance::FromCovariance(s2 / variance * (mx * mx.transpose() + my * my.transpose()), setup.photos);
 }
 
 // The lens model misfit's RMS, measured from the residuals (UncertaintyBudget::misfit_*). Each detection is paired
@@ -499,10 +678,8 @@ void EstimateMisfit(const Setup& setup, const Linearization& lin, const std::vec
     }
   }
   // kappa over seeded unit-RMS fields of the family, through the refit.
-  std::vector<Eigen::Vector2d> points;
-  for (size_t i : lin.obs) points.push_back(setup.obs[i].detected);
-  const Eigen::MatrixXd basis =
-      LegendreFieldBasis(points, setup.camera->width, setup.camera->height, o.misfit_field_degree);
+  const Eigen::MatrixXd basis = LegendreFieldBasis(DetectedPoints(setup, lin), setup.camera->width,
+                                                   setup.camera->height, o.misfit_field_degree);
   const long terms = basis.cols();
   Eigen::MatrixXd dx = Eigen::MatrixXd::Zero(2 * n, terms), dy = Eigen::MatrixXd::Zero(2 * n, terms);
   for (int i = 0; i < n; ++i) dx.row(2 * i) = basis.row(i), dy.row(2 * i + 1) = basis.row(i);
@@ -551,6 +728,7 @@ void EstimateMisfit(const Setup& setup, const Linearization& lin, const std::vec
   if (!(kappa > 1e-6)) return;  // the family is invisible in the residuals: nothing can be measured
   bud->misfit_estimate_px = std::sqrt(std::max(0.0, stat - noise_share) / kappa);
   bud->misfit_bound_px = std::sqrt(std::max(0.0, stat - noise_share + 2 * sd_stat) / kappa);
+  EstimateMisfitCorrelation(setup, lin, residual, sigma_px, pairs, bud);
 }
 
 // Pixel-locking itself, propagated in its own shape: per coordinate c a bias A_c sin(2 pi phi_i + psi) with phi_i
@@ -679,7 +857,10 @@ std::vector<QuantityVariance> Budget(const Setup& setup, ModelWork& w, BuiltProb
     if (lin && (bud.systematic_bound_px > 0 || upper > 0)) {
       // Two parts in quadrature: smooth bias fields of RMS b, and the pixel-locking signature in its own shape.
       Eigen::Vector2d pl_bound = pl.amplitude_px + 2 * pl.sigma_px;
-      const QuantityVariance smooth = SystematicVariance(setup, *lin, bud.systematic_bound_px, o.systematic_field_degree);
+      const QuantityVariance smooth = SystematicVariance(
+          setup, *lin, bud.systematic_bound_px,
+          LegendreFieldBasis(DetectedPoints(setup, *lin), setup.camera->width, setup.camera->height,
+                             o.systematic_field_degree));
       const QuantityVariance locking = PixelLockingVariance(setup, *lin, pl_bound);
       v.var_k = smooth.var_k + locking.var_k;
       for (int p = 0; p < setup.photos; ++p) {
@@ -726,29 +907,49 @@ std::vector<QuantityVariance> Budget(const Setup& setup, ModelWork& w, BuiltProb
       }
       EstimateMisfit(setup, *lin, res, fit->noise_px, &bud, &w.lens_field);
     }
-    if (std::isfinite(bud.misfit_bound_px)) {
+    if (!bud.misfit_components.empty()) {
+      std::string lags, parts;
+      for (const UncertaintyBudget::Lag& l : bud.misfit_lags) {
+        lags += fmt::format("{}{:.1f}: {:.3g} (noise {:.3g}, field {:.3g})", lags.empty() ? "" : "; ", l.lag_spacings,
+                            l.statistic_px2, l.noise_share_px2, l.field_share_px2);
+      }
+      double var_sum = 0, dof_denominator = 0;
+      for (const UncertaintyBudget::FieldComponent& f : bud.misfit_components) {
+        parts += fmt::format("{}RMS {:.4f} px per coordinate (variance {:.3g} +- {:.3g} px^2) at a correlation "
+                             "length of {:.0f} px",
+                             parts.empty() ? "" : ", plus ", std::sqrt(f.variance_px2), f.variance_px2,
+                             f.variance_sd_px2, f.length_px);
+        if (!(f.variance_px2 > 0)) continue;
+        const QuantityVariance part = GaussianFieldVariance(setup, *lin, f.variance_px2, f.length_px);
+        v.var_k += part.var_k;
+        for (int p = 0; p < setup.photos; ++p) {
+          v.var_pos[static_cast<size_t>(p)] += part.var_pos[static_cast<size_t>(p)];
+          v.cov_pos_k[static_cast<size_t>(p)] += part.cov_pos_k[static_cast<size_t>(p)];
+        }
+        var_sum += part.var_k;
+        const double ratio = f.variance_sd_px2 > 0 ? f.variance_px2 / f.variance_sd_px2 : kInf;
+        if (std::isfinite(ratio)) dof_denominator += part.var_k * part.var_k / (2 * ratio * ratio);
+      }
+      if (dof_denominator > 0) c.dof = var_sum * var_sum / dof_denominator;
       c.source = fmt::format(
-          "the residuals' correlation between nearest neighbours ({} pairs): statistic {:.3g} px^2, of which the "
-          "noise's expected share {:.3g}; a unit-RMS field leaves {:.3g} of its variance there after the fit; RMS "
-          "estimate {:.4f} px, bound {:.4f} px per coordinate (estimate + 2 sigma), propagated through the fit's "
-          "linearization",
-          bud.misfit_pairs, bud.misfit_statistic_px2, bud.misfit_noise_share_px2, bud.misfit_kappa,
-          bud.misfit_estimate_px, bud.misfit_bound_px);
-      if (bud.misfit_bound_px > 0) v = SystematicVariance(setup, *lin, bud.misfit_bound_px, o.misfit_field_degree);
+          "the residuals' correlation at several lags (in feature spacings of {:.1f} px: mean r_a . r_b / 2 in px^2, "
+          "{}), fitted by Gaussian fields: {}; propagated through the fit's linearization",
+          bud.misfit_spacing_px, lags, parts);
     } else if (!o.measure_lens_misfit) {
       c.source = "none: not measured (FitOptions::measure_lens_misfit off; the lens taken as exact beyond its "
                  "calibration)";
     } else {
-      c.source = "not measurable here (too few features, or the fit absorbs every field of the family)";
+      c.source = "not measurable here (too few features or pairs)";
     }
     c.assumption = fmt::format(
-        "the true lens departs from its model by a field smooth over the image and common to every photo "
-        "(Legendre polynomials of total degree <= {}, independent N(0,1) coefficients per coordinate, each draw "
-        "scaled to the bound's RMS, {} seeded draws); the part that the fit absorbs into the poses and the screen "
-        "is inferred from the part it leaves, in the same family. Any other smooth common error (detector bias "
-        "that varies with the image position) is measured here too, so it may be counted twice with the detector "
-        "row: conservative",
-        o.misfit_field_degree, o.systematic_field_draws);
+        "the true lens departs from its model by a stationary Gaussian field over the image (covariance s^2 "
+        "exp(-d^2 / 2 L^2), {} random Fourier features), independent per coordinate and common to every photo; "
+        "s and L are those that reproduce the residuals' correlation at 1 to 24 feature spacings after the fit "
+        "(the part the fit absorbs into the poses and the screen is inferred from the part it leaves, in the same "
+        "family). Any other error correlated between features (detector bias that varies with the image position, "
+        "moire) is measured here too, so it may be counted twice with the detector row: conservative. Degrees of "
+        "freedom 2 (s^2 / u(s^2))^2",
+        o.misfit_features);
     bud.components.push_back(c);
     vars.push_back(v);
   }

@@ -146,6 +146,9 @@ struct FitOptions {
   // from the fit's own linearization. 6: structure down to about a sixth of the image, finer than the
   // detector-systematic fields and coarser than the feature spacing (it must vary little between neighbours).
   int misfit_field_degree = 6;
+  // Random Fourier features of the Gaussian field that the lens-model-misfit row propagates
+  // (EstimateMisfitCorrelation): 400 give its covariance to about 0.07 of the variance per pair.
+  int misfit_features = 400;
   // false: no lens-model-misfit row (the lens taken as exact beyond its calibration covariance), for tests of
   // other rows and for a lens known to be modelled exactly (the clean synthetic camera).
   bool measure_lens_misfit = true;
@@ -224,6 +227,25 @@ struct UncertaintyBudget {
   double misfit_estimate_px = std::numeric_limits<double>::quiet_NaN();
   double misfit_bound_px = std::numeric_limits<double>::quiet_NaN();
   int misfit_pairs = 0;
+  // The misfit field's correlation (EstimateMisfitCorrelation in screen_fit.cc): the residuals' statistic at
+  // several lags fitted by a stationary Gaussian field of variance misfit_variance_px2 (s^2 per coordinate, its
+  // standard error misfit_variance_sd_px2) and correlation length misfit_length_px; what the row propagates.
+  // misfit_spacing_px: the median nearest-neighbour distance the lags are counted in. NaN when not computed.
+  struct Lag {
+    double lag_spacings = 0;  // mean pair distance in feature spacings
+    int pairs = 0;
+    double statistic_px2 = 0, noise_share_px2 = 0, field_share_px2 = 0;
+  };
+  struct FieldComponent {
+    double length_px = 0, variance_px2 = 0, variance_sd_px2 = 0;
+  };
+  std::vector<FieldComponent> misfit_components;  // one or two (short-range, then long-range), each propagated
+  double misfit_length_px = std::numeric_limits<double>::quiet_NaN();
+  double misfit_variance_px2 = std::numeric_limits<double>::quiet_NaN();
+  double misfit_variance_sd_px2 = std::numeric_limits<double>::quiet_NaN();
+  double misfit_spacing_px = std::numeric_limits<double>::quiet_NaN();
+  double misfit_fit_chi2 = std::numeric_limits<double>::quiet_NaN();
+  std::vector<Lag> misfit_lags;
 };
 
 struct ModelFit {
@@ -385,6 +407,13 @@ double StudentTCoverageFactor(double p, double dof);
 // The Legendre field basis over an image of width x height px: one column per polynomial
 // P_i(x') P_j(y'), i + j <= degree, x' = 2 x/(width - 1) - 1 (likewise y'), evaluated at the points.
 Eigen::MatrixXd LegendreFieldBasis(const std::vector<Eigen::Vector2d>& points_px, int width, int height, int degree);
+
+// A stationary Gaussian random field of unit variance and covariance exp(-|d|^2 / (2 L^2)) (L = length_px),
+// as `features` random Fourier features (Rahimi & Recht 2007): column m is sqrt(2/features) cos(w_m . p / L + b_m),
+// w_m ~ N(0, I), b_m ~ U(0, 2 pi), seeded; N(0, 1) coefficients give the field.
+Eigen::MatrixXd GaussianFieldBasis(const std::vector<Eigen::Vector2d>& points_px, double length_px, int features,
+                                   unsigned seed);
+
 
 // The intrinsics covariance written beside a camera model at calibration time (format
 // curvecheck.intrinsics_covariance/1: lensmodel, intrinsics, covariance n x n, dof, ...). Throws Error naming the

@@ -5,6 +5,7 @@
 
 #include <Eigen/Dense>
 #include <cmath>
+#include <random>
 #include <nlohmann/json.hpp>
 
 #include "analysis/screen_fit.h"
@@ -110,6 +111,28 @@ Eigen::MatrixXd LegendreFieldBasis(const std::vector<Eigen::Vector2d>& points_px
     const double xs = 2 * points_px[r].x() / (width - 1) - 1, ys = 2 * points_px[r].y() / (height - 1) - 1;
     for (size_t t = 0; t < terms.size(); ++t) {
       b(static_cast<long>(r), static_cast<long>(t)) = Legendre(terms[t].first, xs) * Legendre(terms[t].second, ys);
+    }
+  }
+  return b;
+}
+
+Eigen::MatrixXd GaussianFieldBasis(const std::vector<Eigen::Vector2d>& points_px, double length_px, int features,
+                                   unsigned seed) {
+  if (!(length_px > 0) || features < 1) {
+    throw Error("Gaussian field basis", fmt::format("length {} px, {} features", length_px, features), "");
+  }
+  std::mt19937_64 rng(seed);
+  std::normal_distribution<double> unit(0, 1);
+  std::uniform_real_distribution<double> phase(0, 6.283185307179586);
+  Eigen::MatrixXd omega(features, 2);
+  Eigen::VectorXd offset(features);
+  for (int m = 0; m < features; ++m) omega(m, 0) = unit(rng), omega(m, 1) = unit(rng), offset[m] = phase(rng);
+  const double scale = std::sqrt(2.0 / features);
+  Eigen::MatrixXd b(static_cast<long>(points_px.size()), features);
+  for (size_t r = 0; r < points_px.size(); ++r) {
+    for (int m = 0; m < features; ++m) {
+      const double arg = (omega(m, 0) * points_px[r].x() + omega(m, 1) * points_px[r].y()) / length_px + offset[m];
+      b(static_cast<long>(r), m) = scale * std::cos(arg);
     }
   }
   return b;

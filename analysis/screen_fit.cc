@@ -133,7 +133,12 @@ ceres::Solver::Summary Solve(const Setup& setup, BuiltProblem& b, State* st) {
   so.parameter_tolerance = 1e-10;
   so.num_threads = 1;
   so.logging_type = ceres::SILENT;
-  if (!st->core.empty() || !st->dev.empty() || !st->intr.empty()) {
+  if (!st->intr.empty()) {
+    // Free intrinsics (the calibration from the screen): their scales differ by 10^5 (fx against k2) and the reduced
+    // camera matrix of a Schur step was not positive definite far from the solution; QR on the small dense
+    // Jacobian (a few thousand rows, ~60 columns) has no normal equations to lose.
+    so.linear_solver_type = ceres::DENSE_QR;
+  } else if (!st->core.empty() || !st->dev.empty()) {
     // Poses touch disjoint residuals: eliminate them (Schur), leaving a small dense system in the shape.
     so.linear_solver_type = ceres::DENSE_SCHUR;
     auto ordering = std::make_shared<ceres::ParameterBlockOrdering>();

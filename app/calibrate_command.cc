@@ -49,8 +49,7 @@ std::pair<double, std::string> FocalSeed(const CalibrateArgs& a, int width, int 
     const std::optional<double> f = FocalSeedFromExif(ReadExif(ReadFileToString(p)), width, height);
     if (f) return {*f, fmt::format("EXIF 35 mm equivalent focal length of {}", p)};
   }
-  throw Error("--focal-px", "no focal length seed: the photos carry no EXIF 35 mm equivalent focal length",
-              "give the focal length in px, e.g. --focal-px 1250 (a rough guess within 20% is enough)");
+  return {0, ""};  // none: CalibrateFromScreen tries seeds (from_screen.h FromScreenOptions::focal_px)
 }
 
 int RunCalibrateFromScreen(const CalibrateArgs& a) {
@@ -99,7 +98,7 @@ int RunCalibrateFromScreen(const CalibrateArgs& a) {
   o.min_photos = a.min_photos;
   const Stopwatch fit_watch;
   FromScreenResult r = CalibrateFromScreen(obs, monitor, width, height, o);
-  r.focal_seed_source = FocalSeed(a, width, height).second;
+  if (o.focal_px > 0) r.focal_seed_source = FocalSeed(a, width, height).second;
   const double fit_s = fit_watch.Seconds();
   std::cout << FromScreenSummary(r);
   std::cout << fmt::format("detection {:.2f} s, fit {:.2f} s wall\n", detect_s, fit_s);

@@ -145,7 +145,7 @@ void FromScreenOptions::Check() const {
                   "give LENSMODEL_OPENCV4, LENSMODEL_OPENCV5 or LENSMODEL_OPENCV8 (or auto)");
     }
   }
-  if (!(focal_px > 0) || !std::isfinite(focal_px)) {
+  if (!(focal_px >= 0) || !std::isfinite(focal_px)) {
     throw Error("--focal-px", fmt::format("the focal length seed is {} px", focal_px),
                 "give the focal length in px (--focal-px), or photos whose EXIF has the 35 mm equivalent focal length");
   }
@@ -225,23 +225,46 @@ FromScreenResult CalibrateFromScreen(const std::vector<PhotoObservations>& photo
                             options.min_photos - static_cast<int>(photos.size())));
   }
   FromScreenResult r;
+  FitOptions fo = options.fit;
+  fo.fit_intrinsics = true;
+  fo.models = {monitor.is_flat() ? ScreenModelKind::kFlat : ScreenModelKind::kCylinder};
+  fo.heldout_folds = 0;
+  double focal_seed = options.focal_px;
+  if (!(focal_seed > 0)) {
+    // No seed given: OPENCV4 fits from trial seeds spanning normal lenses (0.6-1.7 times the image diagonal, 26 to
+    // 73 mm in 35 mm terms); the fitted focal length of the lowest residual is the seed.
+    double best_rms = kInf;
+    std::string tried;
+    for (double factor : {0.6, 0.85, 1.2, 1.7}) {
+      const double f = factor * std::hypot(width, height);
+      try {
+        const ScreenFitResult fit = FitScreen(monitor, SeedCamera("LENSMODEL_OPENCV4", width, height, f), photos, fo);
+        const ModelFit& m = fit.Chosen();
+        tried += fmt::format("{}{:.0f} px -> {:.3f} px RMS", tried.empty() ? "" : ", ", f, m.rms_px);
+        if (m.converged && m.rms_px < best_rms && !m.intrinsics.empty()) best_rms = m.rms_px, focal_seed = m.intrinsics[0];
+      } catch (const Error& e) {
+        tried += fmt::format("{}{:.0f} px failed", tried.empty() ? "" : ", ", f);
+      }
+    }
+    if (!(focal_seed > 0)) {
+      throw Error(where, "no focal length seed was given and none of the trial seeds converged (" + tried + ")",
+                  "give --focal-px (the focal length in px, within 20%)");
+    }
+    r.focal_seed_source = fmt::format("none given: the OPENCV4 fit of the lowest residual from trial seeds ({})", tried);
+  }
   r.monitor = monitor;
   r.width = width;
   r.height = height;
-  r.focal_seed_px = options.focal_px;
+  r.focal_seed_px = focal_seed;
   for (const PhotoObservations& p : photos) r.photos.push_back(p.photo);
   const std::vector<std::string> models =
       options.lensmodels.empty()
           ? std::vector<std::string>{"LENSMODEL_OPENCV4", "LENSMODEL_OPENCV5", "LENSMODEL_OPENCV8"}
           : options.lensmodels;
-  FitOptions fo = options.fit;
-  fo.fit_intrinsics = true;
-  fo.models = {monitor.is_flat() ? ScreenModelKind::kFlat : ScreenModelKind::kCylinder};
-  fo.heldout_folds = 0;
   for (const std::string& lensmodel : models) {
     LensCandidateFit c;
     c.lensmodel = lensmodel;
-    const CameraModel seed = SeedCamera(lensmodel, width, height, options.focal_px);
+    const CameraModel seed = SeedCamera(lensmodel, width, height, focal_seed);
     c.intrinsics = static_cast<int>(seed.intrinsics.size());
     try {
       c.fit = FitScreen(monitor, seed, photos, fo);
@@ -289,7 +312,7 @@ FromScreenResult CalibrateFromScreen(const std::vector<PhotoObservations>& photo
   const LensCandidateFit& ch = r.Chosen();
   r.choice = fmt::format("{}: the simplest lens model within {:g} of the lowest BIC", ch.lensmodel, options.bic_margin);
   const ModelFit& m = ch.fit.Chosen();
-  r.model = SeedCamera(ch.lensmodel, width, height, options.focal_px);
+  r.model = SeedCamera(ch.lensmodel, width, height, focal_seed);
   r.model.intrinsics = m.intrinsics;
   r.model.Check("the calibrated camera model");
   Observability(ch, options.max_focal_distance_correlation, &r.observability);

@@ -43,7 +43,9 @@ struct FromScreenOptions {
   // A richer lens model is chosen only if its BIC (of the screen fit's residuals) is lower than every simpler
   // one's by more than bic_margin (10: "very strong" on Kass and Raftery's scale), as the screen fit chooses shapes.
   double bic_margin = 10;
-  double focal_px = 0;  // focal length seed, px (> 0 required: the command takes it from EXIF or --focal-px)
+  // Focal length seed, px (from EXIF or --focal-px). 0: none; then OPENCV4 is fitted from trial seeds of 0.6, 0.85,
+  // 1.2 and 1.7 times the image diagonal and the fitted focal length of the lowest residual seeds the candidates.
+  double focal_px = 0;
   // Refusals (too few or too similar photos). Each photo adds 6 pose parameters; the lens adds 8-12 and the
   // screen 1, so fewer than min_photos leaves too few constraints per parameter.
   int min_photos = 6;

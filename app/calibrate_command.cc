@@ -57,7 +57,9 @@ int RunCalibrateFromScreen(const CalibrateArgs& a) {
   if (out.extension() != ".cameramodel") {
     throw Error("-o", fmt::format("'{}' does not end in .cameramodel", a.output), "write e.g. -o cam.cameramodel");
   }
-  if (a.pattern.empty()) throw Error("--pattern", "--from-screen needs the pattern.json shown", "give --pattern p.json");
+  if (a.pattern.empty()) {
+    throw Error("--pattern", "--from-screen needs the pattern.json shown", "give --pattern p.json");
+  }
   if (!a.board.empty() || !a.board_from.empty()) {
     throw Error("--from-screen", "the target is the monitor's pattern, not a board", "drop --board/--board-from");
   }

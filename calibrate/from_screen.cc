@@ -241,7 +241,10 @@ FromScreenResult CalibrateFromScreen(const std::vector<PhotoObservations>& photo
         const ScreenFitResult fit = FitScreen(monitor, SeedCamera("LENSMODEL_OPENCV4", width, height, f), photos, fo);
         const ModelFit& m = fit.Chosen();
         tried += fmt::format("{}{:.0f} px -> {:.3f} px RMS", tried.empty() ? "" : ", ", f, m.rms_px);
-        if (m.converged && m.rms_px < best_rms && !m.intrinsics.empty()) best_rms = m.rms_px, focal_seed = m.intrinsics[0];
+        if (m.converged && m.rms_px < best_rms && !m.intrinsics.empty()) {
+          best_rms = m.rms_px;
+          focal_seed = m.intrinsics[0];
+        }
       } catch (const Error& e) {
         tried += fmt::format("{}{:.0f} px failed", tried.empty() ? "" : ", ", f);
       }
@@ -250,7 +253,8 @@ FromScreenResult CalibrateFromScreen(const std::vector<PhotoObservations>& photo
       throw Error(where, "no focal length seed was given and none of the trial seeds converged (" + tried + ")",
                   "give --focal-px (the focal length in px, within 20%)");
     }
-    r.focal_seed_source = fmt::format("none given: the OPENCV4 fit of the lowest residual from trial seeds ({})", tried);
+    r.focal_seed_source =
+        fmt::format("none given: the OPENCV4 fit of the lowest residual from trial seeds ({})", tried);
   }
   r.monitor = monitor;
   r.width = width;

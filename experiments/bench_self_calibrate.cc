@@ -105,8 +105,8 @@ void RunBenchSelfCalibrate(const BenchSelfCalibrateOptions& o, const std::filesy
                     "true_radius_mm,radius_mm,radius_sigma_mm,in_ci95,within_2sigma,seconds,error\n";
   log << fmt::format("bench calibrate --from-screen: {} trials, {} to {} photos at scale {}, scene {}\n", o.trials,
                      o.min_photos, o.max_photos, o.scale, o.scene);
-  log << fmt::format("{:>5} {:>6} {:>18} {:>9} {:>9} {:>9} {:>8} {:>8} {:>6} {:>6} {:>6}\n", "trial", "photos", "lens model",
-                     "imager", "covered", "cov.max", "R true", "R", "sigma", "ci95", "s")
+  log << fmt::format("{:>5} {:>6} {:>18} {:>9} {:>9} {:>9} {:>8} {:>8} {:>6} {:>6} {:>6}\n", "trial", "photos",
+                     "lens model", "imager", "covered", "cov.max", "R true", "R", "sigma", "ci95", "s")
       << std::flush;
   std::vector<double> lens, lens_covered;
   int n = 0, in95 = 0, in2s = 0, failed = 0;
@@ -151,7 +151,8 @@ void RunBenchSelfCalibrate(const BenchSelfCalibrateOptions& o, const std::filesy
   log << fmt::format(
       "summary: {} trials ({} failed or refused); lens median difference over the imager: median {:.3f} px, max "
       "{:.3f} px, below 0.3 px in {} of {}; over the covered area: median {:.3f} px, max {:.3f} px\n",
-      o.trials, failed, lens.empty() ? kNaN : Median(lens), lens.empty() ? kNaN : *std::max_element(lens.begin(), lens.end()),
+      o.trials, failed, lens.empty() ? kNaN : Median(lens),
+      lens.empty() ? kNaN : *std::max_element(lens.begin(), lens.end()),
       lens_ok, n, lens_covered.empty() ? kNaN : Median(lens_covered),
       lens_covered.empty() ? kNaN : *std::max_element(lens_covered.begin(), lens_covered.end()));
   log << fmt::format(

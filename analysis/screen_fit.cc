@@ -48,6 +48,7 @@ struct State {
   std::vector<PoseBlock> poses;
   std::vector<double> core;  // CoreParameterCount
   std::vector<double> dev;   // deviation coefficients (cylinder+deviation)
+  std::vector<double> intr;  // the lens intrinsics when they are free (FitOptions::fit_intrinsics), else empty
 };
 
 struct Setup {
@@ -65,13 +66,14 @@ std::unique_ptr<ReprojectionCost> MakeCost(const Setup& setup, ScreenModelKind k
   Eigen::VectorXd w;
   if (kind == ScreenModelKind::kCylinderDeviation) w = basis->Weights(o.uv);
   return std::make_unique<ReprojectionCost>(setup.camera, kind, o.s_mm, o.y_mm, setup.half_width_mm, o.detected,
-                                            std::move(w));
+                                            std::move(w), setup.options->fit_intrinsics);
 }
 
 std::vector<const double*> Blocks(const State& st, int photo) {
   std::vector<const double*> b = {st.poses[static_cast<size_t>(photo)].data()};
   if (!st.core.empty()) b.push_back(st.core.data());
   if (!st.dev.empty()) b.push_back(st.dev.data());
+  if (!st.intr.empty()) b.push_back(st.intr.data());
   return b;
 }
 
@@ -106,6 +108,7 @@ BuiltProblem Build(const Setup& setup, ScreenModelKind kind, const DeviationBasi
     std::vector<double*> blocks = {st->poses[static_cast<size_t>(o.photo)].data()};
     if (!st->core.empty()) blocks.push_back(st->core.data());
     if (!st->dev.empty()) blocks.push_back(st->dev.data());
+    if (!st->intr.empty()) blocks.push_back(st->intr.data());
     b.blocks.push_back(b.problem->AddResidualBlock(MakeCost(setup, kind, basis, o).release(), b.loss.get(), blocks));
     b.obs_index.push_back(i);
     pose_used[static_cast<size_t>(o.photo)] = true;
@@ -131,7 +134,12 @@ ceres::Solver::Summary Solve(const Setup& setup, BuiltProblem& b, State* st) {
   so.parameter_tolerance = 1e-10;
   so.num_threads = 1;
   so.logging_type = ceres::SILENT;
-  if (!st->core.empty() || !st->dev.empty()) {
+  if (!st->intr.empty()) {
+    // Free intrinsics (the calibration from the screen): their scales differ by 10^5 (fx against k2) and the reduced
+    // camera matrix of a Schur step was not positive definite far from the solution; QR on the small dense
+    // Jacobian (a few thousand rows, ~60 columns) has no normal equations to lose.
+    so.linear_solver_type = ceres::DENSE_QR;
+  } else if (!st->core.empty() || !st->dev.empty()) {
     // Poses touch disjoint residuals: eliminate them (Schur), leaving a small dense system in the shape.
     so.linear_solver_type = ceres::DENSE_SCHUR;
     auto ordering = std::make_shared<ceres::ParameterBlockOrdering>();
@@ -140,6 +148,7 @@ ceres::Solver::Summary Solve(const Setup& setup, BuiltProblem& b, State* st) {
     }
     if (!st->core.empty()) ordering->AddElementToGroup(st->core.data(), 1);
     if (!st->dev.empty()) ordering->AddElementToGroup(st->dev.data(), 1);
+    if (!st->intr.empty()) ordering->AddElementToGroup(st->intr.data(), 1);
     so.linear_solver_ordering = ordering;
   } else if (ceres::IsSparseLinearAlgebraLibraryTypeAvailable(ceres::SUITE_SPARSE)) {
     so.linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;  // poses only: block diagonal
@@ -250,6 +259,40 @@ struct ModelWork {
   LensFieldProjection lens_field;
 };
 
+// The free intrinsics' outcome (FitOptions::fit_intrinsics): their values, their covariance (marginal over the poses
+// and the shape: a block of the joint covariance), their covariance with the curvature k (grad: dk/dcore) and, per
+// photo, the correlation of the focal length fx with the camera's distance from the screen centre |c|.
+void JointIntrinsics(const Setup& setup, const State& st, ceres::Covariance& covariance, double var,
+                     const Eigen::VectorXd& grad, ModelFit* fit) {
+  const int ni = static_cast<int>(st.intr.size()), nc = static_cast<int>(st.core.size());
+  fit->intrinsics = st.intr;
+  Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> ci(ni, ni);
+  if (!covariance.GetCovarianceBlock(st.intr.data(), st.intr.data(), ci.data())) return;
+  fit->intrinsics_covariance = var * ci;
+  if (nc > 0) {
+    Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> cki(nc, ni);
+    if (covariance.GetCovarianceBlock(st.core.data(), st.intr.data(), cki.data())) {
+      fit->intrinsics_curvature_cov = var * (grad.transpose() * cki).transpose();
+    }
+  }
+  fit->focal_distance_correlation.assign(static_cast<size_t>(setup.photos), kNaN);
+  for (int p = 0; p < setup.photos; ++p) {
+    const PoseBlock& pose = st.poses[static_cast<size_t>(p)];
+    Eigen::Matrix<double, 6, 6, Eigen::RowMajor> c6;
+    Eigen::Matrix<double, 6, Eigen::Dynamic, Eigen::RowMajor> cpi(6, ni);
+    if (!covariance.GetCovarianceBlockInTangentSpace(pose.data(), pose.data(), c6.data()) ||
+        !covariance.GetCovarianceBlockInTangentSpace(pose.data(), st.intr.data(), cpi.data())) {
+      continue;
+    }
+    const Eigen::Vector3d c(pose[4], pose[5], pose[6]);
+    const Eigen::Vector3d u = c.normalized();  // d|c|/dc
+    const double var_d = u.dot(c6.bottomRightCorner<3, 3>() * u), cov_df = u.dot(cpi.bottomRows<3>().col(0));
+    if (var_d > 0 && ci(0, 0) > 0) {
+      fit->focal_distance_correlation[static_cast<size_t>(p)] = cov_df / std::sqrt(var_d * ci(0, 0));
+    }
+  }
+}
+
 void Covariances(const Setup& setup, ModelWork& w, BuiltProblem& b, ModelFit* fit) {
   State& st = w.state;
   std::vector<std::pair<const double*, const double*>> pairs;
@@ -258,9 +301,14 @@ void Covariances(const Setup& setup, ModelWork& w, BuiltProblem& b, ModelFit* fi
     pairs.emplace_back(pose.data(), pose.data());
     // The pose-shape cross block: the screen-frame camera position (z - R) needs cov(position, curvature).
     if (!st.core.empty()) pairs.emplace_back(pose.data(), st.core.data());
+    if (!st.intr.empty()) pairs.emplace_back(pose.data(), st.intr.data());
   }
   if (!st.core.empty()) pairs.emplace_back(st.core.data(), st.core.data());
   if (!st.dev.empty()) pairs.emplace_back(st.dev.data(), st.dev.data());
+  if (!st.intr.empty()) {
+    pairs.emplace_back(st.intr.data(), st.intr.data());
+    if (!st.core.empty()) pairs.emplace_back(st.core.data(), st.intr.data());
+  }
   ceres::Covariance::Options co;
   co.num_threads = 1;
   co.algorithm_type = ceres::SPARSE_QR;
@@ -322,6 +370,7 @@ void Covariances(const Setup& setup, ModelWork& w, BuiltProblem& b, ModelFit* fi
     Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> c(nd, nd);
     if (covariance->GetCovarianceBlock(st.dev.data(), st.dev.data(), c.data())) w.dev_covariance = var * c;
   }
+  if (!st.intr.empty()) JointIntrinsics(setup, st, *covariance, var, grad, fit);
   if (nc > 0) {
     fit->curvature_per_mm = grad.dot(Eigen::Map<const Eigen::VectorXd>(st.core.data(), nc));
     fit->curvature_sigma_per_mm = std::sqrt(std::max(0.0, grad.dot(core_cov * grad)));
@@ -393,6 +442,7 @@ std::optional<Linearization> Linearize(const Setup& setup, const ModelWork& w, B
   const int core_offset = t;
   if (!st.core.empty()) eo.parameter_blocks.push_back(st.core.data()), t += static_cast<int>(st.core.size());
   if (!st.dev.empty()) eo.parameter_blocks.push_back(st.dev.data()), t += static_cast<int>(st.dev.size());
+  if (!st.intr.empty()) eo.parameter_blocks.push_back(st.intr.data()), t += static_cast<int>(st.intr.size());
   ceres::CRSMatrix crs;
   if (!b.problem->Evaluate(eo, nullptr, nullptr, nullptr, &crs)) {
     *note += "the Jacobian could not be evaluated; ";
@@ -878,7 +928,13 @@ std::vector<QuantityVariance> Budget(const Setup& setup, ModelWork& w, BuiltProb
     BudgetComponent c;
     c.name = "lens calibration";
     c.type = "A";
-    if (o.intrinsics_covariance.size() > 0 && lin) {
+    if (o.fit_intrinsics) {
+      c.source = "none beyond the detection noise row: the intrinsics are estimated jointly with the poses and the "
+                 "screen, so that row's covariance (the joint one, marginalised over the intrinsics) holds the lens's "
+                 "uncertainty";
+      c.assumption = "the lens model is adequate (its misfit is the lens model misfit row)";
+      vars.push_back(QuantityVariance(setup.photos));
+    } else if (o.intrinsics_covariance.size() > 0 && lin) {
       c.dof = o.intrinsics_covariance_dof;
       c.source = fmt::format(
           "the calibration's intrinsics covariance ({}) propagated by the linearized refit: dq/d(intrinsics) from "
@@ -1157,7 +1213,7 @@ void FitFinal(const Setup& setup, ModelWork& w, const std::vector<bool>& inlier,
     }
   }
   const int n = 2 * n_in;
-  fit->parameters = static_cast<int>(w.state.core.size() + w.state.dev.size()) + 6 * setup.photos;
+  fit->parameters = static_cast<int>(w.state.core.size() + w.state.dev.size() + w.state.intr.size()) + 6 * setup.photos;
   fit->rms_px = std::sqrt(rss / std::max(1, n_in));
   fit->noise_px = std::sqrt(rss / std::max(1, n - fit->parameters));
   // BIC with the residual sum floored at the detections' systematic error (FitOptions::noise_floor_px).
@@ -1696,7 +1752,8 @@ ScreenFitResult FitScreen(const Monitor& nominal, const CameraModel& camera,
     const int shape_parameters =
         CoreParameterCount(kind) +
         (kind == ScreenModelKind::kCylinderDeviation ? options.deviation_nu * options.deviation_nv - 5 : 0);
-    const int parameters = shape_parameters + 6 * setup.photos;
+    const int parameters =
+        shape_parameters + 6 * setup.photos + (options.fit_intrinsics ? static_cast<int>(camera.intrinsics.size()) : 0);
     if (2 * static_cast<int>(setup.obs.size()) < 3 * parameters) {
       result.skipped.push_back(fmt::format(
           "{} not tried: {} observations give {} residuals, fewer than 3 per parameter ({} parameters); use a "
@@ -1709,6 +1766,7 @@ ScreenFitResult FitScreen(const Monitor& nominal, const CameraModel& camera,
     w.kind = kind;
     const State* from = cylinder >= 0 ? &work[static_cast<size_t>(cylinder)].state : nullptr;
     w.state.poses = from ? from->poses : initial.poses;
+    if (options.fit_intrinsics) w.state.intr = from ? from->intr : camera.intrinsics;
     const double k0 = from ? from->core[0] : nominal.curvature_per_mm;
     w.state.core.assign(static_cast<size_t>(CoreParameterCount(kind)), 0.0);
     if (!w.state.core.empty()) w.state.core[0] = k0;
@@ -1774,7 +1832,11 @@ ScreenFitResult FitScreen(const Monitor& nominal, const CameraModel& camera,
       "from photos, so radius and distances scale with it",
       nominal.width_px, nominal.height_px, nominal.width_mm, nominal.height_mm, nominal.pixel_pitch_mm()));
   result.assumptions.push_back(
-      options.intrinsics_covariance.size() > 0
+      options.fit_intrinsics
+          ? fmt::format("lens intrinsics ({}) estimated jointly with the poses and the screen, seeded from the given "
+                        "model; their uncertainty is in the joint covariance",
+                        camera.lensmodel)
+      : options.intrinsics_covariance.size() > 0
           ? fmt::format("lens model fixed in the fit: {} as calibrated; its calibration covariance ({}) is propagated "
                         "into the sigmas (uncertainty budget, lens calibration row)",
                         camera.lensmodel, options.intrinsics_covariance_source)

@@ -160,6 +160,12 @@ struct FitOptions {
   double max_lens_misfit_relative = 1e-4;
   // Coverage probability of the interval (the coverage factor is Student's t at the effective degrees of freedom).
   double coverage_probability = 0.95;
+  // Self-calibration (calibrate/from_screen.h): the camera model's intrinsics are free parameters of every
+  // candidate, seeded by the given model and estimated jointly with the poses and the shape (ReprojectionCost with
+  // free intrinsics: libmrcal's dq/dintrinsics). The covariance is then the joint one: the detection noise row
+  // holds the lens's uncertainty (marginalised), the lens calibration row is empty, and ModelFit::intrinsics* are
+  // set. The pixel pitch (the screen's known size) fixes the scale that couples focal length and distance.
+  bool fit_intrinsics = false;
 
   // Throws Error naming `where` for values out of range or unknown model names.
   void Check(const std::string& where) const;
@@ -302,6 +308,14 @@ struct ModelFit {
   int iterations = 0;  // solver iterations, robust and final pass (held-out folds not counted)
   // Shape parameters as fitted (CoreParameterCount values, then the deviation coefficients).
   std::vector<double> shape;
+  // With FitOptions::fit_intrinsics: the fitted intrinsics (mrcal's order), their covariance scaled by noise_px^2
+  // (a block of the joint covariance: marginal over poses and shape), their covariance with the curvature k
+  // (1/mm x the intrinsic's unit), and per photo the correlation of fx with the camera's distance from the screen
+  // centre (the focal/distance coupling). Empty otherwise, or when the covariance could not be computed.
+  std::vector<double> intrinsics;
+  Eigen::MatrixXd intrinsics_covariance;
+  Eigen::VectorXd intrinsics_curvature_cov;
+  std::vector<double> focal_distance_correlation;
   // cylinder+deviation: the curvature its deviation basis was built around (the cylinder's robust fit, or the
   // nominal when the cylinder was not fitted); 0 for the other models. FittedSurfacePointsInCamera needs it.
   double deviation_basis_curvature_per_mm = 0;

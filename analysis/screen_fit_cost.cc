@@ -15,7 +15,7 @@ using Jet = ceres::Jet<double, kPoseSize + kMaxCore>;
 
 ReprojectionCost::ReprojectionCost(const CameraModel* camera, ScreenModelKind kind, double s_mm, double y_mm,
                                    double half_width_mm, const Eigen::Vector2d& detected_px,
-                                   Eigen::VectorXd deviation_weights)
+                                   Eigen::VectorXd deviation_weights, bool free_intrinsics)
     : camera_(camera),
       kind_(kind),
       s_mm_(s_mm),
@@ -23,11 +23,22 @@ ReprojectionCost::ReprojectionCost(const CameraModel* camera, ScreenModelKind ki
       half_width_mm_(half_width_mm),
       detected_px_(detected_px),
       w_(std::move(deviation_weights)),
-      n_core_(CoreParameterCount(kind)) {
+      n_core_(CoreParameterCount(kind)),
+      n_intrinsics_(free_intrinsics ? static_cast<int>(camera->intrinsics.size()) : 0) {
   set_num_residuals(2);
   mutable_parameter_block_sizes()->push_back(kPoseSize);
   if (n_core_ > 0) mutable_parameter_block_sizes()->push_back(n_core_);
   if (w_.size() > 0) mutable_parameter_block_sizes()->push_back(static_cast<int>(w_.size()));
+  if (n_intrinsics_ > 0) mutable_parameter_block_sizes()->push_back(n_intrinsics_);
+}
+
+CameraModel ReprojectionCost::Camera(double const* const* parameters) const {
+  CameraModel cam = *camera_;
+  if (n_intrinsics_ > 0) {
+    const double* intr = parameters[1 + (n_core_ > 0 ? 1 : 0) + (w_.size() > 0 ? 1 : 0)];
+    cam.intrinsics.assign(intr, intr + n_intrinsics_);
+  }
+  return cam;
 }
 
 bool ReprojectionCost::PredictWithNormal(double const* const* parameters, Eigen::Vector2d* q_px,
@@ -45,7 +56,7 @@ bool ReprojectionCost::PredictWithNormal(double const* const* parameters, Eigen:
   const Eigen::Vector3d x = cam_from_centre * (p - Eigen::Vector3d(pose[4], pose[5], pose[6]));
   if (!(x.z() > 0)) return false;
   std::vector<Eigen::Matrix<double, 2, 3>> dq_dx;
-  *q_px = ProjectPoints(*camera_, {x}, &dq_dx).front();
+  *q_px = ProjectPoints(Camera(parameters), {x}, &dq_dx).front();
   if (dq_dnormal) *dq_dnormal = dq_dx.front() * (cam_from_centre * n);
   return q_px->allFinite();
 }
@@ -74,7 +85,11 @@ bool ReprojectionCost::Evaluate(double const* const* parameters, double* residua
   const Eigen::Vector3d x0(x[0].a, x[1].a, x[2].a);
   if (!(x0.z() > 0)) return false;
   std::vector<Eigen::Matrix<double, 2, 3>> dq_dx;
-  const Eigen::Vector2d qpx = ProjectPoints(*camera_, {x0}, want_jacobians ? &dq_dx : nullptr).front();
+  std::vector<Eigen::Matrix<double, 2, Eigen::Dynamic>> dq_di;
+  const int intr_block = 1 + (n_core_ > 0 ? 1 : 0) + (deviated ? 1 : 0);
+  const bool want_di = want_jacobians && n_intrinsics_ > 0 && jacobians[intr_block] != nullptr;
+  const Eigen::Vector2d qpx =
+      ProjectPoints(Camera(parameters), {x0}, want_jacobians ? &dq_dx : nullptr, want_di ? &dq_di : nullptr).front();
   if (!qpx.allFinite()) return false;
   residuals[0] = qpx.x() - detected_px_.x();
   residuals[1] = qpx.y() - detected_px_.y();
@@ -103,6 +118,10 @@ bool ReprojectionCost::Evaluate(double const* const* parameters, double* residua
     const Eigen::Vector2d dq_dd = dq_dx.front() * (r0 * n0);
     Eigen::Map<Eigen::Matrix<double, 2, Eigen::Dynamic, Eigen::RowMajor>>(jacobians[block], 2, w_.size()) =
         dq_dd * w_.transpose();
+  }
+  if (want_di) {
+    Eigen::Map<Eigen::Matrix<double, 2, Eigen::Dynamic, Eigen::RowMajor>>(jacobians[intr_block], 2, n_intrinsics_) =
+        dq_di.front();
   }
   return true;
 }

@@ -9,8 +9,10 @@
 // dX/dz = centre_from_cam^T n w^T for the (linear) deviation coefficients.
 //
 // Parameter blocks, in order: pose (7: quaternion, then c), core shape (CoreParameterCount values; absent when
-// 0), deviation coefficients (w.size(); absent when empty). Evaluate returns false when the point is behind
-// the camera (X_z <= 0), so Ceres rejects that step.
+// 0), deviation coefficients (w.size(); absent when empty), the lens intrinsics (camera->intrinsics.size(), in
+// mrcal's order; only with free_intrinsics, for the self-calibration from the screen: calibrate/from_screen.h;
+// then q uses these intrinsics and dr/d(intrinsics) is libmrcal's dq/dintrinsics). Evaluate returns false when
+// the point is behind the camera (X_z <= 0), so Ceres rejects that step.
 #pragma once
 
 #include <ceres/cost_function.h>
@@ -26,7 +28,8 @@ class ReprojectionCost final : public ceres::CostFunction {
  public:
   // `camera` must outlive the cost function.
   ReprojectionCost(const CameraModel* camera, ScreenModelKind kind, double s_mm, double y_mm, double half_width_mm,
-                   const Eigen::Vector2d& detected_px, Eigen::VectorXd deviation_weights = {});
+                   const Eigen::Vector2d& detected_px, Eigen::VectorXd deviation_weights = {},
+                   bool free_intrinsics = false);
 
   bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override;
 
@@ -41,6 +44,10 @@ class ReprojectionCost final : public ceres::CostFunction {
   Eigen::Vector2d detected_px_;
   Eigen::VectorXd w_;
   int n_core_;
+  int n_intrinsics_ = 0;  // > 0: the intrinsics are the last parameter block
+
+  // The camera to project with: *camera_, or a copy with the intrinsics block's values.
+  CameraModel Camera(double const* const* parameters) const;
 };
 
 // Zero-mean Gaussian prior on a block of n coefficients: r = z * (noise_px / prior_sigma), so that the residual

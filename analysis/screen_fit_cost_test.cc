@@ -82,6 +82,40 @@ TEST(ReprojectionCostTest, AnalyticJacobianMatchesNumericForEveryModel) {
   EXPECT_EQ(probes, 30);
 }
 
+// With free intrinsics (the calibration from the screen), the intrinsics block's Jacobian is libmrcal's
+// dq/dintrinsics: checked against numeric differentiation with the other blocks, for the cylinder through OPENCV8.
+TEST(ReprojectionCostTest, FreeIntrinsicsJacobianMatchesNumeric) {
+  const CameraModel camera = DefaultCamera();
+  const Monitor m = LoadMonitor(kDefaultMonitorPreset);
+  ceres::ProductManifold<ceres::EigenQuaternionManifold, ceres::EuclideanManifold<3>> pose_manifold{
+      ceres::EigenQuaternionManifold(), ceres::EuclideanManifold<3>()};
+  std::mt19937_64 rng(11);
+  std::uniform_real_distribution<double> unit(-1, 1);
+  for (int trial = 0; trial < 5; ++trial) {
+    const Eigen::Vector2d uv(0.9 * unit(rng), 0.9 * unit(rng));
+    const ReprojectionCost cost(&camera, ScreenModelKind::kCylinder, 0.5 * uv.x() * m.width_mm,
+                                -0.5 * uv.y() * m.height_mm, 0.5 * m.width_mm, Eigen::Vector2d(3000, 2000), {}, true);
+    ASSERT_EQ(cost.parameter_block_sizes().size(), 3u);
+    const Eigen::Quaterniond q(Eigen::AngleAxisd(M_PI + 0.05 * unit(rng), Eigen::Vector3d::UnitX()));
+    double pose[7] = {q.x(), q.y(), q.z(), q.w(), 30 * unit(rng), 20 * unit(rng), 1500};
+    double core[1] = {1e-3};
+    std::vector<double> intr = camera.intrinsics;
+    intr[0] *= 1 + 0.05 * unit(rng);
+    std::vector<const double*> params = {pose, core, intr.data()};
+    std::vector<const ceres::Manifold*> manifolds = {&pose_manifold, nullptr, nullptr};
+    ceres::NumericDiffOptions nd;
+    nd.relative_step_size = 1e-7;
+    nd.ridders_relative_initial_step_size = 1e-4;
+    const ceres::GradientChecker checker(&cost, &manifolds, nd);
+    ceres::GradientChecker::ProbeResults results;
+    EXPECT_TRUE(checker.Probe(params.data(), 1e-2, &results)) << results.error_log;
+    const double scale = results.local_jacobians[2].cwiseAbs().maxCoeff();
+    const double diff = (results.local_jacobians[2] - results.local_numeric_jacobians[2]).cwiseAbs().maxCoeff();
+    EXPECT_GT(scale, 0);
+    EXPECT_LT(diff, 1e-6 * scale);
+  }
+}
+
 TEST(ReprojectionCostTest, ResidualIsPredictionMinusDetection) {
   // A pinhole camera on the axis of a flat screen: the centre of the screen projects to the principal point.
   const CameraModel camera = PinholeModel(1000, 800, 1000);

@@ -12,6 +12,7 @@
 #include "app/render_options.h"
 #include "core/error.h"
 #include "experiments/bench_calibrate.h"
+#include "experiments/bench_self_calibrate.h"
 #include "experiments/bench_capture.h"
 #include "experiments/bench_detect.h"
 #include "experiments/bench_render.h"
@@ -105,6 +106,8 @@ void AddBenchDetect(CLI::App& bench, std::function<int()>& run) {
 struct BenchCalibrateArgs {
   experiments::BenchCalibrateOptions options;
   std::string output = "bench-calibrate";
+  bool from_screen = false;
+  experiments::BenchSelfCalibrateOptions screen;
 };
 
 void AddBenchCalibrate(CLI::App& bench, std::function<int()>& run) {
@@ -119,7 +122,23 @@ void AddBenchCalibrate(CLI::App& bench, std::function<int()>& run) {
   cmd->add_option("--seed", o.seed, "Seed of the set's poses and noise")->capture_default_str();
   cmd->add_option("-o,--output", a->output, "Output folder")->capture_default_str();
   cmd->add_flag("--quick", o.quick, "12 views and one splined density (for smoke tests)");
+  cmd->add_flag("--from-screen", a->from_screen,
+                "Bench the calibration from the screen instead (calibrate --from-screen): seeded trials of 8-12 "
+                "realistic photos of the monitor; lens error against the truth and radius coverage");
+  cmd->add_option("--trials", a->screen.trials, "With --from-screen: trials")->capture_default_str();
+  cmd->add_option("--scale", a->screen.scale, "With --from-screen: imager scale")->capture_default_str();
+  cmd->add_option("--scene", a->screen.scene, "With --from-screen: the scene")->capture_default_str();
   cmd->callback([&run, a] {
+    if (a->from_screen) {
+      run = [a] {
+        a->screen.seed = a->options.seed;
+        a->screen.Check();
+        CreateBenchFolder(a->output);
+        experiments::RunBenchSelfCalibrate(a->screen, a->output, std::cout);
+        return 0;
+      };
+      return;
+    }
     if (a->options.quick) {
       a->options.views = std::min(a->options.views, 12);
       a->options.splined_nx = {8};

@@ -4,6 +4,9 @@
 // optimization inputs) and cam.calibration.json (the report: per-photo and per-corner residuals, outliers,
 // every candidate's figures, the uncertainty grid). A photo whose decoded content repeats an earlier one's is
 // used once (calibrate/photos.h): a note on stderr and in cam.calibration.json names both files.
+// `curvecheck calibrate --from-screen --monitor M --pattern pattern.json photos... -o cam.cameramodel`: calibrates
+// from photos of the monitor itself (calibrate/from_screen.h): the lens jointly with the poses and the screen's
+// curvature; writes the model, cam.calibration.json (with `screen`) and the intrinsics covariance.
 #include "app/calibrate_command.h"
 
 #include <fmt/format.h>
@@ -13,6 +16,10 @@
 #include <iostream>
 
 #include "calibrate/calibrate.h"
+#include "calibrate/from_screen.h"
+#include "capture/exif.h"
+#include "datasets/monitor_presets.h"
+#include "pattern/pattern_json.h"
 #include "app/output_paths.h"
 #include "core/error.h"
 #include "core/path_check.h"
@@ -29,9 +36,93 @@ struct CalibrateArgs {
   int splined_nx = 16, threads = 0, search_max_px = 1600;
   bool no_cross_validate = false;
   std::vector<std::string> photos;
+  // --from-screen
+  bool from_screen = false;
+  std::string monitor, pattern;
+  int min_photos = 6;
 };
 
+// The focal length seed: --focal-px, else the first photo's EXIF 35 mm equivalent focal length.
+std::pair<double, std::string> FocalSeed(const CalibrateArgs& a, int width, int height) {
+  if (a.focal_px > 0) return {a.focal_px, "--focal-px"};
+  for (const std::string& p : a.photos) {
+    const std::optional<double> f = FocalSeedFromExif(ReadExif(ReadFileToString(p)), width, height);
+    if (f) return {*f, fmt::format("EXIF 35 mm equivalent focal length of {}", p)};
+  }
+  return {0, ""};  // none: CalibrateFromScreen tries seeds (from_screen.h FromScreenOptions::focal_px)
+}
+
+int RunCalibrateFromScreen(const CalibrateArgs& a) {
+  const fs::path out = a.output;
+  if (out.extension() != ".cameramodel") {
+    throw Error("-o", fmt::format("'{}' does not end in .cameramodel", a.output), "write e.g. -o cam.cameramodel");
+  }
+  if (a.pattern.empty()) {
+    throw Error("--pattern", "--from-screen needs the pattern.json shown", "give --pattern p.json");
+  }
+  if (!a.board.empty() || !a.board_from.empty()) {
+    throw Error("--from-screen", "the target is the monitor's pattern, not a board", "drop --board/--board-from");
+  }
+  const fs::path report_path = fs::path(out).replace_extension(".calibration.json");
+  fs::path cov_path = out;
+  cov_path.replace_extension(".intrinsics_covariance.json");
+  std::vector<fs::path> photos;
+  std::error_code ec;
+  for (const std::string& p : a.photos) {
+    if (ClassifyPath(p) == PathKind::kLinkLoop) RequireFile(p);
+    if (!fs::is_regular_file(p, ec)) throw Error(p, "is not a file", "give the photos' paths (shell globs work)");
+    photos.emplace_back(p);
+  }
+  const std::vector<NamedOutput> outputs = {
+      {"-o", out}, {"the report beside -o", report_path}, {"the covariance beside -o", cov_path}};
+  std::vector<fs::path> inputs = photos;
+  inputs.push_back(a.pattern);
+  CheckOutputs(outputs, inputs);
+  for (const NamedOutput& o : outputs) CheckWritable(o.path);
+  const PatternFile pattern = ReadPatternJson(a.pattern);
+  // The monitor's preset gives its physical size (the pitch fixes the scale); the pattern must be for it.
+  const Monitor monitor = a.monitor.empty() ? pattern.monitor : LoadMonitor(a.monitor);
+  if (monitor.width_px != pattern.monitor.width_px || monitor.height_px != pattern.monitor.height_px ||
+      std::abs(monitor.width_mm - pattern.monitor.width_mm) > 0.01 * monitor.width_mm ||
+      std::abs(monitor.curvature_per_mm - pattern.monitor.curvature_per_mm) > 1e-9) {
+    throw Error(a.pattern, fmt::format("is for {}, not for --monitor {}", pattern.monitor.name, monitor.name),
+                "give the pattern.json rendered for this monitor");
+  }
+  DetectOptions d;
+  d.Check("detection options");
+  const Stopwatch watch;
+  int width = 0, height = 0;
+  const std::vector<PhotoObservations> obs = ObserveScreenPhotos(photos, pattern, d, &width, &height);
+  const double detect_s = watch.Seconds();
+  FromScreenOptions o;
+  if (a.lensmodel != "auto") o.lensmodels = {a.lensmodel};
+  std::tie(o.focal_px, std::ignore) = FocalSeed(a, width, height);
+  o.min_photos = a.min_photos;
+  const Stopwatch fit_watch;
+  FromScreenResult r = CalibrateFromScreen(obs, monitor, width, height, o);
+  if (o.focal_px > 0) r.focal_seed_source = FocalSeed(a, width, height).second;
+  const double fit_s = fit_watch.Seconds();
+  std::cout << FromScreenSummary(r);
+  std::cout << fmt::format("detection {:.2f} s, fit {:.2f} s wall\n", detect_s, fit_s);
+  nlohmann::json report = FromScreenJson(r);
+  report["model"] = out.filename().string();
+  report["detect_s"] = detect_s;
+  report["fit_s"] = fit_s;
+  OutputSet set;
+  set.WriteWith(out, [&](const fs::path& staged) { WriteCameraModel(staged, r.model); });
+  set.Write(report_path, report.dump(1) + "\n");
+  set.Write(cov_path, FromScreenCovarianceJson(r, out.filename().string()).dump(1) + "\n");
+  set.Publish();
+  std::cout << fmt::format("wrote {}, {} and {}\n", out.string(), report_path.string(), cov_path.string());
+  return 0;
+}
+
 int RunCalibrate(const CalibrateArgs& a) {
+  if (a.from_screen) return RunCalibrateFromScreen(a);
+  if (!a.monitor.empty() || !a.pattern.empty()) {
+    throw Error(a.monitor.empty() ? "--pattern" : "--monitor", "is an option of --from-screen",
+                "add --from-screen, or calibrate from a board with --board/--board-from");
+  }
   const fs::path out = a.output;
   if (out.extension() != ".cameramodel") {
     throw Error("-o", fmt::format("'{}' does not end in .cameramodel", a.output), "write e.g. -o cam.cameramodel");
@@ -153,6 +244,12 @@ void AddCalibrateCommand(CLI::App& app, std::function<int()>& run) {
       ->capture_default_str();
   cmd->add_option("--splined-nx", a->splined_nx, "Knots across of the splined candidate")->capture_default_str();
   cmd->add_flag("--no-cross-validate", a->no_cross_validate, "Skip the two-halves cross-validation (faster)");
+  cmd->add_flag("--from-screen", a->from_screen,
+                "Calibrate from photos of the monitor showing --pattern (no board): the lens jointly with the camera "
+                "poses and the screen's curvature; seeded from --focal-px or EXIF");
+  cmd->add_option("--monitor", a->monitor, "With --from-screen: the monitor preset or spec (its physical size)");
+  cmd->add_option("--pattern", a->pattern, "With --from-screen: the pattern.json shown in the photos");
+  cmd->add_option("--min-photos", a->min_photos, "With --from-screen: fewer photos are refused")->capture_default_str();
   cmd->callback([&run, a] { run = [a] { return RunCalibrate(*a); }; });
 }
 

@@ -46,6 +46,10 @@ class Tiff {
         case 0x9003: Ascii(type, count, value_off, "date_time_original", out); break;
         case 0x829A: Rational(type, value_off, "exposure_time_s", out); break;
         case 0x829D: Rational(type, value_off, "f_number", out); break;
+        case 0x920A: Rational(type, value_off, "focal_length_mm", out); break;
+        case 0xA405:
+          if (type == 3 && U16(value_off) > 0) out["focal_length_35mm"] = U16(value_off);
+          break;
         case 0x8827:
           if (type == 3) out["iso"] = U16(value_off);
           break;

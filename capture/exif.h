@@ -9,7 +9,8 @@ namespace curvecheck {
 
 // Returns an object with those of these keys that the file carries: "make", "model", "date_time" (0x0132),
 // "date_time_original" (0x9003, "YYYY:MM:DD HH:MM:SS", camera local time), "exposure_time_s", "f_number",
-// "iso". Returns an empty object for files without EXIF (PNG) or with malformed EXIF; never throws.
+// "iso", "focal_length_mm" (0x920A), "focal_length_35mm" (0xA405, the 35 mm film equivalent). Returns an empty
+// object for files without EXIF (PNG) or with malformed EXIF; never throws.
 nlohmann::json ReadExif(std::string_view file_bytes);
 
 }  // namespace curvecheck

@@ -56,6 +56,11 @@ bool IsMrcalLensModel(const std::string& name) {
   return mrcal_lensmodel_from_name(&lens, name.c_str());
 }
 
+int LensModelParameterCount(const std::string& name) {
+  const mrcal_lensmodel_t lens = LensModel(name, "lens model");
+  return mrcal_lensmodel_num_params(&lens);
+}
+
 namespace {
 constexpr double kMaxDistortionParameter = 1e4;
 }  // namespace
@@ -189,14 +194,17 @@ void WriteCameraModel(const std::filesystem::path& path, const CameraModel& mode
 }
 
 std::vector<Eigen::Vector2d> ProjectPoints(const CameraModel& model, const std::vector<Eigen::Vector3d>& points,
-                                           std::vector<Eigen::Matrix<double, 2, 3>>* dq_dp) {
+                                           std::vector<Eigen::Matrix<double, 2, 3>>* dq_dp,
+                                           std::vector<Eigen::Matrix<double, 2, Eigen::Dynamic>>* dq_dintrinsics) {
   const mrcal_lensmodel_t lens = LensModel(model.lensmodel, "camera model");
   std::vector<mrcal_point3_t> p(points.size());
   for (size_t i = 0; i < points.size(); ++i) p[i] = {{points[i].x(), points[i].y(), points[i].z()}};
   std::vector<mrcal_point2_t> q(points.size());
   std::vector<mrcal_point3_t> grad(dq_dp ? 2 * points.size() : 0);
-  if (!mrcal_project(q.data(), dq_dp ? grad.data() : nullptr, nullptr, p.data(), static_cast<int>(p.size()), &lens,
-                     model.intrinsics.data())) {
+  const size_t ni = model.intrinsics.size();
+  std::vector<double> grad_i(dq_dintrinsics ? 2 * ni * points.size() : 0);  // (N, 2, Nintrinsics), dense
+  if (!mrcal_project(q.data(), dq_dp ? grad.data() : nullptr, dq_dintrinsics ? grad_i.data() : nullptr, p.data(),
+                     static_cast<int>(p.size()), &lens, model.intrinsics.data())) {
     throw Error("camera model", "mrcal_project failed for " + model.lensmodel, "check the model");
   }
   std::vector<Eigen::Vector2d> out(points.size());
@@ -206,6 +214,16 @@ std::vector<Eigen::Vector2d> ProjectPoints(const CameraModel& model, const std::
     for (size_t i = 0; i < points.size(); ++i) {
       for (int r = 0; r < 2; ++r) {
         for (int c = 0; c < 3; ++c) (*dq_dp)[i](r, c) = grad[2 * i + static_cast<size_t>(r)].xyz[c];
+      }
+    }
+  }
+  if (dq_dintrinsics) {
+    dq_dintrinsics->assign(points.size(), Eigen::Matrix<double, 2, Eigen::Dynamic>(2, static_cast<long>(ni)));
+    for (size_t i = 0; i < points.size(); ++i) {
+      for (size_t r = 0; r < 2; ++r) {
+        for (size_t c = 0; c < ni; ++c) {
+          (*dq_dintrinsics)[i](static_cast<long>(r), static_cast<long>(c)) = grad_i[(2 * i + r) * ni + c];
+        }
       }
     }
   }

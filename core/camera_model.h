@@ -27,6 +27,8 @@ struct CameraModel {
 // True if mrcal knows the lens model `name` (mrcal_lensmodel_from_name: the type and, for parametric families such
 // as LENSMODEL_SPLINED_STEREOGRAPHIC_order=3_Nx=16_Ny=12_fov_x_deg=100, well-formed parameters).
 bool IsMrcalLensModel(const std::string& name);
+// The number of intrinsics of mrcal lens model `name` (4 core + distortions). Throws Error for an unknown model.
+int LensModelParameterCount(const std::string& name);
 
 // Reads a mrcal .cameramodel file (through libmrcal). Throws Error naming the file on any problem.
 CameraModel ReadCameraModel(const std::filesystem::path& path);
@@ -35,9 +37,13 @@ CameraModel ParseCameraModel(const std::string& text, const std::string& source)
 // Writes a .cameramodel file that mrcal's own tools read; atomically.
 void WriteCameraModel(const std::filesystem::path& path, const CameraModel& model);
 
-// Projects camera-frame points to pixel coordinates. dq_dp (optional): 2x3 gradient per point.
+// Projects camera-frame points to pixel coordinates. dq_dp (optional): 2x3 gradient per point. dq_dintrinsics
+// (optional): 2 x n gradient per point with respect to the intrinsics (mrcal's order, n = intrinsics.size()),
+// libmrcal's exact one (dense: fine for OPENCV models, slow for splined ones).
 std::vector<Eigen::Vector2d> ProjectPoints(const CameraModel& model, const std::vector<Eigen::Vector3d>& points,
-                                           std::vector<Eigen::Matrix<double, 2, 3>>* dq_dp = nullptr);
+                                           std::vector<Eigen::Matrix<double, 2, 3>>* dq_dp = nullptr,
+                                           std::vector<Eigen::Matrix<double, 2, Eigen::Dynamic>>* dq_dintrinsics =
+                                               nullptr);
 Eigen::Vector2d ProjectPoint(const CameraModel& model, const Eigen::Vector3d& point);
 // Unprojects pixel coordinates to unit direction vectors in the camera frame (mrcal's iterative solve).
 std::vector<Eigen::Vector3d> UnprojectPixels(const CameraModel& model, const std::vector<Eigen::Vector2d>& pixels);

@@ -58,8 +58,9 @@ cv::Mat DemosaicRaw(const cv::Mat& raw, const Imaging& imaging);
 cv::Mat ToneMap8(const cv::Mat& dn, int raw_bits, ToneCurve tone);
 
 // JPEG of an 8-bit BGR image at `quality` (1..100) in memory (OpenCV's libjpeg: YCbCr with 4:2:0 chroma, its
-// default for colour), and the image decoded from it.
+// default for colour), and the image decoded from it, into `into`'s pixels when it has the image's size and type
+// (CV_8UC3; a fresh image otherwise).
 std::vector<uint8_t> EncodeJpeg(const cv::Mat& bgr8, int quality);
-cv::Mat DecodeJpeg(const std::vector<uint8_t>& jpeg);
+cv::Mat DecodeJpeg(const std::vector<uint8_t>& jpeg, cv::Mat into = cv::Mat());
 
 }  // namespace curvecheck::synth_internal

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <limits>
 
+#include "core/large_buffer.h"
 #include "core/math_util.h"
 
 #include "synth/parallel_rows.h"
@@ -119,7 +120,9 @@ DisplayLight::DisplayLight(const DisplayModel& model, const Image8& image, int c
   const double fill_area = model.fill_factor * model.fill_factor;
   const size_t width = static_cast<size_t>(image.width);
   // Default-initialised (no zero fill): every element is written below, each row by one thread.
-  pixel_mean_light_.reset(new float[width * image.height * static_cast<size_t>(channels)]);
+  const size_t values = width * image.height * static_cast<size_t>(channels);
+  pixel_mean_light_.reset(new float[values]);
+  AdviseHugePages(pixel_mean_light_.get(), values * sizeof(float));
   ParallelRows(image.height, [&](int y) {
     for (size_t p = static_cast<size_t>(y) * width; p < (static_cast<size_t>(y) + 1) * width; ++p) {
       const size_t at = p * channels_;
@@ -299,8 +302,8 @@ cv::Mat Trace(const SyntheticScene& s, const Image8& display, const RayGrid& ray
       rays.DenseColumn(x + (a + 0.5) / n - 0.5, &column[at], &fraction[at]);
     }
   }
-  cv::Mat radiance(height, width, CV_MAKETYPE(CV_32F, N));
-  if (depth) *depth = cv::Mat(height, width, CV_32F);
+  cv::Mat radiance = NewLargeMat(height, width, CV_MAKETYPE(CV_32F, N));
+  if (depth) *depth = NewLargeMat(height, width, CV_32F);
   std::atomic<int64_t> refined_total{0};
   ParallelRows(height, [&](int y) {
     thread_local std::vector<Eigen::Vector2d> nodes;

@@ -29,4 +29,12 @@ cv::Mat NewLargeMat(int rows, int cols, int type) {
   return m;
 }
 
+cv::Mat ReuseOrNewLargeMat(const cv::Mat& storage, int rows, int cols, int type) {
+  const size_t needed = static_cast<size_t>(rows) * static_cast<size_t>(cols) * CV_ELEM_SIZE(type);
+  if (storage.isContinuous() && storage.data != nullptr && storage.total() * storage.elemSize() >= needed) {
+    return cv::Mat(rows, cols, type, storage.data);
+  }
+  return NewLargeMat(rows, cols, type);
+}
+
 }  // namespace curvecheck

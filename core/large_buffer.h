@@ -20,4 +20,9 @@ void AdviseHugePages(void* data, size_t bytes);
 // and type).
 cv::Mat NewLargeMat(int rows, int cols, int type);
 
+// A rows x cols Mat of `type` over the bytes of `storage` when it is continuous and holds enough of them (the
+// caller keeps `storage` alive and is done with its values), else NewLargeMat: a stage's output in the memory of
+// an earlier stage's, which costs no fresh pages at all.
+cv::Mat ReuseOrNewLargeMat(const cv::Mat& storage, int rows, int cols, int type);
+
 }  // namespace curvecheck

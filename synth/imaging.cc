@@ -128,10 +128,10 @@ double VignettingGain(VignettingModel model, double ev, double r) {
   return 1 / (q * q);
 }
 
-cv::Mat ExposeRaw(const Imaging& g, const Sensor& sensor, const cv::Mat& radiance) {
+cv::Mat ExposeRaw(const Imaging& g, const Sensor& sensor, const cv::Mat& radiance, const cv::Mat& storage) {
   const int width = radiance.cols, height = radiance.rows;
   const bool mosaic = g.cfa == ColourFilter::kRggb;
-  cv::Mat raw = NewLargeMat(height, width, mosaic ? CV_16U : CV_16UC3);
+  cv::Mat raw = ReuseOrNewLargeMat(storage, height, width, mosaic ? CV_16U : CV_16UC3);
   const double cx = 0.5 * (width - 1), cy = 0.5 * (height - 1), r2_corner = cx * cx + cy * cy;
   const double full_well = g.full_well_e, dn_per_e = (std::exp2(g.raw_bits) - 1) / full_well;
   // VignettingGain's two models as functions of r^2 (no sqrt, no exp2 per site): cos4 1 / (1 + a r^2)^2,
@@ -162,9 +162,9 @@ cv::Mat ExposeRaw(const Imaging& g, const Sensor& sensor, const cv::Mat& radianc
   return raw;
 }
 
-cv::Mat DemosaicRaw(const cv::Mat& raw, const Imaging& g) {
+cv::Mat DemosaicRaw(const cv::Mat& raw, const Imaging& g, const cv::Mat& storage) {
   if (raw.channels() == 3) return raw;
-  cv::Mat bgr = NewLargeMat(raw.rows, raw.cols, CV_16UC3);  // cv::demosaicing keeps an output of its size
+  cv::Mat bgr = ReuseOrNewLargeMat(storage, raw.rows, raw.cols, CV_16UC3);  // cv::demosaicing keeps it
   switch (g.demosaic) {
     case Demosaic::kBilinear:
       cv::demosaicing(raw, bgr, cv::COLOR_BayerRGGB2BGR);

@@ -76,9 +76,12 @@ void RenderColour(const SyntheticScene& s, const Image8& display, const RayGrid&
   photo->defocus_levels = BlurBySigmaMap(sigma, &trace.radiance);
   timer->Lap(&timing.optics_ms, &timing.optics_cpu_ms);
 
-  const cv::Mat raw = ExposeRaw(g, s.sensor, trace.radiance);
+  // The raw in the sigma map's memory, the demosaiced image in the radiance's, each done with by then: fresh
+  // pages cost ~1 CPU-s per 400 MB on the shared machine (issue 18), reused ones nothing.
+  const cv::Mat raw = ExposeRaw(g, s.sensor, trace.radiance, sigma);
+  cv::Mat bgr8 = ToneMap8(DemosaicRaw(raw, g, trace.radiance), g.raw_bits, g.tone);
   trace.radiance.release();
-  cv::Mat bgr8 = ToneMap8(DemosaicRaw(raw, g), g.raw_bits, g.tone);
+  trace.depth_mm.release();
   if (g.jpeg_quality > 0) {
     photo->jpeg = EncodeJpeg(bgr8, g.jpeg_quality);
     bgr8 = DecodeJpeg(photo->jpeg, bgr8);  // into the tone-mapped image's pixels, which the JPEG replaces

@@ -13,6 +13,7 @@
 #include "core/error.h"
 #include "core/image_decode.h"
 #include "core/file_io.h"
+#include "core/png_encode.h"
 
 namespace curvecheck {
 
@@ -21,19 +22,13 @@ void WritePng8(const std::filesystem::path& path, int width, int height, int cha
     throw Error(path.string(), fmt::format("cannot write {} channels as PNG", channels), "use 1, 3 or 4");
   }
   const cv::Mat mat(height, width, CV_8UC(channels), const_cast<uint8_t*>(data));
-  std::vector<uint8_t> bytes;
-  if (!cv::imencode(".png", mat, bytes, {cv::IMWRITE_PNG_COMPRESSION, 3})) {
-    throw Error(path.string(), "PNG encoding failed", "check the image size");
-  }
+  const std::vector<uint8_t> bytes = EncodePng(mat);
   WriteFileAtomic(path, std::string_view(reinterpret_cast<const char*>(bytes.data()), bytes.size()));
 }
 
 void WritePng16(const std::filesystem::path& path, int width, int height, const uint16_t* data) {
   const cv::Mat mat(height, width, CV_16UC1, const_cast<uint16_t*>(data));
-  std::vector<uint8_t> bytes;
-  if (!cv::imencode(".png", mat, bytes, {cv::IMWRITE_PNG_COMPRESSION, 3})) {
-    throw Error(path.string(), "PNG encoding failed", "check the image size");
-  }
+  const std::vector<uint8_t> bytes = EncodePng(mat);
   WriteFileAtomic(path, std::string_view(reinterpret_cast<const char*>(bytes.data()), bytes.size()));
 }
 

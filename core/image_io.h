@@ -1,5 +1,5 @@
 // Image files. PNG only for outputs (lossless, 8 or 16 bit); reading accepts what OpenCV decodes. Outputs are
-// written atomically (encoded in memory, then WriteFileAtomic).
+// written atomically (encoded in memory by core/png_encode.h on all cores, then WriteFileAtomic).
 #pragma once
 
 #include <cstdint>

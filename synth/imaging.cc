@@ -6,6 +6,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "core/error.h"
+#include "core/large_buffer.h"
 #include "synth/parallel_rows.h"
 #include "synth/random.h"
 
@@ -127,10 +128,10 @@ double VignettingGain(VignettingModel model, double ev, double r) {
   return 1 / (q * q);
 }
 
-cv::Mat ExposeRaw(const Imaging& g, const Sensor& sensor, const cv::Mat& radiance) {
+cv::Mat ExposeRaw(const Imaging& g, const Sensor& sensor, const cv::Mat& radiance, const cv::Mat& storage) {
   const int width = radiance.cols, height = radiance.rows;
   const bool mosaic = g.cfa == ColourFilter::kRggb;
-  cv::Mat raw(height, width, mosaic ? CV_16U : CV_16UC3);
+  cv::Mat raw = ReuseOrNewLargeMat(storage, height, width, mosaic ? CV_16U : CV_16UC3);
   const double cx = 0.5 * (width - 1), cy = 0.5 * (height - 1), r2_corner = cx * cx + cy * cy;
   const double full_well = g.full_well_e, dn_per_e = (std::exp2(g.raw_bits) - 1) / full_well;
   // VignettingGain's two models as functions of r^2 (no sqrt, no exp2 per site): cos4 1 / (1 + a r^2)^2,
@@ -161,9 +162,9 @@ cv::Mat ExposeRaw(const Imaging& g, const Sensor& sensor, const cv::Mat& radianc
   return raw;
 }
 
-cv::Mat DemosaicRaw(const cv::Mat& raw, const Imaging& g) {
+cv::Mat DemosaicRaw(const cv::Mat& raw, const Imaging& g, const cv::Mat& storage) {
   if (raw.channels() == 3) return raw;
-  cv::Mat bgr;
+  cv::Mat bgr = ReuseOrNewLargeMat(storage, raw.rows, raw.cols, CV_16UC3);  // cv::demosaicing keeps it
   switch (g.demosaic) {
     case Demosaic::kBilinear:
       cv::demosaicing(raw, bgr, cv::COLOR_BayerRGGB2BGR);
@@ -193,7 +194,7 @@ cv::Mat ToneMap8(const cv::Mat& dn, int raw_bits, ToneCurve tone) {
                                             : 1.055 * std::pow(x, 1 / 2.4) - 0.055;
     lut[static_cast<size_t>(i)] = static_cast<uint8_t>(std::lround(std::clamp(y, 0.0, 1.0) * 255));
   }
-  cv::Mat out(dn.size(), CV_8UC3);
+  cv::Mat out = NewLargeMat(dn.rows, dn.cols, CV_8UC3);
   ParallelRows(dn.rows, [&](int y) {
     const uint16_t* in = dn.ptr<uint16_t>(y);
     uint8_t* o = out.ptr<uint8_t>(y);
@@ -210,10 +211,10 @@ std::vector<uint8_t> EncodeJpeg(const cv::Mat& bgr8, int quality) {
   return bytes;
 }
 
-cv::Mat DecodeJpeg(const std::vector<uint8_t>& jpeg) {
-  cv::Mat image = cv::imdecode(jpeg, cv::IMREAD_COLOR);
-  if (image.empty()) throw Error("synthetic photo", "its own JPEG did not decode", "report this as a bug");
-  return image;
+cv::Mat DecodeJpeg(const std::vector<uint8_t>& jpeg, cv::Mat into) {
+  cv::imdecode(jpeg, cv::IMREAD_COLOR, &into);
+  if (into.empty()) throw Error("synthetic photo", "its own JPEG did not decode", "report this as a bug");
+  return into;
 }
 
 }  // namespace curvecheck::synth_internal

@@ -45,21 +45,24 @@ double VignettingGain(VignettingModel model, double ev, double r);
 // vignetting to electrons of imaging.full_well_e, times the PRNU gain (1 + prnu N(0, 1) per site, fixed per
 // sensor.seed), Poisson shot and Gaussian read noise (sensor.noise, seeded per row), clipped to 0..full well,
 // then the ADC: full well = 2^raw_bits - 1 DN, rounded. RGGB: one CV_16U site per pixel (R at even row and even
-// column, B at odd and odd); cfa none: CV_16UC3 B, G, R. Runs on all cores.
-cv::Mat ExposeRaw(const Imaging& imaging, const Sensor& sensor, const cv::Mat& radiance);
+// column, B at odd and odd); cfa none: CV_16UC3 B, G, R. Runs on all cores. Written into `storage`'s memory when
+// it is large enough (core/large_buffer.h ReuseOrNewLargeMat; the caller is done with its values).
+cv::Mat ExposeRaw(const Imaging& imaging, const Sensor& sensor, const cv::Mat& radiance,
+                  const cv::Mat& storage = cv::Mat());
 
 // Demosaics an RGGB raw (CV_16U, DN) to CV_16UC3 B, G, R in DN with OpenCV's cv::demosaicing: bilinear, VNG
 // (variable number of gradients; OpenCV's takes 8 bits, so the raw is scaled to 8 bits first) or edge-aware.
-// A CV_16UC3 raw (cfa none) is returned as it is.
-cv::Mat DemosaicRaw(const cv::Mat& raw, const Imaging& imaging);
+// A CV_16UC3 raw (cfa none) is returned as it is. Written into `storage`'s memory when it is large enough.
+cv::Mat DemosaicRaw(const cv::Mat& raw, const Imaging& imaging, const cv::Mat& storage = cv::Mat());
 
 // DN (CV_16UC3, 0..2^raw_bits - 1) to 8-bit code values by the tone curve: sRGB's (linear below 0.0031308, then
 // 1.055 x^(1/2.4) - 0.055) or linear.
 cv::Mat ToneMap8(const cv::Mat& dn, int raw_bits, ToneCurve tone);
 
 // JPEG of an 8-bit BGR image at `quality` (1..100) in memory (OpenCV's libjpeg: YCbCr with 4:2:0 chroma, its
-// default for colour), and the image decoded from it.
+// default for colour), and the image decoded from it, into `into`'s pixels when it has the image's size and type
+// (CV_8UC3; a fresh image otherwise).
 std::vector<uint8_t> EncodeJpeg(const cv::Mat& bgr8, int quality);
-cv::Mat DecodeJpeg(const std::vector<uint8_t>& jpeg);
+cv::Mat DecodeJpeg(const std::vector<uint8_t>& jpeg, cv::Mat into = cv::Mat());
 
 }  // namespace curvecheck::synth_internal

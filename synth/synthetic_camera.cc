@@ -64,28 +64,31 @@ void RenderColour(const SyntheticScene& s, const Image8& display, const RayGrid&
     focus_mm = std::isfinite(centre) ? centre : s.screen_from_cam.translation.norm();
   }
   const double focal_mm = FocalLengthMm(s.camera, g);
-  cv::Mat sigma(trace.depth_mm.size(), CV_32F);
+  // The PSF's sigma per pixel, written over the depth (which nothing reads after this): one full-size buffer less.
+  cv::Mat sigma = trace.depth_mm;
   ParallelRows(sigma.rows, [&](int y) {
-    const float* d = trace.depth_mm.ptr<float>(y);
-    float* out = sigma.ptr<float>(y);
+    float* d = sigma.ptr<float>(y);
     for (int x = 0; x < sigma.cols; ++x) {
       const double defocus = DefocusSigmaPx(d[x], focus_mm, focal_mm, g.f_number, g.pixel_pitch_um);
-      out[x] = static_cast<float>(std::sqrt(g.blur_px * g.blur_px + defocus * defocus));
+      d[x] = static_cast<float>(std::sqrt(g.blur_px * g.blur_px + defocus * defocus));
     }
   });
   photo->defocus_levels = BlurBySigmaMap(sigma, &trace.radiance);
   timer->Lap(&timing.optics_ms, &timing.optics_cpu_ms);
 
-  const cv::Mat raw = ExposeRaw(g, s.sensor, trace.radiance);
+  // The raw in the sigma map's memory, the demosaiced image in the radiance's, each done with by then: fresh
+  // pages cost ~1 CPU-s per 400 MB on the shared machine (issue 18), reused ones nothing.
+  const cv::Mat raw = ExposeRaw(g, s.sensor, trace.radiance, sigma);
+  cv::Mat bgr8 = ToneMap8(DemosaicRaw(raw, g, trace.radiance), g.raw_bits, g.tone);
   trace.radiance.release();
-  cv::Mat bgr8 = ToneMap8(DemosaicRaw(raw, g), g.raw_bits, g.tone);
+  trace.depth_mm.release();
   if (g.jpeg_quality > 0) {
     photo->jpeg = EncodeJpeg(bgr8, g.jpeg_quality);
-    bgr8 = DecodeJpeg(photo->jpeg);
+    bgr8 = DecodeJpeg(photo->jpeg, bgr8);  // into the tone-mapped image's pixels, which the JPEG replaces
   }
   photo->bits = 8;
   photo->channels = 3;
-  photo->pixels.assign(bgr8.data, bgr8.data + bgr8.total() * 3);
+  photo->image = bgr8;
   timer->Lap(&timing.sensor_ms, &timing.sensor_cpu_ms);
 }
 
@@ -121,26 +124,18 @@ SyntheticPhoto RenderSyntheticPhoto(const SyntheticScene& s, const Image8& displ
   synth_internal::BlurRadiance(s.optics, &radiance);
   timer.Lap(&timing.optics_ms, &timing.optics_cpu_ms);
 
-  photo.pixels = synth_internal::ExposeSensor(s.optics, s.sensor, radiance);
+  photo.image = synth_internal::ExposeSensor(s.optics, s.sensor, radiance);
   timer.Lap(&timing.sensor_ms, &timing.sensor_cpu_ms);
   return photo;
 }
 
-cv::Mat PhotoToStoredMat(const SyntheticPhoto& photo) {
-  cv::Mat image(photo.height, photo.width, CV_MAKETYPE(photo.bits == 8 ? CV_8U : CV_16U, photo.channels));
-  const size_t n = photo.pixels.size();
-  if (photo.bits == 8) {
-    for (size_t i = 0; i < n; ++i) image.data[i] = static_cast<uint8_t>(photo.pixels[i]);
-  } else {
-    std::copy(photo.pixels.begin(), photo.pixels.end(), image.ptr<uint16_t>(0));
-  }
-  return image;
-}
+cv::Mat PhotoToStoredMat(const SyntheticPhoto& photo) { return photo.image; }
 
 cv::Mat PhotoToMat(const SyntheticPhoto& photo) {
-  cv::Mat image = PhotoToStoredMat(photo);
-  if (photo.channels == 3) cv::cvtColor(image, image, cv::COLOR_BGR2GRAY);
-  return image;
+  if (photo.channels != 3) return photo.image.clone();
+  cv::Mat gray;
+  cv::cvtColor(photo.image, gray, cv::COLOR_BGR2GRAY);
+  return gray;
 }
 
 void WriteSyntheticPhoto(const std::filesystem::path& path, const SyntheticPhoto& photo) {
@@ -154,11 +149,12 @@ void WriteSyntheticPhoto(const std::filesystem::path& path, const SyntheticPhoto
     WriteFileAtomic(path, std::string(photo.jpeg.begin(), photo.jpeg.end()));
     return;
   }
+  const cv::Mat& image = photo.image;
+  CV_Assert(image.isContinuous());
   if (photo.bits == 8) {
-    std::vector<uint8_t> bytes(photo.pixels.begin(), photo.pixels.end());
-    WritePng8(path, photo.width, photo.height, photo.channels, bytes.data());
+    WritePng8(path, image.cols, image.rows, image.channels(), image.ptr<uint8_t>(0));
   } else {
-    WritePng16(path, photo.width, photo.height, photo.pixels.data());
+    WritePng16(path, image.cols, image.rows, image.ptr<uint16_t>(0));
   }
 }
 

@@ -64,8 +64,9 @@ struct PhotoTiming {
 
 struct SyntheticPhoto {
   int width = 0, height = 0, bits = 8;
-  int channels = 1;              // 1 gray (clean chain), 3 colour B, G, R (realistic chain, 8 bit)
-  std::vector<uint16_t> pixels;  // row-major code values (0..255 or 0..65535), channels interleaved
+  int channels = 1;  // 1 gray (clean chain), 3 colour B, G, R (realistic chain, 8 bit)
+  // The code values as stored: CV_8UC1 or CV_16UC1 (0..255 or 0..65535 by bits) gray, CV_8UC3 B, G, R.
+  cv::Mat image;
   std::vector<uint8_t> jpeg;     // the JPEG the pixels were decoded from (realistic chain with a JPEG quality)
   int defocus_levels = 0;        // blur levels blended for the defocus (realistic chain; imaging.h)
   PhotoTiming timing;
@@ -81,11 +82,12 @@ SyntheticPhoto RenderSyntheticPhoto(const SyntheticScene& scene, const Image8& d
 // photo has none: imaging.jpeg_quality 0 or the clean chain).
 void WriteSyntheticPhoto(const std::filesystem::path& path, const SyntheticPhoto& photo);
 
-// The photo as the detectors take it, CV_8U or CV_16U by its bit depth, one channel: a colour photo is turned
-// to gray by cv::cvtColor(COLOR_BGR2GRAY), as detect/ReadPhotoGray does with a colour file, so the photo in
-// memory and the photo written and read back are detected alike.
+// The photo as the detectors take it, CV_8U or CV_16U by its bit depth, one channel, a copy the caller may
+// change: a colour photo is turned to gray by cv::cvtColor(COLOR_BGR2GRAY), as detect/ReadPhotoGray does with a
+// colour file, so the photo in memory and the photo written and read back are detected alike.
 cv::Mat PhotoToMat(const SyntheticPhoto& photo);
-// The photo as stored: CV_8UC3 (B, G, R) for colour, else as PhotoToMat.
+// The photo as stored (photo.image, its pixels shared, not copied): CV_8UC3 (B, G, R) for colour, else as
+// PhotoToMat.
 cv::Mat PhotoToStoredMat(const SyntheticPhoto& photo);
 
 }  // namespace curvecheck

@@ -359,12 +359,13 @@ TEST(SyntheticCamera, SensorNoiseHasTheModelsMeanAndVariance) {
     s.optics.exposure = electrons / (0.2 * s.sensor.full_well_e);
     const SyntheticPhoto photo = RenderSyntheticPhoto(s, grey);
     double sum = 0, sum2 = 0;
-    for (uint16_t c : photo.pixels) {
+    for (auto it = photo.image.begin<uint16_t>(); it != photo.image.end<uint16_t>(); ++it) {
+      const uint16_t c = *it;
       const double e = c / 65535.0 * s.sensor.full_well_e;
       sum += e;
       sum2 += e * e;
     }
-    const double n = static_cast<double>(photo.pixels.size());
+    const double n = static_cast<double>(photo.image.total());
     const double mean = sum / n, variance = sum2 / n - mean * mean;
     const double expected_variance = electrons + 9 + s.sensor.full_well_e * s.sensor.full_well_e / (12 * 65535.0 * 65535.0);
     std::cout << electrons << " e: mean " << mean << " e, variance " << variance << " e^2 (model " << expected_variance

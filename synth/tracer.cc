@@ -5,6 +5,7 @@
 #include <cmath>
 #include <limits>
 
+#include "core/large_buffer.h"
 #include "core/math_util.h"
 
 #include "synth/parallel_rows.h"
@@ -117,20 +118,21 @@ DisplayLight::DisplayLight(const DisplayModel& model, const Image8& image, int c
     gray_light_[c] = static_cast<float>(light);
   }
   const double fill_area = model.fill_factor * model.fill_factor;
+  // A colour sensor: each channel's mean is its stripe's 3x light over a third of the pixel, or the whole
+  // pixel's light, so a function of that channel's code alone (a table per code, not per pixel).
+  for (int c = 0; c < 256; ++c) {
+    const double mean = fill_area * gray_light_[static_cast<size_t>(c)] + (1 - fill_area) * model.black;
+    channel_mean_light_[static_cast<size_t>(c)] = static_cast<float>(mean);
+  }
+  if (channels == 3) return;
   const size_t width = static_cast<size_t>(image.width);
   // Default-initialised (no zero fill): every element is written below, each row by one thread.
-  pixel_mean_light_.reset(new float[width * image.height * static_cast<size_t>(channels)]);
+  const size_t values = width * image.height;
+  pixel_mean_light_.reset(new float[values]);
+  AdviseHugePages(pixel_mean_light_.get(), values * sizeof(float));
   ParallelRows(image.height, [&](int y) {
     for (size_t p = static_cast<size_t>(y) * width; p < (static_cast<size_t>(y) + 1) * width; ++p) {
       const size_t at = p * channels_;
-      if (channels == 3) {
-        // Each channel: its stripe's 3x light over a third of the pixel, or the whole pixel's light.
-        for (int c = 0; c < 3; ++c) {
-          pixel_mean_light_[3 * p + static_cast<size_t>(c)] =
-              static_cast<float>(fill_area * gray_light_[Code(at, c)] + (1 - fill_area) * model.black);
-        }
-        continue;
-      }
       double emitted = 0;
       if (!stripes_) {
         emitted = GrayLight(at);
@@ -171,13 +173,19 @@ Light<N> DisplayLight::ShadeAreaN(double fx, double fy, double wx, double wy, do
   Light<N> out;
   const double area = (x1 - x0) * (y1 - y0);
   if (psf_x > kStructureBlurredPx && psf_y > kStructureBlurredPx) {
-    // Each pixel's mean light (pixel_mean_light_), weighted by its share of the box.
+    // Each pixel's mean light (pixel_mean_light_, or channel_mean_light_ of its codes), weighted by its share of
+    // the box.
     for (int j = j0; j <= j1; ++j) {
       const double oy = overlap(y0, y1, j, j + 1);
-      const float* row = pixel_mean_light_.get() + static_cast<size_t>(j) * image_.width * N;
+      const size_t row = static_cast<size_t>(j) * image_.width;
       for (int i = i0; i <= i1; ++i) {
         const double w = overlap(x0, x1, i, i + 1) * oy;
-        for (int c = 0; c < N; ++c) light[static_cast<size_t>(c)] += w * row[i * N + c];
+        if constexpr (N == 1) {
+          light[0] += w * pixel_mean_light_[row + static_cast<size_t>(i)];
+        } else {
+          const size_t at = (row + static_cast<size_t>(i)) * channels_;
+          for (int c = 0; c < N; ++c) light[static_cast<size_t>(c)] += w * channel_mean_light_[Code(at, c)];
+        }
       }
     }
     for (int c = 0; c < N; ++c) out[static_cast<size_t>(c)] = static_cast<float>(light[static_cast<size_t>(c)] / area);
@@ -299,8 +307,8 @@ cv::Mat Trace(const SyntheticScene& s, const Image8& display, const RayGrid& ray
       rays.DenseColumn(x + (a + 0.5) / n - 0.5, &column[at], &fraction[at]);
     }
   }
-  cv::Mat radiance(height, width, CV_MAKETYPE(CV_32F, N));
-  if (depth) *depth = cv::Mat(height, width, CV_32F);
+  cv::Mat radiance = NewLargeMat(height, width, CV_MAKETYPE(CV_32F, N));
+  if (depth) *depth = NewLargeMat(height, width, CV_32F);
   std::atomic<int64_t> refined_total{0};
   ParallelRows(height, [&](int y) {
     thread_local std::vector<Eigen::Vector2d> nodes;

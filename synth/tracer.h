@@ -78,9 +78,11 @@ class DisplayLight {
   std::array<float, 256> stripe3_light_;                // 3 x linear light per code (a stripe in its own channel)
   std::array<float, 256> gray_light_;                   // linear light per code (no stripes)
   // Mean light of each display pixel over its whole area (emitters at their light, black between them): what
-  // ShadeArea uses where the optics blur the pixel structure away. Row-major, display size, N values per pixel.
-  // Filled in parallel (by display rows) without a zero fill first: at 5120 x 1440 x 3 it is 88 MB, whose zeroing
-  // and page faults on one thread were a visible serial part of every synthetic photo (issue 18).
+  // ShadeArea uses where the optics blur the pixel structure away. For N = 1 per pixel (row-major, display size;
+  // the stripes' luma mixes the three codes), filled in parallel by display rows without a zero fill first; for
+  // N = 3 a function of each channel's code, channel_mean_light_ (a per-pixel table was 88 MB of fresh memory at
+  // 5120 x 1440, whose first touch cost more than the lookups it saved, issue 18).
+  std::array<float, 256> channel_mean_light_;
   std::unique_ptr<float[]> pixel_mean_light_;
 };
 

@@ -9,7 +9,8 @@
 
 #include "app/bench_command.h"
 #include "app/cli.h"
-#include "app/output_paths.h"
+#include "core/config.h"
+#include "core/output_paths.h"
 #include "experiments/bench_analyze.h"
 #include "experiments/bench_fit.h"
 #include "experiments/bench_models.h"

@@ -8,7 +8,7 @@
 #include <iostream>
 #include <memory>
 
-#include "app/output_paths.h"
+#include "core/output_paths.h"
 #include "app/render_options.h"
 #include "core/error.h"
 #include "experiments/bench_calibrate.h"

@@ -7,12 +7,14 @@
 #include <cmath>
 #include <limits>
 #include <random>
+#include <cstdlib>
 
 #include "core/error.h"
 #include "core/file_io.h"
 #include "core/screen_geometry.h"
 #include "core/stats.h"
 #include "core/stopwatch.h"
+#include "calibrate/projection_compare.h"
 #include "experiments/scene_lookup.h"
 #include "experiments/verdict_tally.h"
 #include "synth/synthetic_camera.h"
@@ -45,6 +47,7 @@ SelfCalibrationTrial RunSelfCalibrationTrial(const SyntheticScene& base, const T
   std::normal_distribution<double> aim(0, aim_jitter_deg * M_PI / 180);
   const Eigen::Vector3d centre = ScreenCentreInScreen(base.monitor);
   std::vector<PhotoObservations> obs;
+  std::vector<Eigen::Vector2d> observed;
   Eigen::Vector2d lo = Eigen::Vector2d::Constant(1e300), hi = Eigen::Vector2d::Constant(-1e300);
   try {
     for (size_t i = 0; i < positions_in_screen.size(); ++i) {
@@ -59,10 +62,12 @@ SelfCalibrationTrial RunSelfCalibrationTrial(const SyntheticScene& base, const T
       const SyntheticPhoto photo = RenderSyntheticPhoto(scene, display.image);
       PhotoObservations o = ObserveScreenImage(PhotoToMat(photo), fmt::format("photo{}", i), pattern, DetectOptions{});
       for (const Eigen::Vector2d& q : o.detected_px) lo = lo.cwiseMin(q), hi = hi.cwiseMax(q);
+      observed.insert(observed.end(), o.detected_px.begin(), o.detected_px.end());
       obs.push_back(std::move(o));
     }
     FromScreenOptions options = given;
     options.focal_px = focal_seed_px;
+    if (const char* lm = std::getenv("H20_LENSMODEL")) options.lensmodels = {lm};  // DEBUG, remove
     const FromScreenResult r = CalibrateFromScreen(obs, base.monitor, base.camera.width, base.camera.height, options);
     t.lensmodel = r.model.lensmodel;
     const int gw = 30, gh = 20;
@@ -79,6 +84,21 @@ SelfCalibrationTrial RunSelfCalibrationTrial(const SyntheticScene& base, const T
     }
     t.lens_covered_median_px = covered.empty() ? kNaN : Median(covered);
     t.lens_covered_max_px = covered.empty() ? kNaN : *std::max_element(covered.begin(), covered.end());
+    // Cell by cell (the cells that hold detections), with the calibration's own projection uncertainty.
+    const std::vector<Eigen::Vector2d> grid = ImagerGrid(base.camera.width, base.camera.height, gw, gh);
+    const ProjectionComparison c =
+        CompareProjections({base.camera, {}}, {r.model, r.Chosen().fit.Chosen().intrinsics_covariance}, grid,
+                           CoveredCells(observed, base.camera.width, base.camera.height, gw, gh));
+    if (std::getenv("H20_LENSMODEL") || std::getenv("H20_DEBUG")) {  // DEBUG, remove
+      const auto& cov = r.Chosen().fit.Chosen().intrinsics_covariance;
+      for (size_t i = 0; i < r.model.intrinsics.size(); ++i)
+        fmt::print(stderr, "  {} = {:.5g} +- {:.3g} (truth {:.5g})\n", i, r.model.intrinsics[i], std::sqrt(cov(i, i)), base.camera.intrinsics[i]);
+      fmt::print(stderr, "{}\n", FromScreenSummary(r));
+    }
+    t.cells_median_px = c.median_px;
+    t.cells_max_px = c.max_px;
+    t.cells_median_sigma_px = c.median_sigma_px;
+    t.cells_max_mahalanobis = c.max_mahalanobis;
     if (r.radius_mm && r.radius_sigma_mm) {
       t.radius_mm = *r.radius_mm;
       t.radius_sigma_mm = *r.radius_sigma_mm;
@@ -102,11 +122,12 @@ void RunBenchSelfCalibrate(const BenchSelfCalibrateOptions& o, const std::filesy
   const TrialDisplay display = RenderTrialDisplay(renderer, scene0.monitor, viewpoint, PatternSpec{});
   const PatternFile pattern = ParsePatternJson(display.PatternJson().dump(), "the bench's pattern.json");
   std::string csv = "trial,seed,photos,lensmodel,lens_median_px,lens_covered_median_px,lens_covered_max_px,"
-                    "true_radius_mm,radius_mm,radius_sigma_mm,in_ci95,within_2sigma,seconds,error\n";
+                    "cells_median_px,cells_max_px,cells_median_sigma_px,cells_max_mahalanobis,true_radius_mm,radius_mm,radius_sigma_mm,in_ci95,within_2sigma,seconds,error\n";
   log << fmt::format("bench calibrate --from-screen: {} trials, {} to {} photos at scale {}, scene {}\n", o.trials,
                      o.min_photos, o.max_photos, o.scale, o.scene);
-  log << fmt::format("{:>5} {:>6} {:>18} {:>9} {:>9} {:>9} {:>8} {:>8} {:>6} {:>6} {:>6}\n", "trial", "photos",
-                     "lens model", "imager", "covered", "cov.max", "R true", "R", "sigma", "ci95", "s")
+  log << fmt::format("{:>5} {:>6} {:>18} {:>9} {:>9} {:>9} {:>9} {:>9} {:>9} {:>7} {:>8} {:>8} {:>6} {:>6} {:>6}\n",
+                     "trial", "photos", "lens model", "imager", "covered", "cov.max", "cells", "cells.max", "sigma",
+                     "m.max", "R true", "R", "sigma", "ci95", "s")
       << std::flush;
   std::vector<double> lens, lens_covered;
   int n = 0, in95 = 0, in2s = 0, failed = 0;
@@ -125,8 +146,10 @@ void RunBenchSelfCalibrate(const BenchSelfCalibrateOptions& o, const std::filesy
     for (int i = 0; i < photos; ++i) positions.emplace_back(ux(rng), uy(rng), uz(rng));
     const double focal_seed = scene.camera.intrinsics[0] * (1 + o.focal_seed_error * unit(rng));
     const SelfCalibrationTrial t = RunSelfCalibrationTrial(scene, display, pattern, positions, 1.0, seed, focal_seed);
-    csv += fmt::format("{},{},{},{},{},{},{},{},{},{},{},{},{:.1f},\"{}\"\n", k, seed, t.photos, t.lensmodel,
-                       t.lens_median_px, t.lens_covered_median_px, t.lens_covered_max_px, t.true_radius_mm,
+    csv += fmt::format("{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{:.1f},\"{}\"\n", k, seed, t.photos,
+                       t.lensmodel, t.lens_median_px, t.lens_covered_median_px, t.lens_covered_max_px,
+                       t.cells_median_px, t.cells_max_px, t.cells_median_sigma_px, t.cells_max_mahalanobis,
+                       t.true_radius_mm,
                        t.radius_mm, t.radius_sigma_mm, t.in_ci95 ? 1 : 0, t.within_2sigma ? 1 : 0, t.seconds, t.error);
     if (!t.error.empty()) {
       ++failed;
@@ -138,9 +161,11 @@ void RunBenchSelfCalibrate(const BenchSelfCalibrateOptions& o, const std::filesy
     in2s += t.within_2sigma ? 1 : 0;
     lens.push_back(t.lens_median_px);
     lens_covered.push_back(t.lens_covered_median_px);
-    log << fmt::format("{:>5} {:>6} {:>18} {:>9.3f} {:>9.3f} {:>9.3f} {:>8.1f} {:>8.1f} {:>6.1f} {:>6} {:>6.1f}\n", k,
-                       t.photos, t.lensmodel.substr(10), t.lens_median_px, t.lens_covered_median_px,
-                       t.lens_covered_max_px, t.true_radius_mm, t.radius_mm, t.radius_sigma_mm,
+    log << fmt::format(
+               "{:>5} {:>6} {:>18} {:>9.3f} {:>9.3f} {:>9.3f} {:>9.3f} {:>9.3f} {:>9.3f} {:>7.1f} {:>8.1f} {:>8.1f} "
+               "{:>6.1f} {:>6} {:>6.1f}\n",
+               k, t.photos, t.lensmodel.substr(10), t.lens_median_px, t.lens_covered_median_px, t.lens_covered_max_px,
+               t.cells_median_px, t.cells_max_px, t.cells_median_sigma_px, t.cells_max_mahalanobis, t.true_radius_mm, t.radius_mm, t.radius_sigma_mm,
                        t.in_ci95 ? "yes" : "NO", t.seconds)
         << std::flush;
   }

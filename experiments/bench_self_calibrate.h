@@ -38,6 +38,9 @@ struct SelfCalibrationTrial {
   int photos = 0;
   std::string lensmodel, error;  // error: the calibration refused or failed (message)
   double lens_median_px = 0, lens_covered_median_px = 0, lens_covered_max_px = 0;
+  // Over the grid cells that hold detections (CoveredCells), the rotation fitted there: |difference| median and
+  // max, the calibration's own projection sigma (median), the largest Mahalanobis distance of the truth.
+  double cells_median_px = 0, cells_max_px = 0, cells_median_sigma_px = 0, cells_max_mahalanobis = 0;
   double true_radius_mm = 0, radius_mm = 0, radius_sigma_mm = 0;
   bool in_ci95 = false, within_2sigma = false;
   double seconds = 0;

@@ -129,6 +129,8 @@ void AddBenchCalibrate(CLI::App& bench, std::function<int()>& run) {
   cmd->add_option("--trials", a->screen.trials, "With --from-screen: trials")->capture_default_str();
   cmd->add_option("--scale", a->screen.scale, "With --from-screen: imager scale")->capture_default_str();
   cmd->add_option("--scene", a->screen.scene, "With --from-screen: the scene")->capture_default_str();
+  cmd->add_flag("--ignore-advice", [a](int64_t) { a->screen.follow_advice = false; },
+                "With --from-screen: do not add the suggested photos when the precision check fails");
   cmd->add_flag("--flat-vs-board", a->flat_vs_board,
                 "Compare calibrate --from-screen on a flat monitor with a board calibration of the same synthetic "
                 "camera, against both calibrations' uncertainties (--trials, --seed, --scale, --scene act)");

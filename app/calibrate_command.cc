@@ -40,6 +40,7 @@ struct CalibrateArgs {
   bool from_screen = false;
   std::string monitor, pattern;
   int min_photos = 6;
+  double max_projection_sigma = FromScreenOptions{}.max_projection_sigma_px;
 };
 
 // The focal length seed: --focal-px, else the first photo's EXIF 35 mm equivalent focal length.
@@ -98,6 +99,7 @@ int RunCalibrateFromScreen(const CalibrateArgs& a) {
   if (a.lensmodel != "auto") o.lensmodels = {a.lensmodel};
   std::tie(o.focal_px, std::ignore) = FocalSeed(a, width, height);
   o.min_photos = a.min_photos;
+  o.max_projection_sigma_px = a.max_projection_sigma;
   const Stopwatch fit_watch;
   FromScreenResult r = CalibrateFromScreen(obs, monitor, width, height, o);
   if (o.focal_px > 0) r.focal_seed_source = FocalSeed(a, width, height).second;
@@ -250,6 +252,10 @@ void AddCalibrateCommand(CLI::App& app, std::function<int()>& run) {
   cmd->add_option("--monitor", a->monitor, "With --from-screen: the monitor preset or spec (its physical size)");
   cmd->add_option("--pattern", a->pattern, "With --from-screen: the pattern.json shown in the photos");
   cmd->add_option("--min-photos", a->min_photos, "With --from-screen: fewer photos are refused")->capture_default_str();
+  cmd->add_option("--max-projection-sigma", a->max_projection_sigma,
+                  "With --from-screen: photos whose lens has a larger median projection sigma (px) where they put the "
+                  "screen are refused with the positions to add (0: no limit)")
+      ->capture_default_str();
   cmd->callback([&run, a] { run = [a] { return RunCalibrate(*a); }; });
 }
 

@@ -91,6 +91,10 @@ std::vector<bool> CoveredCells(const std::vector<Eigen::Vector2d>& observed_px, 
 
 double ChiSquare2Quantile(double alpha) { return -2 * std::log(alpha); }
 
+double AgreementBound(const ProjectionComparison& c, double alpha) {
+  return std::sqrt(ChiSquare2Quantile(alpha / std::max(1, c.rank)));
+}
+
 ProjectionComparison CompareProjections(const LensWithCovariance& a, const LensWithCovariance& b,
                                         const std::vector<Eigen::Vector2d>& grid, const std::vector<bool>& given) {
   if (a.model.width != b.model.width || a.model.height != b.model.height) {

@@ -60,4 +60,12 @@ std::vector<bool> CoveredCells(const std::vector<Eigen::Vector2d>& observed_px, 
 // The chi-square quantile with 2 degrees of freedom, -2 ln(alpha): P(chi2_2 > q) = alpha.
 double ChiSquare2Quantile(double alpha);
 
+// The decision rule for "the two models agree within their uncertainties": the largest per-point Mahalanobis
+// distance over the region is at most sqrt(chi2_2 quantile at alpha / rank) (a Bonferroni bound over the rank of
+// the combined covariance, its independent error modes; family-wise level alpha). Returns that bound.
+double AgreementBound(const ProjectionComparison& c, double alpha = 0.05);
+inline bool Agree(const ProjectionComparison& c, double alpha = 0.05) {
+  return c.max_mahalanobis <= AgreementBound(c, alpha);
+}
+
 }  // namespace curvecheck

@@ -153,8 +153,8 @@ FlatVsBoardTrial RunFlatVsBoardTrial(const BenchFlatVsBoardOptions& o, uint64_t 
     t.screen_vs_board = CompareProjections(b, s, grid, region);
     t.screen_vs_truth = CompareProjections(truth, s, grid, region);
     t.board_vs_truth = CompareProjections(truth, b, grid, region);
-    t.threshold_mahalanobis = std::sqrt(ChiSquare2Quantile(0.05 / std::max(1, t.screen_vs_board.rank)));
-    t.agree = t.screen_vs_board.max_mahalanobis <= t.threshold_mahalanobis;
+    t.threshold_mahalanobis = AgreementBound(t.screen_vs_board);
+    t.agree = Agree(t.screen_vs_board);
     t.fx_screen = fs.model.intrinsics[0];
     t.fx_screen_sigma = screen_cov.rows() ? std::sqrt(screen_cov(0, 0)) : kNaN;
     t.fx_board = board.model.intrinsics[0];

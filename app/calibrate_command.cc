@@ -14,6 +14,7 @@
 #include <memory>
 
 #include "calibrate/calibrate_run.h"
+#include "calibrate/from_screen.h"
 #include "core/error.h"
 
 namespace curvecheck::app {
@@ -68,6 +69,11 @@ void AddCalibrateCommand(CLI::App& app, std::function<int()>& run) {
   cmd->add_option("--monitor", a->monitor, "With --from-screen: the monitor preset or spec (its physical size)");
   cmd->add_option("--pattern", a->pattern, "With --from-screen: the pattern.json shown in the photos");
   cmd->add_option("--min-photos", a->min_photos, "With --from-screen: fewer photos are refused")->capture_default_str();
+  cmd->add_option("--max-projection-sigma", a->max_projection_sigma,
+                  fmt::format("With --from-screen: photos whose lens has a larger median projection sigma (px) where "
+                              "they put the screen are refused with the positions to add (0: no limit); without it "
+                              "the limit {:.3f} px is checked, and a shortfall is reported with the positions to add",
+                              FromScreenOptions{}.max_projection_sigma_px));
   cmd->callback([&run, a] { run = [a] { return RunCalibrate(*a); }; });
 }
 

@@ -20,6 +20,10 @@ struct CalibrateRequest {
   bool from_screen = false;
   std::string monitor, pattern;
   int min_photos = 6;
+  // --max-projection-sigma: given (>= 0), photos whose lens is less precise are refused with the positions to add
+  // (0: no limit); not given (< 0), the default limit is checked and a shortfall is reported with the positions to
+  // add, the calibration still written (FromScreenOptions::refuse_imprecise).
+  double max_projection_sigma = -1;
 };
 
 // From chessboard photos (calibrate.h): detection in parallel, every candidate lens model, the simplest adequate

@@ -65,6 +65,11 @@ void RunScreenCalibration(const CalibrateRequest& a, std::ostream& out_text) {
   if (a.lensmodel != "auto") o.lensmodels = {a.lensmodel};
   std::tie(o.focal_px, std::ignore) = FocalSeed(a, width, height);
   o.min_photos = a.min_photos;
+  if (a.max_projection_sigma >= 0) {
+    o.max_projection_sigma_px = a.max_projection_sigma;
+  } else {
+    o.refuse_imprecise = false;
+  }
   const Stopwatch fit_watch;
   FromScreenResult r = CalibrateFromScreen(obs, monitor, width, height, o);
   if (o.focal_px > 0) r.focal_seed_source = FocalSeed(a, width, height).second;

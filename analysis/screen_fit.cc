@@ -708,11 +708,8 @@ QuantityVariance GaussianFieldVariance(const Setup& setup, const Linearization& 
 // pairs of -(J (J^T J)^+ J^T)_ij (the refit correlates the residuals slightly). Under noise alone S has a standard
 // deviation of about sigma^2 / sqrt(pairs) (products of independent Gaussians, pairs counted once); the bound
 // is (S - sigma^2 nu + 2 sd) / kappa.
-// `correlated_residual` is what the correlation row reads (the residuals less what other rows propagate in their
-// own shape); `residual` the nearest-neighbour statistic's and the model choice's.
 void EstimateMisfit(const Setup& setup, const Linearization& lin, const std::vector<Eigen::Vector2d>& residual,
-                    const std::vector<Eigen::Vector2d>& correlated_residual, double sigma_px, UncertaintyBudget* bud,
-                    LensFieldProjection* projection) {
+                    double sigma_px, UncertaintyBudget* bud, LensFieldProjection* projection) {
   const FitOptions& o = *setup.options;
   const int n = static_cast<int>(lin.obs.size());
   if (n < 8 || static_cast<int>(residual.size()) != n) return;
@@ -789,7 +786,7 @@ void EstimateMisfit(const Setup& setup, const Linearization& lin, const std::vec
   if (!(kappa > 1e-6)) return;  // the family is invisible in the residuals: nothing can be measured
   bud->misfit_estimate_px = std::sqrt(std::max(0.0, stat - noise_share) / kappa);
   bud->misfit_bound_px = std::sqrt(std::max(0.0, stat - noise_share + 2 * sd_stat) / kappa);
-  EstimateMisfitCorrelation(setup, lin, correlated_residual, sigma_px, pairs, bud);
+  EstimateMisfitCorrelation(setup, lin, residual, sigma_px, pairs, bud);
 }
 
 // Pixel-locking itself, propagated in its own shape: per coordinate c a bias A_c sin(2 pi phi_i + psi) with phi_i
@@ -968,16 +965,11 @@ std::vector<QuantityVariance> Budget(const Setup& setup, ModelWork& w, BuiltProb
     c.type = "A";
     QuantityVariance v(setup.photos);
     if (lin && o.measure_lens_misfit) {
-      // The correlation row reads the residuals less the pixel-locking signature, which the detector row
-      // propagates in its own shape: on a regular board that signature beats across the image (a correlation
-      // that changes sign with the lag), which a Gaussian field would take for low-frequency power, counting it
-      // twice and larger.
-      std::vector<Eigen::Vector2d> res, res_correlated;
+      std::vector<Eigen::Vector2d> res;
       for (size_t i : lin->obs) {
         res.push_back(fit->residual_px[static_cast<size_t>(setup.obs[i].photo)][static_cast<size_t>(setup.obs[i].index)]);
-        res_correlated.push_back(res.back() - bud.pixel_locking.SignatureAt(setup.obs[i].detected));
       }
-      EstimateMisfit(setup, *lin, res, res_correlated, fit->noise_px, &bud, &w.lens_field);
+      EstimateMisfit(setup, *lin, res, fit->noise_px, &bud, &w.lens_field);
     }
     if (!bud.misfit_components.empty()) {
       std::string lags, parts;
@@ -1018,10 +1010,9 @@ std::vector<QuantityVariance> Budget(const Setup& setup, ModelWork& w, BuiltProb
         "exp(-d^2 / 2 L^2), {} random Fourier features), independent per coordinate and common to every photo; "
         "s and L are those that reproduce the residuals' correlation at 1 to 24 feature spacings after the fit "
         "(the part the fit absorbs into the poses and the screen is inferred from the part it leaves, in the same "
-        "family), after the pixel-locking signature that the detector row propagates is removed from them. Any "
-        "other error correlated between features (detector bias that varies with the image position, moire) is "
-        "measured here too, so it may be counted twice with the detector row's smooth part: conservative. Degrees "
-        "of freedom 2 (s^2 / u(s^2))^2",
+        "family). Any other error correlated between features (detector bias that varies with the image position, "
+        "moire) is measured here too, so it may be counted twice with the detector row: conservative. Degrees of "
+        "freedom 2 (s^2 / u(s^2))^2",
         o.misfit_features);
     bud.components.push_back(c);
     vars.push_back(v);

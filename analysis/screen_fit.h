@@ -205,12 +205,7 @@ struct BudgetComponent {
 struct ResidualPixelLocking {
   Eigen::Vector2d amplitude_px = Eigen::Vector2d::Zero();  // sqrt(a_sin^2 + a_cos^2), x and y
   Eigen::Vector2d sigma_px = Eigen::Vector2d::Zero();      // its standard uncertainty
-  // The fitted signature: row c (x, y) holds (a_sin, a_cos), px; zero where it could not be fitted.
-  Eigen::Matrix2d coefficients_px = Eigen::Matrix2d::Zero();
   int observations = 0;
-  // The fitted signature's bias at a detected position: a_sin sin(2 pi phi_c) + a_cos cos(2 pi phi_c) per
-  // coordinate c (no constant term).
-  Eigen::Vector2d SignatureAt(const Eigen::Vector2d& detected_px) const;
 };
 
 struct UncertaintyBudget {

@@ -74,22 +74,12 @@ ResidualPixelLocking EstimatePixelLocking(const std::vector<Eigen::Vector2d>& de
     const double s2 = (yv - x * beta).squaredNorm() / (n - 3);
     const Eigen::Matrix2d cov = (s2 * xtx.inverse()).bottomRightCorner<2, 2>();
     const Eigen::Vector2d ab = beta.tail<2>();
-    if (ab.allFinite()) out.coefficients_px.row(c) = ab.transpose();
     const double a = ab.norm();
     out.amplitude_px[c] = a;
     // Delta method along the estimate's direction; near zero (a below its own noise) the direction is
     // undefined and the coefficients' RMS sigma is the amplitude's scale.
     const double rms_sigma = std::sqrt(0.5 * cov.trace());
     out.sigma_px[c] = a > 3 * rms_sigma ? std::sqrt((ab / a).dot(cov * (ab / a))) : rms_sigma;
-  }
-  return out;
-}
-
-Eigen::Vector2d ResidualPixelLocking::SignatureAt(const Eigen::Vector2d& detected_px) const {
-  Eigen::Vector2d out;
-  for (int c = 0; c < 2; ++c) {
-    const double phase = 2 * kPi * (detected_px[c] - std::floor(detected_px[c]));
-    out[c] = coefficients_px(c, 0) * std::sin(phase) + coefficients_px(c, 1) * std::cos(phase);
   }
   return out;
 }

@@ -191,6 +191,10 @@ void AddBenchValidity(CLI::App& bench, std::function<int()>& run) {
       ->capture_default_str();
   cmd->add_option("--jitter-mm", o.jitter_mm, "Camera position jitter per trial, mm per axis (1 sigma)")
       ->capture_default_str();
+  cmd->add_option("--pitch-tolerance", o.pitch_tolerance,
+                  "The true pixel pitch is drawn per trial within +-this fraction of the datasheet's (the analysis's "
+                  "stated tolerance; 0 = exact)")
+      ->capture_default_str();
   cmd->add_option("--jitter-deg", o.jitter_deg, "Camera aim jitter per trial, deg per axis (1 sigma)")
       ->capture_default_str();
   cmd->add_flag("--correct-pixel-locking", o.correct_pixel_locking,

@@ -197,7 +197,8 @@ std::vector<std::string> RunTrial(Bench& b, int index, std::string* line) {
   for (int i = 0; i < 3; ++i) jitter[i] = position_noise(rng);
   for (int i = 0; i < 3; ++i) aim_deg[i] = aim_noise(rng);
   // Drawn after the pose so that the poses of a seed stay those of the benches before the pitch was drawn.
-  scene.truth.pitch_scale = 1 + std::uniform_real_distribution<double>(-o.pitch_tolerance, o.pitch_tolerance)(rng);
+  scene.truth.pitch_scale = 1 + std::uniform_real_distribution<double>(-o.pitch_tolerance_percent / 100,
+                                                                          o.pitch_tolerance_percent / 100)(rng);
   const Eigen::Vector3d position = placed + jitter;
   const Eigen::Matrix3d looking =
       ScreenFromCamLookAt(placed, centre, Eigen::Vector3d::UnitY()).RotationMatrix();
@@ -675,9 +676,9 @@ void BenchValidityOptions::Check() const {
   if (!(jitter_mm >= 0 && jitter_mm <= 100) || !(jitter_deg >= 0 && jitter_deg <= 5)) {
     throw Error("bench validity", "the jitter must be 0..100 mm and 0..5 deg", "");
   }
-  if (!(pitch_tolerance >= 0 && pitch_tolerance <= 0.05)) {
-    throw Error("--pitch-tolerance", fmt::format("{:g} is not a fraction in [0, 0.05]", pitch_tolerance),
-                "give e.g. 0.001 (the analysis's default) or 0 for the datasheet's pitch exactly");
+  if (!(pitch_tolerance_percent >= 0 && pitch_tolerance_percent <= 5)) {
+    throw Error("--pitch-tolerance", fmt::format("{:g} % is not in [0, 5]", pitch_tolerance_percent),
+                "give e.g. 0.1 (the analysis's default, percent) or 0 for the datasheet's pitch exactly");
   }
   shard.Check();
 }
@@ -721,12 +722,12 @@ bool RunBenchValidity(const BenchValidityOptions& o, const fs::path& out, std::o
       "yaws {} deg around the screen centre; realism {}; true radius x {}; {}x{} board, exact rendering for "
       "the "
       "camera's position; camera jitter {:g} mm and {:g} deg per axis (1 sigma); true pixel pitch the "
-      "datasheet's x (1 + d), d uniform in +-{:g}; the default analysis (the chosen model's numbers); {} cells x {} trials = {} trials, shard {}/{} runs {}; seed {} (trial k: seed + "
+      "datasheet's x (1 + d), d uniform in +-{:g}%; the default analysis (the chosen model's numbers); {} cells x {} trials = {} trials, shard {}/{} runs {}; seed {} (trial k: seed + "
       "k)\n",
       o.command_line, machine, o.scene, first.monitor.name, 1 / first.monitor.curvature_per_mm,
       first.camera.lensmodel, first.camera.width, first.camera.height, fmt::join(o.scales, ","),
       fmt::join(o.distances_mm, ","), fmt::join(o.yaws_deg, ","), levels, fmt::join(o.radius_factors, ","),
-      o.cols, o.rows, o.jitter_mm, o.jitter_deg, o.pitch_tolerance, b.grid.Cells(), o.trials, total, o.shard.index,
+      o.cols, o.rows, o.jitter_mm, o.jitter_deg, o.pitch_tolerance_percent, b.grid.Cells(), o.trials, total, o.shard.index,
       o.shard.count, mine.size(), o.seed);
   log << head << std::flush;
 
@@ -747,7 +748,7 @@ bool RunBenchValidity(const BenchValidityOptions& o, const fs::path& out, std::o
   grid["scene"] = o.scene;
   grid["seed"] = o.seed;
   grid["jitter"] = {{"position_mm", o.jitter_mm}, {"aim_deg", o.jitter_deg}};
-  grid["pitch_tolerance"] = o.pitch_tolerance;
+  grid["pitch_tolerance_percent"] = o.pitch_tolerance_percent;
   grid["correct_pixel_locking"] = o.correct_pixel_locking;
   grid["board"] = {o.cols, o.rows};
   json overrides = json::object();

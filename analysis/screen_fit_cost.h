@@ -5,8 +5,10 @@
 // q: the mrcal lens model through libmrcal (core/camera_model.h ProjectPoints), whose gradient dq/dX is exact;
 // P, n: CoreScreenPoint (analysis/screen_model.h); d = w . z the deviation field (cylinder+deviation only);
 // centre_from_cam: unit quaternion (Eigen order x, y, z, w), c: the camera position in the centre frame (mm).
-// The chain rule dr/dparams = dq/dX dX/dparams uses Ceres Jets for dX/d(pose, core shape) and the closed form
-// dX/dz = centre_from_cam^T n w^T for the (linear) deviation coefficients.
+// The chain rule dr/dparams = dq/dX dX/dparams uses Ceres Jets for the rotation's dependence on the quaternion
+// (4 values) and for the surface point's on the core shape (up to 3), and closed forms for the rest:
+// dX/dc = -centre_from_cam^T, dX/dshape = centre_from_cam^T dP/dshape and dX/dz = centre_from_cam^T n w^T for the
+// (linear) deviation coefficients. Without Jacobians (Ceres's cost-only evaluations) it runs in plain doubles.
 //
 // Parameter blocks, in order: pose (7: quaternion, then c), core shape (CoreParameterCount values; absent when
 // 0), deviation coefficients (w.size(); absent when empty). Evaluate returns false when the point is behind
@@ -27,6 +29,9 @@ class ReprojectionCost final : public ceres::CostFunction {
   // `camera` must outlive the cost function.
   ReprojectionCost(const CameraModel* camera, ScreenModelKind kind, double s_mm, double y_mm, double half_width_mm,
                    const Eigen::Vector2d& detected_px, Eigen::VectorXd deviation_weights = {});
+  // The same with the camera's projector shared among many costs (its lens model parsed once).
+  ReprojectionCost(const PointProjector& projector, ScreenModelKind kind, double s_mm, double y_mm,
+                   double half_width_mm, const Eigen::Vector2d& detected_px, Eigen::VectorXd deviation_weights = {});
 
   bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override;
 
@@ -35,7 +40,7 @@ class ReprojectionCost final : public ceres::CostFunction {
   bool PredictWithNormal(double const* const* parameters, Eigen::Vector2d* q_px, Eigen::Vector2d* dq_dnormal) const;
 
  private:
-  const CameraModel* camera_;
+  PointProjector projector_;
   ScreenModelKind kind_;
   double s_mm_, y_mm_, half_width_mm_;
   Eigen::Vector2d detected_px_;

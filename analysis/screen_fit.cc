@@ -54,6 +54,9 @@ struct State {
 struct Setup {
   const Monitor* nominal = nullptr;
   const CameraModel* camera = nullptr;
+  // camera's projector, shared by the cost functions; MakeCost uses it only while it belongs to `camera` (a copy
+  // of the setup with another camera, as the lens-calibration row makes, gets a projector of its own).
+  std::optional<PointProjector> projector;
   const FitOptions* options = nullptr;
   int photos = 0;
   std::vector<Obs> obs;
@@ -65,8 +68,10 @@ std::unique_ptr<ReprojectionCost> MakeCost(const Setup& setup, ScreenModelKind k
                                            const Obs& o) {
   Eigen::VectorXd w;
   if (kind == ScreenModelKind::kCylinderDeviation) w = basis->Weights(o.uv);
-  return std::make_unique<ReprojectionCost>(setup.camera, kind, o.s_mm, o.y_mm, setup.half_width_mm, o.detected,
-                                            std::move(w), setup.options->fit_intrinsics);
+  const bool shared = setup.projector && &setup.projector->model() == setup.camera;
+  return std::make_unique<ReprojectionCost>(shared ? *setup.projector : PointProjector(*setup.camera), kind, o.s_mm,
+                                            o.y_mm, setup.half_width_mm, o.detected, std::move(w),
+                                            setup.options->fit_intrinsics);
 }
 
 std::vector<const double*> Blocks(const State& st, int photo) {
@@ -705,15 +710,17 @@ void EstimateMisfit(const Setup& setup, const Linearization& lin, const std::vec
   const FitOptions& o = *setup.options;
   const int n = static_cast<int>(lin.obs.size());
   if (n < 8 || static_cast<int>(residual.size()) != n) return;
+  // Candidates per photo (in ascending order, so the first of equally near neighbours wins, as in one pass over all).
+  std::vector<std::vector<int>> in_photo(static_cast<size_t>(setup.photos));
+  for (int a = 0; a < n; ++a) in_photo[static_cast<size_t>(setup.obs[lin.obs[static_cast<size_t>(a)]].photo)].push_back(a);
   std::vector<std::pair<int, int>> pairs;
   for (int a = 0; a < n; ++a) {
     const Obs& oa = setup.obs[lin.obs[static_cast<size_t>(a)]];
     int best = -1;
     double best_d2 = kInf;
-    for (int b = 0; b < n; ++b) {
-      const Obs& ob = setup.obs[lin.obs[static_cast<size_t>(b)]];
-      if (b == a || ob.photo != oa.photo) continue;
-      const double d2 = (ob.detected - oa.detected).squaredNorm();
+    for (const int b : in_photo[static_cast<size_t>(oa.photo)]) {
+      if (b == a) continue;
+      const double d2 = (setup.obs[lin.obs[static_cast<size_t>(b)]].detected - oa.detected).squaredNorm();
       if (d2 < best_d2) best_d2 = d2, best = b;
     }
     if (best >= 0) pairs.emplace_back(a, best);
@@ -721,11 +728,10 @@ void EstimateMisfit(const Setup& setup, const Linearization& lin, const std::vec
   if (pairs.size() < 8) return;
   const double np = static_cast<double>(pairs.size());
   double stat = 0, nu = 0;
+  const Eigen::MatrixXd j_pinv = lin.j_obs * lin.normal_pinv;  // one product instead of one per pair
   for (const auto& [a, b] : pairs) {
     stat += 0.5 * residual[static_cast<size_t>(a)].dot(residual[static_cast<size_t>(b)]) / np;
-    for (int c = 0; c < 2; ++c) {
-      nu -= 0.5 * lin.j_obs.row(2 * a + c).dot(lin.normal_pinv * lin.j_obs.row(2 * b + c).transpose()) / np;
-    }
+    for (int c = 0; c < 2; ++c) nu -= 0.5 * j_pinv.row(2 * a + c).dot(lin.j_obs.row(2 * b + c)) / np;
   }
   // kappa over seeded unit-RMS fields of the family, through the refit.
   const Eigen::MatrixXd basis = LegendreFieldBasis(DetectedPoints(setup, lin), setup.camera->width,
@@ -749,6 +755,17 @@ void EstimateMisfit(const Setup& setup, const Linearization& lin, const std::vec
       projection->observations = n;
     }
   }
+  // The statistic of a field's residual e = rx ax + ry ay is a quadratic form in (ax, ay): the pairs' sum
+  // 0.5/np sum (e_2a e_2b + e_2a+1 e_2b+1) = (ax, ay)^T pair_form (ax, ay), pair_form = 0.5/np R_a^T R_b with R_a,
+  // R_b the rows of [rx ry] at the pairs' first and second members; formed once instead of once per draw.
+  Eigen::MatrixXd rows_a(2 * pairs.size(), 2 * terms), rows_b(2 * pairs.size(), 2 * terms);
+  for (size_t k = 0; k < pairs.size(); ++k) {
+    for (int c = 0; c < 2; ++c) {
+      rows_a.row(static_cast<long>(2 * k) + c) << rx.row(2 * pairs[k].first + c), ry.row(2 * pairs[k].first + c);
+      rows_b.row(static_cast<long>(2 * k) + c) << rx.row(2 * pairs[k].second + c), ry.row(2 * pairs[k].second + c);
+    }
+  }
+  const Eigen::MatrixXd pair_form = (0.5 / np) * (rows_a.transpose() * rows_b);
   std::mt19937_64 rng(o.systematic_field_seed + 1);
   std::normal_distribution<double> unit(0, 1);
   double kappa = 0;
@@ -759,12 +776,9 @@ void EstimateMisfit(const Setup& setup, const Linearization& lin, const std::vec
     for (long i = 0; i < terms; ++i) ax[i] = unit(rng), ay[i] = unit(rng);
     const double ms = (ax.dot(gram * ax) + ay.dot(gram * ay)) / (2.0 * n);
     if (!(ms > 0)) continue;
-    const Eigen::VectorXd e = rx * ax + ry * ay;
-    double sd = 0;
-    for (const auto& [a, b] : pairs) {
-      sd += 0.5 * (e[2 * a] * e[2 * b] + e[2 * a + 1] * e[2 * b + 1]) / np;
-    }
-    kappa += sd / ms;
+    Eigen::VectorXd a(2 * terms);
+    a << ax, ay;
+    kappa += a.dot(pair_form * a) / ms;
     ++used;
   }
   if (used == 0) return;
@@ -1709,6 +1723,7 @@ ScreenFitResult FitScreen(const Monitor& nominal, const CameraModel& camera,
   Setup setup;
   setup.nominal = &nominal;
   setup.camera = &camera;
+  setup.projector.emplace(camera);
   setup.options = &options;
   setup.photos = static_cast<int>(photos.size());
   setup.half_width_mm = 0.5 * nominal.width_mm;

@@ -1,6 +1,6 @@
 // The analysis of a set of photos (issue 6 item 6): detect -> verify -> fit -> select -> deviations, and the
 // result.json document (architecture.md, "File contracts"). `curvecheck analyze` and `curvecheck demo` are thin
-// shells around Analyze, ResultJson and WriteOverlays.
+// shells around Analyze, ResultJson and the overlays (analysis/overlay.h).
 //
 // Bad photos do not stop the analysis: a photo that cannot be read, has the wrong size for the camera model,
 // or does not show its pattern is rejected with its reason, and the good ones are analysed. Only when no photo
@@ -24,7 +24,7 @@
 
 namespace curvecheck {
 
-// The overlays' size: the photo scaled to at most this many px on its longer side (OverlayPng, WriteOverlays).
+// The overlays' size: the photo scaled to at most this many px on its longer side (overlay.h OverlayPng).
 constexpr int kOverlayMaxPx = 3000;
 
 struct AnalyzeOptions {
@@ -87,6 +87,9 @@ struct PhotoAnalysis {
   Detection detection;
   Verification verification;
   int fit_index = -1;  // index of this photo in the fit (ScreenFitResult cameras / residuals), -1 if not fitted
+  // kDuplicate: the index (in AnalysisResult::photos) of the earlier photo with this content, whose analysis
+  // stands for it; -1 otherwise.
+  int duplicate_of = -1;
   std::vector<std::string> fit_ids;  // the ids given to the fit, in its order
   double read_ms = 0, verify_ms = 0;
   // The photo as OverlayPng draws on it (AnalyzeOptions::overlay_max_px): 8-bit gray, scaled by overlay_scale
@@ -109,6 +112,9 @@ struct AnalysisResult {
   double total_ms = 0, fit_ms = 0;
 
   int UsedPhotos() const;
+  // The photo whose analysis the overlay of photos[index] draws: index itself when it is used; for a duplicate
+  // (PhotoRejection::kDuplicate) the earlier photo with its content, when that one is used; -1: no overlay.
+  int OverlaySource(size_t index) const;
 };
 
 // Analyses the photos. Throws Error for bad input that concerns the whole analysis (unreadable camera model or
@@ -131,19 +137,6 @@ nlohmann::json ResultJson(const AnalysisResult& result, const std::string& comma
 // order: its file name, made unique by stem (a/photo.png and b/photo.png become photo.png and photo-2.png) because
 // the overlay file is named after the stem (report.h OverlayFileName).
 std::vector<std::string> PhotoNames(const std::vector<PhotoInput>& inputs);
-
-// The overlay of used photo result.photos[index] as PNG bytes (see WriteOverlays). The residual vectors are
-// clipped to the image, so any magnification draws in the same time.
-// Draws on PhotoAnalysis::overlay_gray when it was kept at this max_px, else reads the photo again.
-std::string OverlayPng(const AnalysisResult& result, size_t index, double magnification = 50,
-                       int max_px = kOverlayMaxPx);
-
-// Overlay images, one per used photo: the photo (gray, scaled to at most max_px on its longer side) with the
-// expected planar perspective grid (green), the verification residuals (red) and the screen fit's residuals
-// (blue), both magnified by `magnification`. Written atomically into `dir` as OverlayFileName(name) (report.h);
-// returns the paths.
-std::vector<std::filesystem::path> WriteOverlays(const AnalysisResult& result, const std::filesystem::path& dir,
-                                                 double magnification = 50, int max_px = kOverlayMaxPx);
 
 // A short human summary (verification verdict, radius +- sigma, chosen model, rejected photos), one item per line.
 std::string SummaryText(const AnalysisResult& result);

@@ -51,7 +51,7 @@ struct ReportOptions {
 // throws Error if gnuplot is missing or fails.
 std::string ReportHtml(const nlohmann::json& result, const ReportAssets& assets, const ReportOptions& options = {});
 
-// The overlay file of a photo, as WriteOverlays (pipeline.h) names it: "overlay-<stem of name>.png".
+// The overlay file of a photo, as WriteOverlays (overlay.h) names it: "overlay-<stem of name>.png".
 std::string OverlayFileName(const std::string& photo_name);
 
 // The overlays of the used photos of `result`, read from `dir` (the folder of result.json) and decoded to check

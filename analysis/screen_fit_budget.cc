@@ -244,21 +244,29 @@ std::optional<Linearization> Linearize(const Setup& setup, const ModelWork& w, B
     if (o < 0) continue;
     for (int a = 0; a < 3; ++a) sel(1 + 3 * p + a, o + 3 + a) = 1;
   }
-  // G = sel (J^T J)^+ J^T through the small normal matrix (t x t; J has thousands of rows): its pseudo-inverse
-  // drops directions below 1e-12 of the largest eigenvalue, as the covariance's fallback does.
-  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(j.transpose() * j);
+  // G = sel (J^T J)^+ J^T through the small normal matrix (t x t; J has thousands of rows). The parameters'
+  // units differ by many orders (radians, mm, 1/mm: a column of the curvature is ~1e6 times a position's), so
+  // the pseudo-inverse is taken of the column-equilibrated normal matrix, (J^T J)^+ = D (D J^T J D)^+ D with D =
+  // diag(1 / |J_c|), dropping directions below 1e-12 of its largest eigenvalue (as the covariance's fallback
+  // does). Without the scaling that cut dropped real, well-determined directions: at 3 m on axis the camera's
+  // lateral position (nearly traded against its yaw) got no share of any correlated error.
+  Eigen::VectorXd scale = j.colwise().norm().transpose();
+  for (long c = 0; c < scale.size(); ++c) scale[c] = scale[c] > 0 ? 1 / scale[c] : 0;
+  const Eigen::MatrixXd js = j * scale.asDiagonal();
+  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(js.transpose() * js);
   const Eigen::VectorXd ev = eig.eigenvalues();
   const double cut = 1e-12 * std::max(ev.maxCoeff(), 1e-300);
   Eigen::VectorXd inv = Eigen::VectorXd::Zero(ev.size());
   for (long i = 0; i < ev.size(); ++i) inv[i] = ev[i] > cut ? 1 / ev[i] : 0;
-  const Eigen::MatrixXd x = eig.eigenvectors() * inv.asDiagonal() * (eig.eigenvectors().transpose() * sel.transpose());
+  const Eigen::MatrixXd vs = scale.asDiagonal() * eig.eigenvectors();
+  const Eigen::MatrixXd x = vs * inv.asDiagonal() * (vs.transpose() * sel.transpose());
   Linearization lin;
   const Eigen::MatrixXd g_all = x.transpose() * j.transpose();
   const size_t n_obs = b.obs_index.size();
   lin.g = g_all.leftCols(static_cast<long>(2 * n_obs));
   lin.obs = b.obs_index;
   lin.j_obs = j.topRows(static_cast<long>(2 * n_obs));
-  lin.normal_pinv = eig.eigenvectors() * inv.asDiagonal() * eig.eigenvectors().transpose();
+  lin.normal_pinv = vs * inv.asDiagonal() * vs.transpose();
   return lin;
 }
 

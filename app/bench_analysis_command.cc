@@ -9,7 +9,8 @@
 
 #include "app/bench_command.h"
 #include "app/cli.h"
-#include "app/output_paths.h"
+#include "core/config.h"
+#include "core/output_paths.h"
 #include "experiments/bench_analyze.h"
 #include "experiments/bench_fit.h"
 #include "experiments/bench_models.h"
@@ -189,6 +190,10 @@ void AddBenchValidity(CLI::App& bench, std::function<int()>& run) {
                   experiments::SceneOptionHelp() + " (its monitor, lens, optics, sensor; the bench places the camera)")
       ->capture_default_str();
   cmd->add_option("--jitter-mm", o.jitter_mm, "Camera position jitter per trial, mm per axis (1 sigma)")
+      ->capture_default_str();
+  cmd->add_option("--pitch-tolerance", o.pitch_tolerance,
+                  "The true pixel pitch is drawn per trial within +-this fraction of the datasheet's (the analysis's "
+                  "stated tolerance; 0 = exact)")
       ->capture_default_str();
   cmd->add_option("--jitter-deg", o.jitter_deg, "Camera aim jitter per trial, deg per axis (1 sigma)")
       ->capture_default_str();

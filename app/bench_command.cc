@@ -8,10 +8,11 @@
 #include <iostream>
 #include <memory>
 
-#include "app/output_paths.h"
+#include "core/output_paths.h"
 #include "app/render_options.h"
 #include "core/error.h"
 #include "experiments/bench_calibrate.h"
+#include "experiments/bench_flat_vs_board.h"
 #include "experiments/bench_self_calibrate.h"
 #include "experiments/bench_capture.h"
 #include "experiments/bench_detect.h"
@@ -106,7 +107,7 @@ void AddBenchDetect(CLI::App& bench, std::function<int()>& run) {
 struct BenchCalibrateArgs {
   experiments::BenchCalibrateOptions options;
   std::string output = "bench-calibrate";
-  bool from_screen = false;
+  bool from_screen = false, flat_vs_board = false;
   experiments::BenchSelfCalibrateOptions screen;
 };
 
@@ -128,7 +129,26 @@ void AddBenchCalibrate(CLI::App& bench, std::function<int()>& run) {
   cmd->add_option("--trials", a->screen.trials, "With --from-screen: trials")->capture_default_str();
   cmd->add_option("--scale", a->screen.scale, "With --from-screen: imager scale")->capture_default_str();
   cmd->add_option("--scene", a->screen.scene, "With --from-screen: the scene")->capture_default_str();
+  cmd->add_flag("--ignore-advice", [a](int64_t) { a->screen.follow_advice = false; },
+                "With --from-screen: do not add the suggested photos when the precision check fails");
+  cmd->add_flag("--flat-vs-board", a->flat_vs_board,
+                "Compare calibrate --from-screen on a flat monitor with a board calibration of the same synthetic "
+                "camera, against both calibrations' uncertainties (--trials, --seed, --scale, --scene act)");
   cmd->callback([&run, a] {
+    if (a->flat_vs_board) {
+      run = [a] {
+        experiments::BenchFlatVsBoardOptions f;
+        f.trials = a->screen.trials;
+        f.seed = a->options.seed;
+        f.scale = a->screen.scale;
+        f.scene = a->screen.scene;
+        f.Check();
+        CreateBenchFolder(a->output);
+        experiments::RunBenchFlatVsBoard(f, a->output, std::cout);
+        return 0;
+      };
+      return;
+    }
     if (a->from_screen) {
       run = [a] {
         a->screen.seed = a->options.seed;

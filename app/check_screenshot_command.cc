@@ -8,7 +8,7 @@
 
 #include "analysis/screenshot_check.h"
 #include "app/cli.h"
-#include "app/output_paths.h"
+#include "core/output_paths.h"
 #include "app/thirdparty_commands.h"
 #include "core/error.h"
 #include "core/file_io.h"

@@ -8,7 +8,6 @@
 #include <exception>
 #include <functional>
 #include <iostream>
-#include <sstream>
 #include <string>
 
 #include "app/analyze_command.h"
@@ -121,15 +120,6 @@ CLI::Validator InRange(double lo, double hi, const std::string& unit, const std:
         return fmt::format("{} is outside {}..{}{}{} ({})", text, lo, hi, unit.empty() ? "" : " ", unit, why);
       },
       "", "in range");
-}
-
-std::vector<std::string> SplitList(const std::string& text, char separator) {
-  std::vector<std::string> out;
-  std::stringstream parts(text);
-  for (std::string p; std::getline(parts, p, separator);) {
-    if (!p.empty()) out.push_back(p);
-  }
-  return out;
 }
 
 int Main(int argc, char** argv) {

@@ -2,7 +2,6 @@
 
 #include <CLI/CLI.hpp>
 #include <string>
-#include <vector>
 
 namespace curvecheck::app {
 
@@ -23,8 +22,5 @@ const std::string& CommandLine();
 // SUB --help'". Use it instead of CLI::PositiveNumber / NonNegativeNumber, which print their bound, the largest
 // double, with 309 digits (CLI11 2.1.2).
 CLI::Validator InRange(double lo, double hi, const std::string& unit, const std::string& why);
-
-// The non-empty parts of a list option ("flat,cylinder" -> {"flat", "cylinder"}; "a,,b" -> {"a", "b"}).
-std::vector<std::string> SplitList(const std::string& text, char separator = ',');
 
 }  // namespace curvecheck::app

@@ -3,7 +3,7 @@
 #include <iostream>
 
 #include "app/commands.h"
-#include "app/output_paths.h"
+#include "core/output_paths.h"
 #include "experiments/demo.h"
 
 namespace curvecheck::app {

@@ -1,70 +1,20 @@
-// Command-line options shared by `render` and `bench render`: monitor, viewpoint, pattern, method.
+// Command-line options shared by `render`, `pattern` and `bench render`: monitor, viewpoint, pattern, method
+// (render/scene_args.h resolves them).
 #pragma once
 
 #include <CLI/CLI.hpp>
-#include <Eigen/Core>
 #include <optional>
 #include <string>
 
-#include "core/monitor.h"
-#include "render/method.h"
-#include "pattern/pattern.h"
-#include "render/renderer.h"
+#include "render/scene_args.h"
 
 namespace curvecheck::app {
-
-struct SceneArgs {
-  std::string monitor = "default";
-  std::string viewpoint;  // "x,y,z"; empty = the command's default
-  // --distance-mm D [--offset-mm X,Y]: the viewpoint from the screen centre (ViewpointFromScreenCentre).
-  std::optional<double> distance_mm;
-  std::optional<std::string> offset_mm;
-  std::string pattern = "checkerboard";
-  std::optional<std::string> pattern_file;
-  std::optional<std::string> squares, tags;  // "CxR"
-  std::optional<double> square_mm, tag_mm, margin;
-  std::optional<int> first_tag_id, tag_gap_cells;
-};
-
-struct MethodArgs {
-  std::string method = "exact";
-  std::string aa = "analytic";  // analytic | ssN
-  double warp_scale = 1.0;
-  std::string warp_filter = "cubic";
-  std::string warp_grid = "0x0";  // CxR cells, 0x0 = per fragment
-  std::string mesh_subdivision = "extended";
-  double mesh_patch_px = 256;
-  int mesh_level = 16;
-  double mesh_tolerance_px = 0.05;
-  int strips = 32;
-  double gamma = 2.2;
-  int surround = 128;
-};
 
 void AddSceneOptions(CLI::App& cmd, SceneArgs& args, const std::string& default_viewpoint_help);
 // --distance-mm and --offset-mm beside a command's --viewpoint option (which they exclude): for every command
 // that takes a viewpoint.
 void AddDistanceOptions(CLI::App& cmd, CLI::Option* viewpoint, std::optional<double>& distance_mm,
                         std::optional<std::string>& offset_mm);
-// The viewpoint in the screen frame from --viewpoint text or --distance-mm/--offset-mm; nullopt when neither is
-// given. Checked (CheckViewpoint), errors naming the option the user gave.
-std::optional<Eigen::Vector3d> ViewpointFromOptions(const Monitor& monitor, const std::string& viewpoint,
-                                                    const std::optional<double>& distance_mm,
-                                                    const std::optional<std::string>& offset_mm);
-// "viewpoint (x, y, z) mm (screen frame), D mm from the screen centre": how commands print a viewpoint.
-std::string DescribeViewpoint(const Monitor& monitor, const Eigen::Vector3d& viewpoint_in_screen);
 void AddMethodOptions(CLI::App& cmd, MethodArgs& args);
-
-struct Scene {
-  Monitor monitor;
-  Eigen::Vector3d viewpoint_in_screen;
-  PatternSpec spec;
-};
-// Validates and resolves the scene; default_viewpoint_from_centre is used when --viewpoint is empty (an
-// offset from the screen centre, e.g. 0,0,1500). Throws Error naming the option at fault.
-Scene ResolveScene(const SceneArgs& args, const Eigen::Vector3d& default_viewpoint_from_centre);
-RenderOptions ResolveMethod(const MethodArgs& args);
-// "16x5" -> {16, 5}; throws Error naming the option.
-std::pair<int, int> ParseCount2(const std::string& text, const std::string& option);
 
 }  // namespace curvecheck::app

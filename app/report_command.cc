@@ -12,7 +12,7 @@
 
 #include "analysis/report.h"
 #include "analysis/result_reader.h"
-#include "app/output_paths.h"
+#include "core/output_paths.h"
 #include "core/error.h"
 #include "core/file_io.h"
 #include "core/stopwatch.h"

@@ -9,7 +9,8 @@
 #include <memory>
 
 #include "app/cli.h"
-#include "app/output_paths.h"
+#include "core/config.h"
+#include "core/output_paths.h"
 #include "core/error.h"
 #include "experiments/scene_lookup.h"
 #include "experiments/sweep.h"

@@ -10,6 +10,8 @@
 #include <map>
 
 #include "analysis/screen_model.h"
+#include "calibrate/projection_compare.h"
+#include "core/screen_geometry.h"
 #include "core/error.h"
 #include "core/math_util.h"
 #include "core/monitor_json.h"
@@ -124,6 +126,30 @@ void Observability(const LensCandidateFit& cand, double corr_limit, FromScreenOb
       constrained.empty() ? "none" : constrained, loose.empty() ? "none" : loose);
 }
 
+// The projection uncertainty map of the chosen lens (FromScreenProjection).
+void ProjectionMap(const std::vector<PhotoObservations>& photos, const Eigen::MatrixXd& covariance, double limit_px,
+                   FromScreenResult* r) {
+  FromScreenProjection& p = r->projection;
+  p.limit_px = limit_px;
+  p.pixel_px = ImagerGrid(r->width, r->height, p.grid_x, p.grid_y);
+  std::vector<Eigen::Vector2d> observed;
+  for (const PhotoObservations& o : photos) observed.insert(observed.end(), o.detected_px.begin(), o.detected_px.end());
+  p.covered = CoveredCells(observed, r->width, r->height, p.grid_x, p.grid_y);
+  p.covered_cells = static_cast<int>(std::count(p.covered.begin(), p.covered.end(), true));
+  p.sigma_px.assign(p.pixel_px.size(), kNaN);
+  p.valid.assign(p.pixel_px.size(), false);
+  p.covered_median_sigma_px = p.covered_max_sigma_px = kNaN;
+  if (p.covered_cells < 3 || covariance.rows() != static_cast<long>(r->model.intrinsics.size())) return;
+  const ProjectionComparison c = CompareProjections({r->model, covariance}, {r->model, {}}, p.pixel_px, p.covered);
+  p.sigma_px = c.sigma_px;
+  p.covered_median_sigma_px = c.median_sigma_px;
+  p.covered_max_sigma_px = c.max_sigma_px;
+  for (size_t i = 0; i < p.valid.size(); ++i) {
+    p.valid[i] = p.covered[i] && (!(limit_px > 0) || p.sigma_px[i] <= limit_px);
+    p.valid_cells += p.valid[i] ? 1 : 0;
+  }
+}
+
 nlohmann::json MatrixJson(const Eigen::MatrixXd& m) {
   nlohmann::json out = nlohmann::json::array();
   for (long r = 0; r < m.rows(); ++r) {
@@ -154,6 +180,8 @@ void FromScreenOptions::Check() const {
   RequireInRange("--from-screen", "min_view_spread_deg", min_view_spread_deg, 0, 180, "give e.g. 10");
   RequireInRange("--from-screen", "max_focal_distance_correlation", max_focal_distance_correlation, 0, 1, "");
   RequireInRange("--from-screen", "max_relative_focal_sigma", max_relative_focal_sigma, 0, 1, "");
+  RequireInRange("--max-projection-sigma", "max_projection_sigma_px", max_projection_sigma_px, 0, 100,
+                 "give the largest acceptable median projection sigma in px, e.g. 0.12 (0 = no limit)");
   fit.Check("--from-screen fit options");
 }
 
@@ -339,7 +367,54 @@ FromScreenResult CalibrateFromScreen(const std::vector<PhotoObservations>& photo
   r.radius_mm = m.radius_mm;
   r.radius_sigma_mm = m.radius_sigma_mm;
   r.radius_ci95_mm = m.radius_ci95_mm;
+  ProjectionMap(photos, m.intrinsics_covariance, options.max_projection_sigma_px, &r);
+  r.precise = !(options.max_projection_sigma_px > 0) ||
+              r.projection.covered_median_sigma_px <= options.max_projection_sigma_px;
+  if (!r.precise) {
+    r.suggested = SuggestPositions(r);
+    if (options.refuse_imprecise) {
+      std::string add;
+      for (const SuggestedPosition& p : r.suggested) {
+        add += fmt::format("{}({:.0f}, {:.0f}, {:.0f}) mm aimed at ({:.0f}, {:.0f}, {:.0f}) mm [{}]", add.empty() ? "" : "; ",
+                           p.position_mm.x(), p.position_mm.y(), p.position_mm.z(), p.look_at_mm.x(),
+                           p.look_at_mm.y(), p.look_at_mm.z(), p.why);
+      }
+      throw Error(where,
+                  fmt::format("the photos do not pin the lens down where they put the screen: the projection sigma "
+                              "over the {} covered cells (of {} x {}) is {:.3f} px (median; max {:.3f} px), above "
+                              "{:.3f} px (0.3 px at 95%)",
+                              r.projection.covered_cells, r.projection.grid_x, r.projection.grid_y,
+                              r.projection.covered_median_sigma_px, r.projection.covered_max_sigma_px,
+                              options.max_projection_sigma_px),
+                  "add photos from these camera positions (screen frame: x right, y up, z toward the viewer; the "
+                  "whole screen in view): " + add + "; or accept a looser lens with --max-projection-sigma");
+    }
+  }
   return r;
+}
+
+std::vector<SuggestedPosition> SuggestPositions(const FromScreenResult& r) {
+  const ModelFit& m = r.Chosen().fit.Chosen();
+  std::vector<double> distance;
+  double widest_yaw = 0;
+  for (const CameraEstimate& c : m.cameras) {
+    const Eigen::Vector3d t = c.centre_from_cam.translation;
+    distance.push_back(t.norm());
+    widest_yaw = std::max(widest_yaw, std::abs(std::atan2(t.x(), t.z())) * kDegPerRad);
+  }
+  const double d = distance.empty() ? 1000 : Median(distance);
+  const double yaw = std::max(35.0, widest_yaw + 10) / kDegPerRad, tilt = 15 / kDegPerRad;
+  const Eigen::Vector3d centre = ScreenCentreInScreen(r.monitor);
+  std::vector<SuggestedPosition> out;
+  for (double side : {-1.0, 1.0}) {
+    out.push_back({centre + d * Eigen::Vector3d(side * std::sin(yaw), 0, std::cos(yaw)), centre,
+                   fmt::format("yaw {:+.0f} deg", side * yaw * kDegPerRad)});
+  }
+  for (double side : {1.0, -1.0}) {
+    out.push_back({centre + d * Eigen::Vector3d(0, side * std::sin(tilt), std::cos(tilt)), centre,
+                   fmt::format("{} 15 deg", side > 0 ? "above," : "below,")});
+  }
+  return out;
 }
 
 std::string FromScreenSummary(const FromScreenResult& r) {
@@ -370,6 +445,11 @@ std::string FromScreenSummary(const FromScreenResult& r) {
     s += fmt::format("screen ({}): no radius (flat, or R beyond {:.0f} mm at 95%)\n", m.model,
                      m.radius_lower_bound_mm);
   }
+  const FromScreenProjection& p = r.projection;
+  s += fmt::format("projection sigma (the lens's own uncertainty) over the {} cells of {} x {} that hold detections: "
+                   "median {:.3f} px, max {:.3f} px; valid (sigma <= {:.3f} px) on {} cells{}\n",
+                   p.covered_cells, p.grid_x, p.grid_y, p.covered_median_sigma_px, p.covered_max_sigma_px, p.limit_px,
+                   p.valid_cells, r.precise ? "" : " (NOT precise enough: add the suggested positions)");
   for (const std::string& w : r.Chosen().fit.warnings) s += "warning: " + w + "\n";
   return s;
 }
@@ -454,6 +534,36 @@ nlohmann::json FromScreenJson(const FromScreenResult& r) {
                    {"camera_position_in_screen_mm", {c.x(), c.y(), c.z()}}});
   }
   j["per_photo"] = per;
+  const FromScreenProjection& p = r.projection;
+  nlohmann::json sigma = nlohmann::json::array(), covered = nlohmann::json::array(), valid = nlohmann::json::array();
+  for (size_t i = 0; i < p.sigma_px.size(); ++i) {
+    sigma.push_back(Num(p.sigma_px[i]));
+    covered.push_back(p.covered[i] ? 1 : 0);
+    valid.push_back(p.valid[i] ? 1 : 0);
+  }
+  j["projection_uncertainty"] = {
+      {"grid", {p.grid_x, p.grid_y}},
+      {"cells", "cell centres (i + 0.5) W / grid_x - 0.5, (j + 0.5) H / grid_y - 0.5, row-major"},
+      {"sigma_px", sigma},
+      {"covered", covered},
+      {"valid", valid},
+      {"covered_cells", p.covered_cells},
+      {"valid_cells", p.valid_cells},
+      {"covered_median_sigma_px", Num(p.covered_median_sigma_px)},
+      {"covered_max_sigma_px", Num(p.covered_max_sigma_px)},
+      {"limit_px", p.limit_px},
+      {"precise", r.precise},
+      {"method", "worst-direction sigma of the projection of rays at infinity: the intrinsics covariance "
+                 "propagated through mrcal's projection difference, the rotation fitted over the covered cells; "
+                 "covered = the cell holds detections; valid = covered and sigma <= limit_px (outside, the lens is "
+                 "extrapolated or not known to the limit)"}};
+  nlohmann::json sugg = nlohmann::json::array();
+  for (const SuggestedPosition& s : r.suggested) {
+    sugg.push_back({{"position_mm", {s.position_mm.x(), s.position_mm.y(), s.position_mm.z()}},
+                    {"look_at_mm", {s.look_at_mm.x(), s.look_at_mm.y(), s.look_at_mm.z()}},
+                    {"why", s.why}});
+  }
+  j["suggested_positions"] = sugg;
   return j;
 }
 

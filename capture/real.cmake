@@ -10,16 +10,17 @@ if(_gphoto2_includes)
 endif()
 
 target_sources(curvecheck_capture PRIVATE
+  ${CMAKE_CURRENT_LIST_DIR}/capture_run.cc
   ${CMAKE_CURRENT_LIST_DIR}/exif.cc
   ${CMAKE_CURRENT_LIST_DIR}/frame_source.cc
   ${CMAKE_CURRENT_LIST_DIR}/gphoto2_source.cc
   ${CMAKE_CURRENT_LIST_DIR}/presenter_display.cc
   ${CMAKE_CURRENT_LIST_DIR}/session.cc
 )
-# frame_source.h exposes cv::Mat and nlohmann::json.
+# frame_source.h exposes cv::Mat and nlohmann::json; capture_run.cc checks the patterns shown (pattern/).
 target_link_libraries(curvecheck_capture
   PUBLIC opencv_core nlohmann_json::nlohmann_json
-  PRIVATE opencv_imgproc opencv_imgcodecs opencv_videoio PkgConfig::GPHOTO2)
+  PRIVATE curvecheck_pattern fmt::fmt opencv_imgproc opencv_imgcodecs opencv_videoio PkgConfig::GPHOTO2)
 
 curvecheck_add_test(capture_real_test
   SOURCES

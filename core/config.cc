@@ -191,4 +191,13 @@ std::vector<double> ParseNumberList(const std::string& text, size_t n, const std
   return out;
 }
 
+std::vector<std::string> SplitList(const std::string& text, char separator) {
+  std::vector<std::string> out;
+  std::stringstream parts(text);
+  for (std::string p; std::getline(parts, p, separator);) {
+    if (!p.empty()) out.push_back(p);
+  }
+  return out;
+}
+
 }  // namespace curvecheck

@@ -65,4 +65,7 @@ class ConfigMap {
 // Parses "x,y,z" (spaces allowed) into exactly n finite numbers; throws Error naming `option`.
 std::vector<double> ParseNumberList(const std::string& text, size_t n, const std::string& option);
 
+// The non-empty parts of a list option ("flat,cylinder" -> {"flat", "cylinder"}; "a,,b" -> {"a", "b"}).
+std::vector<std::string> SplitList(const std::string& text, char separator = ',');
+
 }  // namespace curvecheck

@@ -1,10 +1,15 @@
 #include "core/viewing.h"
 
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <cmath>
 
+#include "core/config.h"
+#include "core/error.h"
 #include "core/flip.h"
 #include "core/math_util.h"
+#include "core/monitor_json.h"
 #include "core/screen_geometry.h"
 
 namespace curvecheck {
@@ -80,6 +85,84 @@ double NearestSurfaceDistanceMm(const Monitor& m, const Eigen::Vector3d& o) {
 double ViewerPixelsPerDegree(const Monitor& m, const Eigen::Vector3d& o) {
   CheckViewpoint(m, o, "viewpoint");
   return FlipPixelsPerDegree(NearestSurfaceDistanceMm(m, o), m.pixel_pitch_mm());
+}
+
+std::optional<Eigen::Vector3d> ViewpointFromOptions(const Monitor& monitor, const std::string& viewpoint,
+                                                    const std::optional<double>& distance_mm,
+                                                    const std::optional<std::string>& offset_mm) {
+  std::optional<Eigen::Vector3d> v;
+  std::string option = "--viewpoint";
+  if (distance_mm) {
+    option = "--distance-mm";
+    if (!std::isfinite(*distance_mm) || *distance_mm <= 0) {
+      throw Error("--distance-mm", fmt::format("{} is not a positive distance", *distance_mm),
+                  "give the distance from the screen centre in mm, e.g. --distance-mm 600");
+    }
+    Eigen::Vector2d offset = Eigen::Vector2d::Zero();
+    if (offset_mm) {
+      const std::vector<double> o = ParseNumberList(*offset_mm, 2, "--offset-mm");
+      offset = Eigen::Vector2d(o[0], o[1]);
+    }
+    v = ViewpointFromScreenCentre(monitor, *distance_mm, offset);
+  } else if (!viewpoint.empty()) {
+    const std::vector<double> p = ParseNumberList(viewpoint, 3, "--viewpoint");
+    v = Eigen::Vector3d(p[0], p[1], p[2]);
+  }
+  if (v) CheckViewpoint(monitor, *v, option);
+  return v;
+}
+
+std::string DescribeViewpoint(const Monitor& monitor, const Eigen::Vector3d& v) {
+  return fmt::format("viewpoint ({:g}, {:g}, {:g}) mm (screen frame), {:.1f} mm from the screen centre", v.x(), v.y(),
+                     v.z(), (v - ScreenCentreInScreen(monitor)).norm());
+}
+
+nlohmann::json MonitorInfoJson(const Monitor& m, const std::optional<Eigen::Vector3d>& viewpoint) {
+  nlohmann::json j;
+  j["format"] = "curvecheck.info/1";
+  j["monitor"] = MonitorToJson(m);
+  if (viewpoint) {
+    const ViewingGeometry view = DescribeViewing(m, *viewpoint);
+    j["viewpoint_mm"] = {viewpoint->x(), viewpoint->y(), viewpoint->z()};
+    j["viewing"] = {{"distance_to_centre_mm", view.distance_to_centre_mm},
+                    {"front_clearance_mm", view.front_clearance_mm},
+                    {"horizontal_fov_deg", view.horizontal_fov_deg},
+                    {"vertical_fov_deg", view.vertical_fov_deg},
+                    {"pixels_per_degree_horizontal", view.pixels_per_degree_horizontal},
+                    {"pixels_per_degree_vertical", view.pixels_per_degree_vertical}};
+  }
+  return j;
+}
+
+std::string MonitorInfoText(const Monitor& m, const std::optional<Eigen::Vector3d>& viewpoint) {
+  const double theta_deg = m.half_sector_rad() * kDegPerRad;
+  std::string s = fmt::format("monitor         {}\n", m.name) +
+                  fmt::format("resolution      {} x {} px\n", m.width_px, m.height_px) +
+                  fmt::format("active area     {:.2f} mm wide (along the surface) x {:.2f} mm high\n", m.width_mm,
+                              m.height_mm) +
+                  fmt::format("radius          {}\n", DescribeRadius(m)) +
+                  fmt::format("pixel pitch     {:.4f} mm ({:.1f} px/inch)\n", m.pixel_pitch_mm(),
+                              25.4 / m.pixel_pitch_mm());
+  if (!m.is_flat()) {
+    s += fmt::format("sector          {:.2f} deg (half sector theta = {:.3f} deg)\n", 2 * theta_deg, theta_deg) +
+         fmt::format("chord width     {:.2f} mm between the edges; the edges stand {:.2f} mm in front of the centre\n",
+                     m.chord_width_mm(), m.sagitta_mm());
+  }
+  if (!viewpoint) {
+    return s + "viewpoint       not given (--distance-mm D from the screen centre, or --viewpoint x,y,z in mm, "
+               "screen frame) -> no field of view\n";
+  }
+  const ViewingGeometry view = DescribeViewing(m, *viewpoint);
+  const Eigen::Vector3d rel = *viewpoint - ScreenCentreInScreen(m);
+  return s +
+         fmt::format("viewpoint       ({:g}, {:g}, {:g}) mm; {:.1f} mm from the screen centre (offset {:g}, {:g}, "
+                     "{:g} mm)\n",
+                     viewpoint->x(), viewpoint->y(), viewpoint->z(), view.distance_to_centre_mm, rel.x(), rel.y(),
+                     rel.z()) +
+         fmt::format("field of view   {:.2f} deg horizontal, {:.2f} deg vertical (centre column)\n",
+                     view.horizontal_fov_deg, view.vertical_fov_deg) +
+         fmt::format("at the centre   {:.2f} px/deg horizontal, {:.2f} px/deg vertical\n",
+                     view.pixels_per_degree_horizontal, view.pixels_per_degree_vertical);
 }
 
 }  // namespace curvecheck

@@ -3,6 +3,9 @@
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <string>
 
 #include "core/monitor.h"
 
@@ -35,5 +38,20 @@ double NearestSurfaceDistanceMm(const Monitor& m, const Eigen::Vector3d& viewpoi
 // angle, which holds for viewpoints inside the cylinder sector (the thesis restricts them to it). Throws Error
 // if the viewpoint is invalid.
 double ViewerPixelsPerDegree(const Monitor& m, const Eigen::Vector3d& viewpoint_in_screen);
+
+// The viewpoint in the screen frame from a viewpoint text "x,y,z" (mm) or a distance from the screen centre with an
+// optional offset "X,Y" (ViewpointFromScreenCentre); nullopt when neither is given. Checked (CheckViewpoint),
+// errors naming the option the user gave (--viewpoint, --distance-mm, --offset-mm).
+std::optional<Eigen::Vector3d> ViewpointFromOptions(const Monitor& monitor, const std::string& viewpoint,
+                                                    const std::optional<double>& distance_mm,
+                                                    const std::optional<std::string>& offset_mm);
+
+// "viewpoint (x, y, z) mm (screen frame), D mm from the screen centre": how commands print a viewpoint.
+std::string DescribeViewpoint(const Monitor& monitor, const Eigen::Vector3d& viewpoint_in_screen);
+
+// `curvecheck info`: the monitor's derived geometry and, from a viewpoint, its fields of view and pixel density;
+// as text (one item a line) or as JSON (format curvecheck.info/1).
+std::string MonitorInfoText(const Monitor& m, const std::optional<Eigen::Vector3d>& viewpoint_in_screen);
+nlohmann::json MonitorInfoJson(const Monitor& m, const std::optional<Eigen::Vector3d>& viewpoint_in_screen);
 
 }  // namespace curvecheck

@@ -30,6 +30,9 @@ struct BenchSelfCalibrateOptions {
   int min_photos = 8, max_photos = 12;
   double radius_spread = 0.05;     // relative, uniform
   double focal_seed_error = 0.1;   // relative sigma of the focal seed
+  // When the calibration's precision check fails (FromScreenResult::precise), add the suggested photos and
+  // calibrate again, as a user told by the refusal would.
+  bool follow_advice = true;
   void Check() const;              // throws Error naming the option
 };
 
@@ -38,6 +41,13 @@ struct SelfCalibrationTrial {
   int photos = 0;
   std::string lensmodel, error;  // error: the calibration refused or failed (message)
   double lens_median_px = 0, lens_covered_median_px = 0, lens_covered_max_px = 0;
+  // Over the grid cells that hold detections (CoveredCells), the rotation fitted there: |difference| median and
+  // max, the calibration's own projection sigma (median), the largest Mahalanobis distance of the truth.
+  double cells_median_px = 0, cells_max_px = 0, cells_median_sigma_px = 0, cells_max_mahalanobis = 0;
+  // The first calibration (the drawn photos alone): its precision check, its error over the cells and its median
+  // projection sigma there; `precise` of the final one (after the suggested photos, if any).
+  bool first_precise = true, precise = true;
+  double first_cells_median_px = 0, first_sigma_px = 0;
   double true_radius_mm = 0, radius_mm = 0, radius_sigma_mm = 0;
   bool in_ci95 = false, within_2sigma = false;
   double seconds = 0;
@@ -45,12 +55,14 @@ struct SelfCalibrationTrial {
 
 // Photographs `display` (its pattern.json text in `pattern`) from `positions_in_screen` (mm, each looking at the
 // screen centre, aim jitter in deg) with `scene` (camera already scaled), seeds the focal length with
-// focal_seed_px, calibrates from the screen and compares with the scene's camera and true radius.
+// focal_seed_px, calibrates from the screen (the precision check reported, not refused) and, if the check fails and
+// follow_advice, photographs the suggested positions too and calibrates again; compares with the scene's camera and
+// true radius.
 SelfCalibrationTrial RunSelfCalibrationTrial(const SyntheticScene& scene, const TrialDisplay& display,
                                              const PatternFile& pattern,
                                              const std::vector<Eigen::Vector3d>& positions_in_screen,
                                              double aim_jitter_deg, uint64_t seed, double focal_seed_px,
-                                             const FromScreenOptions& options = {});
+                                             const FromScreenOptions& options = {}, bool follow_advice = true);
 
 // Runs the bench, prints a row per trial and the summary (lens error, coverage with Wilson 95% intervals) to
 // `log`, and writes self_calibrate_trials.csv into `dir` (an existing folder).

@@ -138,6 +138,7 @@ std::vector<std::string> TrialColumns() {
                                 "jitter_aim_x_deg",
                                 "jitter_aim_y_deg",
                                 "jitter_aim_z_deg",
+                                "true_pitch_scale",
                                 "reason",
                                 "verification_verdict",
                                 "features",
@@ -195,6 +196,8 @@ std::vector<std::string> RunTrial(Bench& b, int index, std::string* line) {
   Eigen::Vector3d jitter, aim_deg;
   for (int i = 0; i < 3; ++i) jitter[i] = position_noise(rng);
   for (int i = 0; i < 3; ++i) aim_deg[i] = aim_noise(rng);
+  // Drawn after the pose so that the poses of a seed stay those of the benches before the pitch was drawn.
+  scene.truth.pitch_scale = 1 + std::uniform_real_distribution<double>(-o.pitch_tolerance, o.pitch_tolerance)(rng);
   const Eigen::Vector3d position = placed + jitter;
   const Eigen::Matrix3d looking =
       ScreenFromCamLookAt(placed, centre, Eigen::Vector3d::UnitY()).RotationMatrix();
@@ -304,6 +307,7 @@ std::vector<std::string> RunTrial(Bench& b, int index, std::string* line) {
       std::to_string(seed),     fmt::format("{}x{}", scene.camera.width, scene.camera.height)};
   for (int i = 0; i < 3; ++i) row.push_back(Cell(jitter[i], kDigits));
   for (int i = 0; i < 3; ++i) row.push_back(Cell(aim_deg[i], kDigits));
+  row.push_back(Cell(scene.truth.pitch_scale, 9));
   for (const std::string& c :
        {std::string(TrialOutcomeName(outcome)), verdict, std::to_string(features), chosen,
         Cell(true_radius, kDigits), Cell(radius, kDigits), Cell(sigma, kDigits), Cell(lo, kDigits),
@@ -671,6 +675,10 @@ void BenchValidityOptions::Check() const {
   if (!(jitter_mm >= 0 && jitter_mm <= 100) || !(jitter_deg >= 0 && jitter_deg <= 5)) {
     throw Error("bench validity", "the jitter must be 0..100 mm and 0..5 deg", "");
   }
+  if (!(pitch_tolerance >= 0 && pitch_tolerance <= 0.05)) {
+    throw Error("--pitch-tolerance", fmt::format("{:g} is not a fraction in [0, 0.05]", pitch_tolerance),
+                "give e.g. 0.001 (the analysis's default) or 0 for the datasheet's pitch exactly");
+  }
   shard.Check();
 }
 
@@ -712,14 +720,13 @@ bool RunBenchValidity(const BenchValidityOptions& o, const fs::path& out, std::o
       "{} mm; "
       "yaws {} deg around the screen centre; realism {}; true radius x {}; {}x{} board, exact rendering for "
       "the "
-      "camera's position; camera jitter {:g} mm and {:g} deg per axis (1 sigma); the default analysis (the "
-      "chosen "
-      "model's numbers); {} cells x {} trials = {} trials, shard {}/{} runs {}; seed {} (trial k: seed + "
+      "camera's position; camera jitter {:g} mm and {:g} deg per axis (1 sigma); true pixel pitch the "
+      "datasheet's x (1 + d), d uniform in +-{:g}; the default analysis (the chosen model's numbers); {} cells x {} trials = {} trials, shard {}/{} runs {}; seed {} (trial k: seed + "
       "k)\n",
       o.command_line, machine, o.scene, first.monitor.name, 1 / first.monitor.curvature_per_mm,
       first.camera.lensmodel, first.camera.width, first.camera.height, fmt::join(o.scales, ","),
       fmt::join(o.distances_mm, ","), fmt::join(o.yaws_deg, ","), levels, fmt::join(o.radius_factors, ","),
-      o.cols, o.rows, o.jitter_mm, o.jitter_deg, b.grid.Cells(), o.trials, total, o.shard.index,
+      o.cols, o.rows, o.jitter_mm, o.jitter_deg, o.pitch_tolerance, b.grid.Cells(), o.trials, total, o.shard.index,
       o.shard.count, mine.size(), o.seed);
   log << head << std::flush;
 
@@ -740,6 +747,7 @@ bool RunBenchValidity(const BenchValidityOptions& o, const fs::path& out, std::o
   grid["scene"] = o.scene;
   grid["seed"] = o.seed;
   grid["jitter"] = {{"position_mm", o.jitter_mm}, {"aim_deg", o.jitter_deg}};
+  grid["pitch_tolerance"] = o.pitch_tolerance;
   grid["correct_pixel_locking"] = o.correct_pixel_locking;
   grid["board"] = {o.cols, o.rows};
   json overrides = json::object();

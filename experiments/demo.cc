@@ -2,6 +2,7 @@
 
 #include <fmt/format.h>
 
+#include "analysis/overlay.h"
 #include "analysis/report.h"
 #include "core/error.h"
 #include "core/file_io.h"
@@ -74,7 +75,7 @@ bool RunDemo(const std::filesystem::path& out, std::ostream& log) {
   assets.source = result_json.string();
   std::vector<fs::path> overlays;
   for (size_t i = 0; i < r.photos.size(); ++i) {
-    if (!r.photos[i].used) continue;
+    if (r.OverlaySource(i) < 0) continue;
     std::string png = OverlayPng(r, i);
     overlays.push_back(analysis_dir / OverlayFileName(r.photos[i].name));
     WriteFileAtomic(overlays.back(), png);

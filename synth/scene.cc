@@ -25,7 +25,7 @@ Eigen::Vector3d Vec3(const ConfigMap& c, const std::string& key) {
 
 // true_monitor: starts from the nominal curvature already in `truth`.
 void ReadTrueMonitor(const ConfigMap& t, const Monitor& nominal, TrueMonitor* truth) {
-  t.RejectUnknownKeys({"radius_mm", "translation_mm", "rotation_deg", "lean_deg", "bumps"});
+  t.RejectUnknownKeys({"radius_mm", "translation_mm", "rotation_deg", "lean_deg", "pitch_scale", "bumps"});
   if (t.Has("radius_mm")) {
     truth->curvature_per_mm = t.IsWord("radius_mm", "flat") ? 0.0 : 1.0 / t.PositiveNumber("radius_mm");
   }
@@ -34,6 +34,12 @@ void ReadTrueMonitor(const ConfigMap& t, const Monitor& nominal, TrueMonitor* tr
   if (t.Has("lean_deg")) {
     truth->lean_deg = t.Number("lean_deg");
     if (!(std::abs(truth->lean_deg) < 45)) t.Fail("lean_deg", "is not within +-45 deg", "give the axis tilt in degrees");
+  }
+  if (t.Has("pitch_scale")) {
+    truth->pitch_scale = t.Number("pitch_scale");
+    if (!(std::abs(truth->pitch_scale - 1) <= 0.1)) {
+      t.Fail("pitch_scale", "is not within 0.9-1.1", "give the true pixel pitch over the datasheet's, e.g. 1.001");
+    }
   }
   if (t.Has("bumps")) {
     for (const ConfigMap& b : t.MapList("bumps")) {

@@ -131,8 +131,8 @@ struct SyntheticScene {
 // Reads a scene (format curvecheck.scene/1); relative paths (the camera model) are relative to the scene file.
 //   monitor: PRESET | FILE                      nominal monitor
 //   camera: { model: FILE.cameramodel, position_mm: [x,y,z], look_at_mm: [x,y,z], up: [x,y,z] }
-//   true_monitor: { radius_mm: R | flat, translation_mm, rotation_deg, lean_deg, bumps: [{u, v, sigma_u,
-//                   sigma_v, height_mm}] }      all optional; default: the nominal monitor
+//   true_monitor: { radius_mm: R | flat, translation_mm, rotation_deg, lean_deg, pitch_scale, bumps: [{u, v,
+//                   sigma_u, sigma_v, height_mm}] }      all optional; default: the nominal monitor
 //   display / optics / sensor: the fields of DisplayModel / Optics / Sensor, all optional
 //   imaging: { preset: clean | phone | ilc24 | webcam, then any field of Imaging to override the preset's:
 //              cfa, demosaic, full_well_e, read_noise_e, prnu, raw_bits, tone, jpeg_quality, blur_px, f_number,

@@ -95,6 +95,7 @@ SyntheticBoardSet MakeSyntheticBoardSet(const SyntheticBoardOptions& o) {
   scene.optics.blur = o.blur_px > 0 ? Blur::kGaussian : Blur::kNone;
   scene.optics.blur_px = o.blur_px;
   scene.sensor.noise = o.noise;
+  scene.imaging = o.imaging;
   const double fx = o.camera.intrinsics[0];
   const double board_mm = (o.corners_x + 1) * set.board.square_mm, board_h_mm = (o.corners_y + 1) * set.board.square_mm;
   const int w = o.camera.width, h = o.camera.height;

@@ -15,6 +15,7 @@
 #include "core/camera_model.h"
 #include "core/monitor.h"
 #include "core/pose.h"
+#include "synth/scene.h"
 
 namespace curvecheck {
 
@@ -32,6 +33,9 @@ struct SyntheticBoardOptions {
   double blur_px = 0.8;        // Gaussian optics blur, camera px
   bool noise = true;           // Poisson-Gaussian sensor noise (capture's Sensor defaults)
   int supersample = 3;
+  // The imaging chain (synth/scene.h): the clean monochrome chain by default (blur_px and noise above act); a
+  // realistic preset's chain (its lens misfit, with its lens_seed) photographs the board as it would the monitor.
+  Imaging imaging;
   uint64_t seed = 1;
   void Check() const;
 };

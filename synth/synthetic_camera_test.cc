@@ -277,6 +277,27 @@ TEST(SyntheticCamera, LeanIsAnAxisTiltNotARigidRotation) {
   EXPECT_THAT(truth["true_monitor"]["lean_definition"].get<std::string>(), ::testing::StartsWith("axis tilt"));
 }
 
+// A panel whose true pixel pitch is the datasheet's times (1 + d): every row is an arc of the true radius whose
+// length is the nominal width times (1 + d), every column the nominal height times (1 + d); truth.json says so.
+TEST(SyntheticCamera, PitchScaleScalesThePanelNotItsRadius) {
+  SyntheticScene s = LoadScene(Datasets() / "scenes/default.yaml", {"true_monitor.pitch_scale=1.002"});
+  EXPECT_EQ(s.truth.pitch_scale, 1.002);
+  const double k = s.truth.curvature_per_mm, w = s.monitor.width_mm * 1.002, h = s.monitor.height_mm * 1.002;
+  const Eigen::Vector3d centre = ScreenCentreInScreen(s.monitor);
+  const Eigen::Vector3d axis = centre + Eigen::Vector3d(0, 0, 1 / k);
+  for (double u : {-1.0, 0.5, 1.0}) {
+    const Eigen::Vector3d p = TrueSurfacePointInScreen(s, {u, 0});
+    EXPECT_NEAR((p - axis).norm(), 1 / k, 1e-9) << u;                                  // the true radius
+    EXPECT_NEAR(std::atan2(p.x() - axis.x(), axis.z() - p.z()) / k, 0.5 * u * w, 1e-9) << u;  // arc length
+  }
+  EXPECT_NEAR((TrueSurfacePointInScreen(s, {0, -1}) - TrueSurfacePointInScreen(s, {0, 1})).norm(), h, 1e-9);
+  EXPECT_EQ(TruthJson(s, {})["true_monitor"]["pitch_scale"].get<double>(), 1.002);
+  EXPECT_THAT(testing::MessageOf([&] {
+                LoadScene(Datasets() / "scenes/default.yaml", {"true_monitor.pitch_scale=1.5"});
+              }),
+              ::testing::HasSubstr("pitch_scale"));
+}
+
 // The ray tracer sees the leaned, bumped surface where the truth puts it: a bump on a leaned panel (the
 // deviation along the leaned normal) in a noise-free, blur-free photo, corners checked against the truth.
 TEST(SyntheticCamera, LeanedAndBumpedSurfaceInThePhotoMatchesTheTruth) {

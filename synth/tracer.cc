@@ -19,8 +19,8 @@ namespace {
 class Landing {
  public:
   Landing(const SyntheticScene& s, const Image8& display)
-      : bezel_u_(1 + 2 * s.display.bezel_mm / s.monitor.width_mm),
-        bezel_v_(1 + 2 * s.display.bezel_mm / s.monitor.height_mm),
+      : bezel_u_(1 + 2 * s.display.bezel_mm / (s.monitor.width_mm * s.truth.pitch_scale)),
+        bezel_v_(1 + 2 * s.display.bezel_mm / (s.monitor.height_mm * s.truth.pitch_scale)),
         surface_(s, bezel_v_),
         px_per_u_(0.5 * s.monitor.width_px),
         py_per_v_(0.5 * s.monitor.height_px),
@@ -69,8 +69,8 @@ class ColourTerms {
  public:
   explicit ColourTerms(const SyntheticScene& s)
       : reflection_(s.imaging.reflection),
-        mm_per_u_(0.5 * s.monitor.width_mm),
-        mm_per_v_(0.5 * s.monitor.height_mm),
+        mm_per_u_(0.5 * s.monitor.width_mm * s.truth.pitch_scale),
+        mm_per_v_(0.5 * s.monitor.height_mm * s.truth.pitch_scale),
         u_per_px_(2.0 / s.monitor.width_px),
         v_per_px_(2.0 / s.monitor.height_px) {
     for (int i = 0; i <= kSteps; ++i) {

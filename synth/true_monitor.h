@@ -13,6 +13,7 @@ struct SyntheticScene;
 // The true screen, in its own centre frame (origin at the screen centre, axes as the screen frame's): the point
 // of display position (u, v) is
 //   P(u, v) = C(u) + (-v H / 2) a + DeviationMm(u, v) n(u, v),   a = (0, cos(lambda), sin(lambda)),
+// (W and H the true width and height: the nominal ones times pitch_scale)
 // where C(u) = (sin(k s)/k, 0, (1 - cos(k s))/k) is the arc of the true curvature k in the plane y = 0 at arc
 // length s = u W/2 (C(u) = (s, 0, 0) when flat), lambda = lean_deg, and n is the unit normal of the leaned
 // surface C(u) + w a (dC/du x a, toward the viewer). So every column is a straight segment of the true height
@@ -24,6 +25,9 @@ struct TrueMonitor {
   Eigen::Vector3d translation_mm = Eigen::Vector3d::Zero();  // of the true screen centre in the nominal centre frame
   Eigen::Vector3d rotation_deg = Eigen::Vector3d::Zero();    // rigid, about x, y, z through the centre (applied z y x)
   double lean_deg = 0;  // axis tilt lambda (above); positive moves the top edge toward the viewer; |lambda| < 45
+  // The true pixel pitch over the datasheet's: W and H above are the nominal ones times this (a panel within its
+  // pitch tolerance; the analysis assumes the datasheet's pitch, so it sees the scene scaled by its inverse).
+  double pitch_scale = 1;
   struct Bump {
     double u = 0, v = 0;              // centre in surface coordinates (-1..1)
     double sigma_u = 0.1, sigma_v = 0.1;

@@ -35,8 +35,8 @@ inline double FastAtan(double x) {
 
 TrueGeometry::TrueGeometry(const Monitor& nominal, const TrueMonitor& t) : truth(&t) {
   k = t.curvature_per_mm;
-  half_w = 0.5 * nominal.width_mm;
-  half_h = 0.5 * nominal.height_mm;
+  half_w = 0.5 * nominal.width_mm * t.pitch_scale;
+  half_h = 0.5 * nominal.height_mm * t.pitch_scale;
   const double l = t.lean_deg * kRadPerDeg;
   cos_l = std::cos(l);
   sin_l = std::sin(l);

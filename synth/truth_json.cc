@@ -20,6 +20,7 @@ nlohmann::json TruthJson(const SyntheticScene& s, const std::vector<Feature>& fe
                        {"rotation_deg", {t.rotation_deg.x(), t.rotation_deg.y(), t.rotation_deg.z()}},
                        {"lean_deg", t.lean_deg},
                        {"lean_definition", kLeanDefinition},
+                       {"pitch_scale", t.pitch_scale},
                        {"bumps", bumps}};
   const Eigen::Vector3d& c = s.screen_from_cam.translation;
   nlohmann::json rot = nlohmann::json::array();

@@ -159,26 +159,43 @@ TEST_F(AnalyzeCli, PixelLockingIsEstimatedAndCanBeRemovedBeforeTheFit) {
 }
 
 // Data that does not fit what it claims is flagged, never passed (issue 15): the same photo content twice counts
-// once (a copy under another name: the same sigma as the photo alone), and a model family that cannot fit
-// (`--models flat` on a curved monitor) is inadequate with a warning, its verdict not a pass.
+// once (a copy in another folder under the same file name: the same sigma as the photo alone, yet each photo read
+// has its own overlay, the copy's marked as a duplicate), and a model family that cannot fit (`--models flat` on
+// a curved monitor) is inadequate with a warning, its verdict not a pass.
 TEST_F(AnalyzeCli, DataThatDoesNotFitIsFlaggedNotPassed) {
   const std::string camera = (Dir() / "small.cameramodel").string(), pattern = (Dir() / "exact.json").string();
-  fs::copy_file(Dir() / "photo-exact.png", Dir() / "copy-of-photo.png", fs::copy_options::overwrite_existing);
+  fs::create_directories(Dir() / "copy");
+  fs::copy_file(Dir() / "photo-exact.png", Dir() / "copy" / "photo-exact.png", fs::copy_options::overwrite_existing);
   const fs::path once = Dir() / "out-once", twice = Dir() / "out-twice", flat = Dir() / "out-flat";
   ASSERT_EQ(Curvecheck({"analyze", "--camera", camera, "--pattern", pattern, (Dir() / "photo-exact.png").string(),
                         "-o", once.string(), "--no-report"})
                 .code,
             0);
+  fs::remove_all(twice);
   const CliRun r = Curvecheck({"analyze", "--camera", camera, "--pattern", pattern,
-                               (Dir() / "photo-exact.png").string(), (Dir() / "copy-of-photo.png").string(), "-o",
-                               twice.string(), "--no-report"});
+                               (Dir() / "photo-exact.png").string(), (Dir() / "copy" / "photo-exact.png").string(),
+                               "-o", twice.string(), "--no-report"});
   ASSERT_EQ(r.code, 0) << r.err;
   const nlohmann::json a = Result(once), b = Result(twice);
   EXPECT_EQ(b["inputs"]["photos"][1]["status"], "rejected");
   EXPECT_THAT(b["inputs"]["photos"][1]["reason"].get<std::string>(), HasSubstr("the same image content as"));
+  EXPECT_EQ(b["inputs"]["photos"][1]["name"], "photo-exact-2.png");
+  EXPECT_EQ(b["inputs"]["photos"][1]["duplicate_of"], "photo-exact.png");
   EXPECT_DOUBLE_EQ(b["fit"]["radius_sigma_mm"].get<double>(), a["fit"]["radius_sigma_mm"].get<double>());
   EXPECT_EQ(b["verification"]["features"], a["verification"]["features"]);
   EXPECT_GT(a["verification"]["features"].get<int>(), 100);
+  // The fit uses the content once: one camera, as many fitted features as the photo alone.
+  EXPECT_EQ(b["fit"]["cameras"].size(), 1u);
+  EXPECT_EQ(b["fit"]["cameras"].size(), a["fit"]["cameras"].size());
+  // Two overlays, one per photo read, with distinct names; the copy's is a PNG of its own (its mark differs).
+  size_t overlays = 0;
+  for (const auto& e : fs::directory_iterator(twice)) overlays += e.path().filename().string().rfind("overlay-", 0) == 0;
+  EXPECT_EQ(overlays, 2u);
+  const std::string first = Slurp(twice / "overlay-photo-exact.png"), copy = Slurp(twice / "overlay-photo-exact-2.png");
+  EXPECT_EQ(copy.substr(0, 4), "\x89PNG");
+  EXPECT_GT(copy.size(), first.size() / 2);
+  EXPECT_NE(copy, first);
+  EXPECT_THAT(r.out, HasSubstr("overlay-photo-exact-2.png"));
 
   const CliRun f = Curvecheck({"analyze", "--camera", camera, "--pattern", pattern, "--models", "flat",
                                (Dir() / "photo-exact.png").string(), "-o", flat.string(), "--no-report"});

@@ -1,11 +1,11 @@
-#include "app/output_paths.h"
+#include "core/output_paths.h"
 
 #include <fmt/format.h>
 #include <unistd.h>
 
 #include "core/error.h"
 
-namespace curvecheck::app {
+namespace curvecheck {
 namespace fs = std::filesystem;
 
 namespace {
@@ -100,4 +100,4 @@ OutputFolder::~OutputFolder() {
   }
 }
 
-}  // namespace curvecheck::app
+}  // namespace curvecheck

@@ -11,7 +11,7 @@
 #include "core/file_io.h"
 #include "core/interrupt.h"
 
-namespace curvecheck::app {
+namespace curvecheck {
 
 // Whether `output` is (the same file as) one of `inputs`.
 bool IsAnInput(const std::filesystem::path& output, const std::vector<std::filesystem::path>& inputs);
@@ -53,4 +53,4 @@ class OutputFolder {
   bool keep_ = false;
 };
 
-}  // namespace curvecheck::app
+}  // namespace curvecheck

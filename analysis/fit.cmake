@@ -4,6 +4,9 @@ add_library(curvecheck_analysis_fit STATIC
   ${CMAKE_CURRENT_SOURCE_DIR}/screen_model.cc
   ${CMAKE_CURRENT_SOURCE_DIR}/screen_fit_cost.cc
   ${CMAKE_CURRENT_SOURCE_DIR}/screen_fit.cc
+  ${CMAKE_CURRENT_SOURCE_DIR}/screen_fit_problem.cc
+  ${CMAKE_CURRENT_SOURCE_DIR}/screen_fit_misfit.cc
+  ${CMAKE_CURRENT_SOURCE_DIR}/screen_fit_select.cc
   ${CMAKE_CURRENT_SOURCE_DIR}/screen_fit_surface.cc
   ${CMAKE_CURRENT_SOURCE_DIR}/screen_fit_budget.cc
 )

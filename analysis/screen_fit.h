@@ -233,7 +233,7 @@ struct UncertaintyBudget {
   double misfit_estimate_px = std::numeric_limits<double>::quiet_NaN();
   double misfit_bound_px = std::numeric_limits<double>::quiet_NaN();
   int misfit_pairs = 0;
-  // The misfit field's correlation (EstimateMisfitCorrelation in screen_fit.cc): the residuals' statistic at
+  // The misfit field's correlation (EstimateMisfitCorrelation in screen_fit_misfit.cc): the residuals' statistic at
   // several lags fitted by a stationary Gaussian field of variance misfit_variance_px2 (s^2 per coordinate, its
   // standard error misfit_variance_sd_px2) and correlation length misfit_length_px; what the row propagates.
   // misfit_spacing_px: the median nearest-neighbour distance the lags are counted in. NaN when not computed.

@@ -1,14 +1,18 @@
-// The data-only parts of the screen fit's uncertainty budget (analysis/screen_fit.h): the pixel-locking
-// regression, the coverage factor, the Legendre bias fields and the lens covariance sidecar. The propagation
-// through the fit's linearization lives in screen_fit.cc, beside the problem it linearizes.
+// The screen fit's uncertainty budget (analysis/screen_fit.h): its data-only parts (the pixel-locking regression,
+// the coverage factor, the Legendre and Gaussian bias fields, the lens covariance sidecar), then the budget itself:
+// the fit's linearization and each source propagated through it (analysis/screen_fit_internal.h; the
+// lens-model-misfit row's measurement is in screen_fit_misfit.cc).
 #include <fmt/format.h>
 
 #include <Eigen/Dense>
+#include <array>
 #include <cmath>
+#include <optional>
 #include <random>
 #include <nlohmann/json.hpp>
 
 #include "analysis/screen_fit.h"
+#include "analysis/screen_fit_internal.h"
 #include "core/error.h"
 #include "core/file_io.h"
 
@@ -193,3 +197,433 @@ IntrinsicsCovariance ReadIntrinsicsCovariance(const std::filesystem::path& path,
 }
 
 }  // namespace curvecheck
+
+
+namespace curvecheck::screen_fit_internal {
+namespace {
+
+std::optional<Linearization> Linearize(const Setup& setup, const ModelWork& w, BuiltProblem& b, std::string* note) {
+  State& st = const_cast<State&>(w.state);  // Ceres wants non-const blocks; Evaluate does not change them
+  ceres::Problem::EvaluateOptions eo;
+  eo.residual_blocks = b.blocks;
+  eo.num_threads = 1;
+  std::vector<int> pose_offset(static_cast<size_t>(setup.photos), -1);
+  int t = 0;
+  for (int p = 0; p < setup.photos; ++p) {
+    double* block = st.poses[static_cast<size_t>(p)].data();
+    if (!b.problem->HasParameterBlock(block)) continue;
+    eo.parameter_blocks.push_back(block);
+    pose_offset[static_cast<size_t>(p)] = t;
+    t += 6;  // tangent space: rotation (3), then the position (3)
+  }
+  const int core_offset = t;
+  if (!st.core.empty()) eo.parameter_blocks.push_back(st.core.data()), t += static_cast<int>(st.core.size());
+  if (!st.dev.empty()) eo.parameter_blocks.push_back(st.dev.data()), t += static_cast<int>(st.dev.size());
+  if (!st.intr.empty()) eo.parameter_blocks.push_back(st.intr.data()), t += static_cast<int>(st.intr.size());
+  ceres::CRSMatrix crs;
+  if (!b.problem->Evaluate(eo, nullptr, nullptr, nullptr, &crs)) {
+    *note += "the Jacobian could not be evaluated; ";
+    return std::nullopt;
+  }
+  Eigen::MatrixXd j = Eigen::MatrixXd::Zero(crs.num_rows, crs.num_cols);
+  for (int r = 0; r < crs.num_rows; ++r) {
+    for (int i = crs.rows[static_cast<size_t>(r)]; i < crs.rows[static_cast<size_t>(r) + 1]; ++i) {
+      j(r, crs.cols[static_cast<size_t>(i)]) = crs.values[static_cast<size_t>(i)];
+    }
+  }
+  // Selection of q from the tangent parameters.
+  const int nq = 1 + 3 * setup.photos;
+  Eigen::MatrixXd sel = Eigen::MatrixXd::Zero(nq, t);
+  switch (w.kind) {
+    case ScreenModelKind::kFlat: break;
+    case ScreenModelKind::kVaryingCurvatureQuadratic: sel(0, core_offset + 2) = 1.0 / 3.0; [[fallthrough]];
+    default: sel(0, core_offset) = 1; break;
+  }
+  for (int p = 0; p < setup.photos; ++p) {
+    const int o = pose_offset[static_cast<size_t>(p)];
+    if (o < 0) continue;
+    for (int a = 0; a < 3; ++a) sel(1 + 3 * p + a, o + 3 + a) = 1;
+  }
+  // G = sel (J^T J)^+ J^T through the small normal matrix (t x t; J has thousands of rows). The parameters'
+  // units differ by many orders (radians, mm, 1/mm: a column of the curvature is ~1e6 times a position's), so
+  // the pseudo-inverse is taken of the column-equilibrated normal matrix, (J^T J)^+ = D (D J^T J D)^+ D with D =
+  // diag(1 / |J_c|), dropping directions below 1e-12 of its largest eigenvalue (as the covariance's fallback
+  // does). Without the scaling that cut dropped real, well-determined directions: at 3 m on axis the camera's
+  // lateral position (nearly traded against its yaw) got no share of any correlated error.
+  Eigen::VectorXd scale = j.colwise().norm().transpose();
+  for (long c = 0; c < scale.size(); ++c) scale[c] = scale[c] > 0 ? 1 / scale[c] : 0;
+  const Eigen::MatrixXd js = j * scale.asDiagonal();
+  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(js.transpose() * js);
+  const Eigen::VectorXd ev = eig.eigenvalues();
+  const double cut = 1e-12 * std::max(ev.maxCoeff(), 1e-300);
+  Eigen::VectorXd inv = Eigen::VectorXd::Zero(ev.size());
+  for (long i = 0; i < ev.size(); ++i) inv[i] = ev[i] > cut ? 1 / ev[i] : 0;
+  const Eigen::MatrixXd vs = scale.asDiagonal() * eig.eigenvectors();
+  const Eigen::MatrixXd x = vs * inv.asDiagonal() * (vs.transpose() * sel.transpose());
+  Linearization lin;
+  const Eigen::MatrixXd g_all = x.transpose() * j.transpose();
+  const size_t n_obs = b.obs_index.size();
+  lin.g = g_all.leftCols(static_cast<long>(2 * n_obs));
+  lin.obs = b.obs_index;
+  lin.j_obs = j.topRows(static_cast<long>(2 * n_obs));
+  lin.normal_pinv = vs * inv.asDiagonal() * vs.transpose();
+  return lin;
+}
+
+// Bias fields over the image of RMS `bound_px` per coordinate (Legendre polynomials of total degree <= `degree`,
+// the same field in every photo), propagated through G; the covariance of q over seeded draws. The detector
+// systematic's smooth part and the lens model misfit.
+QuantityVariance SystematicVariance(const Setup& setup, const Linearization& lin, double bound_px,
+                                    const Eigen::MatrixXd& basis) {
+  const FitOptions& o = *setup.options;
+  const int n = static_cast<int>(lin.obs.size()), nq = static_cast<int>(lin.g.rows());
+  const long terms = basis.cols();
+  // A detection bias delta shifts the residual q - detected by -delta, and q by -G (-delta) = G delta.
+  Eigen::MatrixXd gx(nq, n), gy(nq, n);
+  for (int i = 0; i < n; ++i) gx.col(i) = lin.g.col(2 * i), gy.col(i) = lin.g.col(2 * i + 1);
+  const Eigen::MatrixXd mx = gx * basis, my = gy * basis;
+  const Eigen::MatrixXd gram = basis.transpose() * basis;
+  std::mt19937_64 rng(o.systematic_field_seed);
+  std::normal_distribution<double> unit(0, 1);
+  Eigen::MatrixXd cov = Eigen::MatrixXd::Zero(nq, nq);
+  for (int d = 0; d < o.systematic_field_draws; ++d) {
+    Eigen::VectorXd ax(terms), ay(terms);
+    for (long i = 0; i < terms; ++i) ax[i] = unit(rng), ay[i] = unit(rng);
+    const double ms = (ax.dot(gram * ax) + ay.dot(gram * ay)) / (2.0 * n);
+    if (!(ms > 0)) continue;
+    const Eigen::VectorXd dq = (bound_px / std::sqrt(ms)) * (mx * ax + my * ay);
+    cov += dq * dq.transpose();
+  }
+  return QuantityVariance::FromCovariance(cov / o.systematic_field_draws, setup.photos);
+}
+
+// Pixel-locking itself, propagated in its own shape: per coordinate c a bias A_c sin(2 pi phi_i + psi) with phi_i
+// the detection's subpixel phase, A_c the bound (estimate + 2 sigma) and the phase offset psi unknown (uniform):
+// dq = A_c (G s_c cos psi + G c_c sin psi), s_c = sin 2 pi phi, c_c = cos 2 pi phi, whose covariance over psi is
+// A_c^2 / 2 (G s_c s_c^T G^T + G c_c c_c^T G^T). On a regular board the phases beat across the image, so this
+// field is correlated in a way that low-order smooth fields do not represent.
+QuantityVariance PixelLockingVariance(const Setup& setup, const Linearization& lin, const Eigen::Vector2d& bound_px) {
+  constexpr double kTwoPi = 6.283185307179586;
+  const int n = static_cast<int>(lin.obs.size()), nq = static_cast<int>(lin.g.rows());
+  Eigen::MatrixXd cov = Eigen::MatrixXd::Zero(nq, nq);
+  for (int c = 0; c < 2; ++c) {
+    if (!std::isfinite(bound_px[c]) || !(bound_px[c] > 0)) continue;
+    Eigen::VectorXd sv = Eigen::VectorXd::Zero(2 * n), cv = Eigen::VectorXd::Zero(2 * n);
+    for (int i = 0; i < n; ++i) {
+      const double q = setup.obs[lin.obs[static_cast<size_t>(i)]].detected[c];
+      const double phase = kTwoPi * (q - std::floor(q));
+      sv[2 * i + c] = std::sin(phase);
+      cv[2 * i + c] = std::cos(phase);
+    }
+    const Eigen::VectorXd gs = lin.g * sv, gc = lin.g * cv;
+    cov += 0.5 * bound_px[c] * bound_px[c] * (gs * gs.transpose() + gc * gc.transpose());
+  }
+  return QuantityVariance::FromCovariance(cov, setup.photos);
+}
+
+// Lens calibration: dq/d(intrinsics) by central differences of the residuals at the fitted parameters (the
+// linearized refit), then S Sigma S^T.
+QuantityVariance LensVariance(const Setup& setup, const ModelWork& w, const Linearization& lin) {
+  const Eigen::MatrixXd& sigma = setup.options->intrinsics_covariance;
+  const int ni = static_cast<int>(setup.camera->intrinsics.size()), n = static_cast<int>(lin.obs.size());
+  Eigen::MatrixXd s(lin.g.rows(), ni);
+  for (int k = 0; k < ni; ++k) {
+    const double c = setup.camera->intrinsics[static_cast<size_t>(k)];
+    const double h = 1e-6 * std::max(std::abs(c), 1.0);
+    std::array<std::vector<Eigen::Vector2d>, 2> d;
+    for (int side = 0; side < 2; ++side) {
+      CameraModel cam = *setup.camera;
+      cam.intrinsics[static_cast<size_t>(k)] = c + (side == 0 ? h : -h);
+      Setup perturbed = setup;
+      perturbed.camera = &cam;
+      d[static_cast<size_t>(side)] = Residuals(perturbed, w.kind, w.basis.get(), w.state);
+    }
+    // d = detected - q; q moves by -(d+ - d-)/2h per unit; the solution moves by -G dq... = G (d+ - d-)/2h.
+    Eigen::VectorXd dd(2 * n);
+    for (int i = 0; i < n; ++i) {
+      const size_t oi = lin.obs[static_cast<size_t>(i)];
+      const Eigen::Vector2d v = (d[0][oi] - d[1][oi]) / (2 * h);
+      dd[2 * i] = v.allFinite() ? v.x() : 0;
+      dd[2 * i + 1] = v.allFinite() ? v.y() : 0;
+    }
+    s.col(k) = lin.g * dd;
+  }
+  return QuantityVariance::FromCovariance(s * sigma * s.transpose(), setup.photos);
+}
+
+std::string Percent(double relative) { return fmt::format("{:.3g}%", 100 * relative); }
+
+}  // namespace
+
+// The active observations' detected positions, in Linearization order.
+std::vector<Eigen::Vector2d> DetectedPoints(const Setup& setup, const Linearization& lin) {
+  std::vector<Eigen::Vector2d> points;
+  for (size_t i : lin.obs) points.push_back(setup.obs[i].detected);
+  return points;
+}
+
+
+// Builds the budget of one candidate at its final solution and replaces its sigmas by the combined ones (the
+// curvature's, the cameras' centre-frame positions and their covariance with k). Returns the components'
+// variances for FinishBudget, which fills the radius and axis-frame columns once the radius is known.
+std::vector<QuantityVariance> Budget(const Setup& setup, ModelWork& w, BuiltProblem& b, int n_residuals,
+                                     ModelFit* fit) {
+  const FitOptions& o = *setup.options;
+  UncertaintyBudget& bud = fit->budget;
+  bud.coverage_probability = o.coverage_probability;
+  std::vector<QuantityVariance> vars;
+  // 1. Detection noise: the covariance scaled by the residual noise (Covariances).
+  QuantityVariance noise(setup.photos);
+  noise.var_k = fit->curvature_sigma_per_mm * fit->curvature_sigma_per_mm;
+  for (int p = 0; p < setup.photos && static_cast<size_t>(p) < fit->cameras.size(); ++p) {
+    noise.var_pos[static_cast<size_t>(p)] = fit->cameras[static_cast<size_t>(p)].position_in_centre_sigma_mm.cwiseAbs2();
+    noise.cov_pos_k[static_cast<size_t>(p)] = w.position_curvature_cov[static_cast<size_t>(p)];
+  }
+  fit->curvature_noise_sigma_per_mm = fit->curvature_sigma_per_mm;
+  BudgetComponent c_noise;
+  c_noise.name = "detection noise";
+  c_noise.type = "A";
+  c_noise.dof = std::max(1, n_residuals - fit->parameters);
+  c_noise.source = fmt::format(
+      "the fit's covariance (J^T J)^-1 scaled by its residual noise {:.4f} px per coordinate ({} residuals, {} "
+      "parameters)",
+      fit->noise_px, n_residuals, fit->parameters);
+  c_noise.assumption = "independent, isotropic Gaussian detection errors; the residual scatter measures them";
+  bud.components.push_back(c_noise);
+  vars.push_back(noise);
+
+  const std::optional<Linearization> lin = Linearize(setup, w, b, &bud.note);
+  // 2. Detector systematic (pixel-locking and other detector bias).
+  {
+    std::vector<Eigen::Vector2d> det, res;
+    if (lin) {
+      for (size_t i : lin->obs) {
+        det.push_back(setup.obs[i].detected);
+        res.push_back(fit->residual_px[static_cast<size_t>(setup.obs[i].photo)][static_cast<size_t>(setup.obs[i].index)]);
+      }
+    }
+    bud.pixel_locking = EstimatePixelLocking(det, res);
+    const ResidualPixelLocking& pl = bud.pixel_locking;
+    double upper = 0;
+    for (int c = 0; c < 2; ++c) {
+      if (std::isfinite(pl.amplitude_px[c])) upper = std::max(upper, pl.amplitude_px[c] + 2 * pl.sigma_px[c]);
+    }
+    bud.systematic_bound_px = o.smooth_bias_px;
+    bud.systematic_bound_reason = fmt::format(
+        "the stated smooth detector bias FitOptions::smooth_bias_px (type B, not measured); the pixel-locking "
+        "signature's amplitude is its estimate plus 2 sigma, {:.4f} px (x {:.4f} +- {:.4f}, y {:.4f} +- {:.4f} px)",
+        upper, pl.amplitude_px.x(), pl.sigma_px.x(), pl.amplitude_px.y(), pl.sigma_px.y());
+    BudgetComponent c;
+    c.name = "detector systematic";
+    c.type = "B";
+    c.source = fmt::format(
+        "a bias field of RMS b = {:.4f} px per coordinate (b = {}), propagated through the fit's linearization",
+        bud.systematic_bound_px, bud.systematic_bound_reason);
+    c.assumption = fmt::format(
+        "the detector's bias (pixel-locking, moire, corner shape) is smooth across the image and common to every "
+        "photo: Legendre fields of total degree <= {} with independent N(0,1) coefficients per coordinate, each "
+        "scaled to RMS b ({} seeded draws); its standard uncertainty is the RMS effect. Correlated across features, "
+        "unlike the noise row (independent per-feature errors are in that row already); plus, in quadrature, the "
+        "pixel-locking signature in its own shape: A sin(2 pi phase + psi) per coordinate at each detection's "
+        "subpixel phase, A = the estimate + 2 sigma, psi uniform (on a regular board the phases beat across the "
+        "image: a correlated field that smooth fields do not represent)",
+        o.systematic_field_degree, o.systematic_field_draws);
+    bud.components.push_back(c);
+    QuantityVariance v(setup.photos);
+    if (lin && (bud.systematic_bound_px > 0 || upper > 0)) {
+      // Two parts in quadrature: smooth bias fields of RMS b, and the pixel-locking signature in its own shape.
+      Eigen::Vector2d pl_bound = pl.amplitude_px + 2 * pl.sigma_px;
+      const QuantityVariance smooth = SystematicVariance(
+          setup, *lin, bud.systematic_bound_px,
+          LegendreFieldBasis(DetectedPoints(setup, *lin), setup.camera->width, setup.camera->height,
+                             o.systematic_field_degree));
+      const QuantityVariance locking = PixelLockingVariance(setup, *lin, pl_bound);
+      v.var_k = smooth.var_k + locking.var_k;
+      for (int p = 0; p < setup.photos; ++p) {
+        v.var_pos[static_cast<size_t>(p)] = smooth.var_pos[static_cast<size_t>(p)] + locking.var_pos[static_cast<size_t>(p)];
+        v.cov_pos_k[static_cast<size_t>(p)] =
+            smooth.cov_pos_k[static_cast<size_t>(p)] + locking.cov_pos_k[static_cast<size_t>(p)];
+      }
+      bud.pixel_locking_share_curvature_per_mm = std::sqrt(std::max(0.0, locking.var_k));
+      bud.smooth_share_curvature_per_mm = std::sqrt(std::max(0.0, smooth.var_k));
+    }
+    vars.push_back(v);
+  }
+  // 3. Lens calibration.
+  {
+    BudgetComponent c;
+    c.name = "lens calibration";
+    c.type = "A";
+    if (o.fit_intrinsics) {
+      c.source = "none beyond the detection noise row: the intrinsics are estimated jointly with the poses and the "
+                 "screen, so that row's covariance (the joint one, marginalised over the intrinsics) holds the lens's "
+                 "uncertainty";
+      c.assumption = "the lens model is adequate (its misfit is the lens model misfit row)";
+      vars.push_back(QuantityVariance(setup.photos));
+    } else if (o.intrinsics_covariance.size() > 0 && lin) {
+      c.dof = o.intrinsics_covariance_dof;
+      c.source = fmt::format(
+          "the calibration's intrinsics covariance ({}) propagated by the linearized refit: dq/d(intrinsics) from "
+          "central differences of the residuals, times (J^T J)^-1 J^T",
+          o.intrinsics_covariance_source.empty() ? "given" : o.intrinsics_covariance_source);
+      c.assumption = "the calibration's own covariance (mrcal: observed pixel noise times (J^T J)^-1, intrinsics "
+                     "block); linear in the intrinsics; the same lens for every photo";
+      vars.push_back(LensVariance(setup, w, *lin));
+    } else {
+      c.source = "none";
+      c.assumption = o.lens_exact_note;
+      vars.push_back(QuantityVariance(setup.photos));
+    }
+    bud.components.push_back(c);
+  }
+  // 4. Lens model misfit, measured from the residuals' correlation between neighbours.
+  {
+    BudgetComponent c;
+    c.name = "lens model misfit";
+    c.type = "A";
+    QuantityVariance v(setup.photos);
+    if (lin && o.measure_lens_misfit) {
+      std::vector<Eigen::Vector2d> res;
+      for (size_t i : lin->obs) {
+        res.push_back(fit->residual_px[static_cast<size_t>(setup.obs[i].photo)][static_cast<size_t>(setup.obs[i].index)]);
+      }
+      EstimateMisfit(setup, *lin, res, fit->noise_px, &bud, &w.lens_field);
+    }
+    if (!bud.misfit_components.empty()) {
+      std::string lags, parts;
+      for (const UncertaintyBudget::Lag& l : bud.misfit_lags) {
+        lags += fmt::format("{}{:.1f}: {:.3g} (noise {:.3g}, field {:.3g})", lags.empty() ? "" : "; ", l.lag_spacings,
+                            l.statistic_px2, l.noise_share_px2, l.field_share_px2);
+      }
+      double var_sum = 0, dof_denominator = 0;
+      for (const UncertaintyBudget::FieldComponent& f : bud.misfit_components) {
+        parts += fmt::format("{}RMS {:.4f} px per coordinate (variance {:.3g} +- {:.3g} px^2) at a correlation "
+                             "length of {:.0f} px",
+                             parts.empty() ? "" : ", plus ", std::sqrt(f.variance_px2), f.variance_px2,
+                             f.variance_sd_px2, f.length_px);
+        if (!(f.variance_px2 > 0)) continue;
+        const QuantityVariance part = GaussianFieldVariance(setup, *lin, f.variance_px2, f.length_px);
+        v.var_k += part.var_k;
+        for (int p = 0; p < setup.photos; ++p) {
+          v.var_pos[static_cast<size_t>(p)] += part.var_pos[static_cast<size_t>(p)];
+          v.cov_pos_k[static_cast<size_t>(p)] += part.cov_pos_k[static_cast<size_t>(p)];
+        }
+        var_sum += part.var_k;
+        const double ratio = f.variance_sd_px2 > 0 ? f.variance_px2 / f.variance_sd_px2 : kInf;
+        if (std::isfinite(ratio)) dof_denominator += part.var_k * part.var_k / (2 * ratio * ratio);
+      }
+      if (dof_denominator > 0) c.dof = var_sum * var_sum / dof_denominator;
+      c.source = fmt::format(
+          "the residuals' correlation at several lags (in feature spacings of {:.1f} px: mean r_a . r_b / 2 in px^2, "
+          "{}), fitted by Gaussian fields: {}; propagated through the fit's linearization",
+          bud.misfit_spacing_px, lags, parts);
+    } else if (!o.measure_lens_misfit) {
+      c.source = "none: not measured (FitOptions::measure_lens_misfit off; the lens taken as exact beyond its "
+                 "calibration)";
+    } else {
+      c.source = "not measurable here (too few features or pairs)";
+    }
+    c.assumption = fmt::format(
+        "the true lens departs from its model by a stationary Gaussian field over the image (covariance s^2 "
+        "exp(-d^2 / 2 L^2), {} random Fourier features), independent per coordinate and common to every photo; "
+        "s and L are those that reproduce the residuals' correlation at 1 to 24 feature spacings after the fit "
+        "(the part the fit absorbs into the poses and the screen is inferred from the part it leaves, in the same "
+        "family). Any other error correlated between features (detector bias that varies with the image position, "
+        "moire) is measured here too, so it may be counted twice with the detector row: conservative. Degrees of "
+        "freedom 2 (s^2 / u(s^2))^2",
+        o.misfit_features);
+    bud.components.push_back(c);
+    vars.push_back(v);
+  }
+  // 5. Pixel pitch: the scene scales with the pitch (R and every position proportional to it, k inversely).
+  {
+    const double u = o.pitch_tolerance_relative / std::sqrt(3.0);
+    QuantityVariance v(setup.photos);
+    const double k = fit->curvature_per_mm;
+    v.var_k = k * k * u * u;
+    for (int p = 0; p < setup.photos && static_cast<size_t>(p) < fit->cameras.size(); ++p) {
+      const Eigen::Vector3d c = fit->cameras[static_cast<size_t>(p)].centre_from_cam.translation;
+      v.var_pos[static_cast<size_t>(p)] = c.cwiseAbs2() * u * u;
+      v.cov_pos_k[static_cast<size_t>(p)] = -c * k * u * u;
+    }
+    BudgetComponent c;
+    c.name = "pixel pitch";
+    c.type = "B";
+    c.source = fmt::format("the datasheet's pixel pitch {:.5f} mm with a tolerance of +-{} (rectangular: u = {}/sqrt(3) "
+                           "= {})",
+                           setup.nominal->pixel_pitch_mm(), Percent(o.pitch_tolerance_relative),
+                           Percent(o.pitch_tolerance_relative), Percent(u));
+    c.assumption = "scale is not observable from photos: R and the distances scale with the pitch, u(R)/R = u(p)/p";
+    bud.components.push_back(c);
+    vars.push_back(v);
+  }
+  // Combined, fully in quadrature (the sources are independent; within a source the correlation of k with the
+  // positions is kept).
+  QuantityVariance total(setup.photos);
+  for (const QuantityVariance& v : vars) {
+    total.var_k += v.var_k;
+    for (int p = 0; p < setup.photos; ++p) {
+      total.var_pos[static_cast<size_t>(p)] += v.var_pos[static_cast<size_t>(p)];
+      total.cov_pos_k[static_cast<size_t>(p)] += v.cov_pos_k[static_cast<size_t>(p)];
+    }
+  }
+  // Welch-Satterthwaite on u(k).
+  double denom = 0;
+  for (size_t i = 0; i < vars.size(); ++i) {
+    if (std::isfinite(bud.components[i].dof)) denom += vars[i].var_k * vars[i].var_k / bud.components[i].dof;
+  }
+  bud.effective_dof = denom > 0 ? total.var_k * total.var_k / denom : kInf;
+  bud.coverage_factor = StudentTCoverageFactor(o.coverage_probability, std::max(1.0, bud.effective_dof));
+  bud.computed = true;
+  vars.push_back(total);
+  fit->curvature_sigma_per_mm = std::sqrt(std::max(0.0, total.var_k));
+  for (int p = 0; p < setup.photos && static_cast<size_t>(p) < fit->cameras.size(); ++p) {
+    fit->cameras[static_cast<size_t>(p)].position_in_centre_sigma_mm =
+        total.var_pos[static_cast<size_t>(p)].cwiseMax(0.0).cwiseSqrt();
+    w.position_curvature_cov[static_cast<size_t>(p)] = total.cov_pos_k[static_cast<size_t>(p)];
+  }
+  return vars;
+}
+
+// The radius and first-camera columns of each row, once the radius is known (RadiusFromCurvature); vars from
+// Budget, the combined last. The dominant row is the largest u(k) (and, per axis, the largest position u).
+void FinishBudget(const std::vector<QuantityVariance>& vars, ModelFit* fit) {
+  UncertaintyBudget& bud = fit->budget;
+  if (!bud.computed) return;
+  const double k = fit->curvature_per_mm;
+  const bool radius = fit->radius_mm.has_value();
+  const auto fill = [&](const QuantityVariance& v, BudgetComponent* c) {
+    c->curvature_per_mm = std::sqrt(std::max(0.0, v.var_k));
+    c->radius_mm = radius ? c->curvature_per_mm / (k * k) : kNaN;
+    if (v.var_pos.empty()) return;
+    c->position_in_centre_mm = v.var_pos[0].cwiseMax(0.0).cwiseSqrt();
+    c->position_in_axis_mm = c->position_in_centre_mm;
+    if (radius) {
+      // z_axis = c_z - 1/k: var = var(c_z) + var(k)/k^4 + 2 cov(c_z, k)/k^2.
+      const double k2 = k * k;
+      c->position_in_axis_mm.z() =
+          std::sqrt(std::max(0.0, v.var_pos[0].z() + v.var_k / (k2 * k2) + 2 * v.cov_pos_k[0].z() / k2));
+    }
+  };
+  for (size_t i = 0; i < bud.components.size(); ++i) fill(vars[i], &bud.components[i]);
+  bud.combined.name = "combined";
+  bud.combined.type = "";
+  bud.combined.dof = bud.effective_dof;
+  bud.combined.source = "quadrature sum of the rows";
+  bud.combined.assumption = "the sources are independent of one another";
+  fill(vars.back(), &bud.combined);
+  size_t best = 0;
+  for (size_t i = 1; i < bud.components.size(); ++i) {
+    if (bud.components[i].curvature_per_mm > bud.components[best].curvature_per_mm) best = i;
+  }
+  bud.dominant = bud.components[best].name;
+  for (int a = 0; a < 3; ++a) {
+    size_t bp = 0;
+    for (size_t i = 1; i < bud.components.size(); ++i) {
+      if (bud.components[i].position_in_axis_mm[a] > bud.components[bp].position_in_axis_mm[a]) bp = i;
+    }
+    bud.dominant_position[static_cast<size_t>(a)] = bud.components[bp].name;
+  }
+}
+
+}  // namespace curvecheck::screen_fit_internal

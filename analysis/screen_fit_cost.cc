@@ -9,14 +9,21 @@ namespace {
 
 constexpr int kPoseSize = 7;
 constexpr int kMaxCore = 3;
-using Jet = ceres::Jet<double, kPoseSize + kMaxCore>;
+using CoreJet = ceres::Jet<double, kMaxCore>;  // the surface point's dependence on the core shape
+using RotJet = ceres::Jet<double, 4>;          // the rotation's dependence on the quaternion (x, y, z, w)
 
 }  // namespace
 
 ReprojectionCost::ReprojectionCost(const CameraModel* camera, ScreenModelKind kind, double s_mm, double y_mm,
                                    double half_width_mm, const Eigen::Vector2d& detected_px,
                                    Eigen::VectorXd deviation_weights, bool free_intrinsics)
-    : camera_(camera),
+    : ReprojectionCost(PointProjector(*camera), kind, s_mm, y_mm, half_width_mm, detected_px,
+                       std::move(deviation_weights), free_intrinsics) {}
+
+ReprojectionCost::ReprojectionCost(const PointProjector& projector, ScreenModelKind kind, double s_mm, double y_mm,
+                                   double half_width_mm, const Eigen::Vector2d& detected_px,
+                                   Eigen::VectorXd deviation_weights, bool free_intrinsics)
+    : projector_(projector),
       kind_(kind),
       s_mm_(s_mm),
       y_mm_(y_mm),
@@ -24,7 +31,7 @@ ReprojectionCost::ReprojectionCost(const CameraModel* camera, ScreenModelKind ki
       detected_px_(detected_px),
       w_(std::move(deviation_weights)),
       n_core_(CoreParameterCount(kind)),
-      n_intrinsics_(free_intrinsics ? static_cast<int>(camera->intrinsics.size()) : 0) {
+      n_intrinsics_(free_intrinsics ? static_cast<int>(projector.model().intrinsics.size()) : 0) {
   set_num_residuals(2);
   mutable_parameter_block_sizes()->push_back(kPoseSize);
   if (n_core_ > 0) mutable_parameter_block_sizes()->push_back(n_core_);
@@ -32,13 +39,8 @@ ReprojectionCost::ReprojectionCost(const CameraModel* camera, ScreenModelKind ki
   if (n_intrinsics_ > 0) mutable_parameter_block_sizes()->push_back(n_intrinsics_);
 }
 
-CameraModel ReprojectionCost::Camera(double const* const* parameters) const {
-  CameraModel cam = *camera_;
-  if (n_intrinsics_ > 0) {
-    const double* intr = parameters[1 + (n_core_ > 0 ? 1 : 0) + (w_.size() > 0 ? 1 : 0)];
-    cam.intrinsics.assign(intr, intr + n_intrinsics_);
-  }
-  return cam;
+const double* ReprojectionCost::Intrinsics(double const* const* parameters) const {
+  return n_intrinsics_ > 0 ? parameters[1 + (n_core_ > 0 ? 1 : 0) + (w_.size() > 0 ? 1 : 0)] : nullptr;
 }
 
 bool ReprojectionCost::PredictWithNormal(double const* const* parameters, Eigen::Vector2d* q_px,
@@ -55,73 +57,87 @@ bool ReprojectionCost::PredictWithNormal(double const* const* parameters, Eigen:
   const Eigen::Matrix3d cam_from_centre = q.toRotationMatrix().transpose();
   const Eigen::Vector3d x = cam_from_centre * (p - Eigen::Vector3d(pose[4], pose[5], pose[6]));
   if (!(x.z() > 0)) return false;
-  std::vector<Eigen::Matrix<double, 2, 3>> dq_dx;
-  *q_px = ProjectPoints(Camera(parameters), {x}, &dq_dx).front();
-  if (dq_dnormal) *dq_dnormal = dq_dx.front() * (cam_from_centre * n);
+  Eigen::Matrix<double, 2, 3> dq_dx;
+  *q_px = projector_.Project(x, &dq_dx, Intrinsics(parameters));
+  if (dq_dnormal) *dq_dnormal = dq_dx * (cam_from_centre * n);
   return q_px->allFinite();
 }
 
 bool ReprojectionCost::Evaluate(double const* const* parameters, double* residuals, double** jacobians) const {
-  const bool want_jacobians = jacobians != nullptr;
   const double* pose = parameters[0];
-  Jet pj[kPoseSize];
-  for (int i = 0; i < kPoseSize; ++i) pj[i] = Jet(pose[i], i);
-  Jet core[kMaxCore];
-  for (int i = 0; i < n_core_; ++i) core[i] = Jet(parameters[1][i], kPoseSize + i);
   const bool deviated = w_.size() > 0;
-  Eigen::Matrix<Jet, 3, 1> n;
-  Eigen::Matrix<Jet, 3, 1> p = CoreScreenPoint<Jet>(kind_, core, s_mm_, y_mm_, half_width_mm_, deviated ? &n : nullptr);
   const double* z = deviated ? parameters[n_core_ > 0 ? 2 : 1] : nullptr;
-  if (deviated) {
-    const double d = w_.dot(Eigen::Map<const Eigen::VectorXd>(z, w_.size()));
-    p += n * Jet(d);
+  const double d = deviated ? w_.dot(Eigen::Map<const Eigen::VectorXd>(z, w_.size())) : 0.0;
+  const Eigen::Vector3d c(pose[4], pose[5], pose[6]);
+  if (jacobians == nullptr) {
+    // The cost only: plain doubles, the same formulas as below.
+    double core[kMaxCore] = {0, 0, 0};
+    for (int i = 0; i < n_core_; ++i) core[i] = parameters[1][i];
+    Eigen::Vector3d n;
+    Eigen::Vector3d p = CoreScreenPoint<double>(kind_, core, s_mm_, y_mm_, half_width_mm_, deviated ? &n : nullptr);
+    if (deviated) p += n * d;
+    // Normalized here, so that the function is defined off the unit sphere too (numeric differentiation steps
+    // there); on it, the derivative along q is then zero, which the manifold's Plus never uses.
+    Eigen::Quaterniond q(pose[3], pose[0], pose[1], pose[2]);
+    q.coeffs() /= std::sqrt(q.coeffs().squaredNorm());
+    const Eigen::Vector3d x = q.toRotationMatrix().transpose() * (p - c);
+    if (!(x.z() > 0)) return false;
+    const Eigen::Vector2d qpx = projector_.Project(x, nullptr, Intrinsics(parameters));
+    if (!qpx.allFinite()) return false;
+    residuals[0] = qpx.x() - detected_px_.x();
+    residuals[1] = qpx.y() - detected_px_.y();
+    return true;
   }
-  // Normalized here, so that the function is defined off the unit sphere too (numeric differentiation steps
-  // there); on it, the derivative along q is then zero, which the manifold's Plus never uses.
-  Eigen::Quaternion<Jet> q(pj[3], pj[0], pj[1], pj[2]);
+  CoreJet core[kMaxCore];
+  for (int i = 0; i < n_core_; ++i) core[i] = CoreJet(parameters[1][i], i);
+  Eigen::Matrix<CoreJet, 3, 1> n;
+  Eigen::Matrix<CoreJet, 3, 1> p =
+      CoreScreenPoint<CoreJet>(kind_, core, s_mm_, y_mm_, half_width_mm_, deviated ? &n : nullptr);
+  if (deviated) p += n * CoreJet(d);
+  RotJet qj[4];
+  for (int i = 0; i < 4; ++i) qj[i] = RotJet(pose[i], i);
+  Eigen::Quaternion<RotJet> q(qj[3], qj[0], qj[1], qj[2]);
   q.coeffs() /= sqrt(q.coeffs().squaredNorm());
-  const Eigen::Matrix<Jet, 3, 3> cam_from_centre = q.toRotationMatrix().transpose();
-  const Eigen::Matrix<Jet, 3, 1> x = cam_from_centre * (p - Eigen::Matrix<Jet, 3, 1>(pj[4], pj[5], pj[6]));
+  const Eigen::Matrix<RotJet, 3, 3> cam_from_centre = q.toRotationMatrix().transpose();
+  const Eigen::Vector3d offset(p[0].a - c.x(), p[1].a - c.y(), p[2].a - c.z());
+  const Eigen::Matrix<RotJet, 3, 1> x = cam_from_centre * offset.cast<RotJet>();
   const Eigen::Vector3d x0(x[0].a, x[1].a, x[2].a);
   if (!(x0.z() > 0)) return false;
-  std::vector<Eigen::Matrix<double, 2, 3>> dq_dx;
-  std::vector<Eigen::Matrix<double, 2, Eigen::Dynamic>> dq_di;
+  // With free intrinsics, libmrcal writes dq/dintrinsics (2 x n, row-major) straight into their Jacobian block.
   const int intr_block = 1 + (n_core_ > 0 ? 1 : 0) + (deviated ? 1 : 0);
-  const bool want_di = want_jacobians && n_intrinsics_ > 0 && jacobians[intr_block] != nullptr;
-  const Eigen::Vector2d qpx =
-      ProjectPoints(Camera(parameters), {x0}, want_jacobians ? &dq_dx : nullptr, want_di ? &dq_di : nullptr).front();
+  double* dq_di = n_intrinsics_ > 0 ? jacobians[intr_block] : nullptr;
+  Eigen::Matrix<double, 2, 3> dq_dx;
+  const Eigen::Vector2d qpx = projector_.Project(x0, &dq_dx, Intrinsics(parameters), dq_di);
   if (!qpx.allFinite()) return false;
   residuals[0] = qpx.x() - detected_px_.x();
   residuals[1] = qpx.y() - detected_px_.y();
-  if (!want_jacobians) return true;
-  Eigen::Matrix<double, 3, kPoseSize + kMaxCore> dx_dp;
-  for (int r = 0; r < 3; ++r) dx_dp.row(r) = x[r].v.transpose();
-  const Eigen::Matrix<double, 2, kPoseSize + kMaxCore> j = dq_dx.front() * dx_dp;
+  Eigen::Matrix3d r0;
+  for (int a = 0; a < 3; ++a) {
+    for (int b = 0; b < 3; ++b) r0(a, b) = cam_from_centre(a, b).a;
+  }
+  const Eigen::Matrix<double, 2, 3> dq_dp = dq_dx * r0;  // per mm of the surface point, centre frame
   if (jacobians[0]) {
+    Eigen::Matrix<double, 3, 4> dx_dq;
+    for (int r = 0; r < 3; ++r) dx_dq.row(r) = x[r].v.transpose();
     Eigen::Map<Eigen::Matrix<double, 2, kPoseSize, Eigen::RowMajor>> jac(jacobians[0]);
-    jac = j.leftCols<kPoseSize>();
+    jac.leftCols<4>() = dq_dx * dx_dq;
+    jac.rightCols<3>() = -dq_dp;
   }
   int block = 1;
   if (n_core_ > 0) {
     if (jacobians[block]) {
+      Eigen::Matrix<double, 3, kMaxCore> dp_dcore;
+      for (int r = 0; r < 3; ++r) dp_dcore.row(r) = p[r].v.transpose();
       Eigen::Map<Eigen::Matrix<double, 2, Eigen::Dynamic, Eigen::RowMajor>>(jacobians[block], 2, n_core_) =
-          j.middleCols(kPoseSize, n_core_);
+          (dq_dp * dp_dcore).leftCols(n_core_);
     }
     ++block;
   }
   if (deviated && jacobians[block]) {
-    Eigen::Matrix3d r0;
-    for (int a = 0; a < 3; ++a) {
-      for (int b = 0; b < 3; ++b) r0(a, b) = cam_from_centre(a, b).a;
-    }
     const Eigen::Vector3d n0(n[0].a, n[1].a, n[2].a);
-    const Eigen::Vector2d dq_dd = dq_dx.front() * (r0 * n0);
+    const Eigen::Vector2d dq_dd = dq_dp * n0;
     Eigen::Map<Eigen::Matrix<double, 2, Eigen::Dynamic, Eigen::RowMajor>>(jacobians[block], 2, w_.size()) =
         dq_dd * w_.transpose();
-  }
-  if (want_di) {
-    Eigen::Map<Eigen::Matrix<double, 2, Eigen::Dynamic, Eigen::RowMajor>>(jacobians[intr_block], 2, n_intrinsics_) =
-        dq_di.front();
   }
   return true;
 }

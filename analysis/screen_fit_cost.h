@@ -2,11 +2,13 @@
 //
 //   r = q(X) - q_detected   (px),   X = centre_from_cam^T (P(s, y; shape) + d(u, v) n(s) - c)
 //
-// q: the mrcal lens model through libmrcal (core/camera_model.h ProjectPoints), whose gradient dq/dX is exact;
+// q: the mrcal lens model through libmrcal (core/camera_model.h PointProjector), whose gradient dq/dX is exact;
 // P, n: CoreScreenPoint (analysis/screen_model.h); d = w . z the deviation field (cylinder+deviation only);
 // centre_from_cam: unit quaternion (Eigen order x, y, z, w), c: the camera position in the centre frame (mm).
-// The chain rule dr/dparams = dq/dX dX/dparams uses Ceres Jets for dX/d(pose, core shape) and the closed form
-// dX/dz = centre_from_cam^T n w^T for the (linear) deviation coefficients.
+// The chain rule dr/dparams = dq/dX dX/dparams uses Ceres Jets for the rotation's dependence on the quaternion
+// (4 values) and for the surface point's on the core shape (up to 3), and closed forms for the rest:
+// dX/dc = -centre_from_cam^T, dX/dshape = centre_from_cam^T dP/dshape and dX/dz = centre_from_cam^T n w^T for the
+// (linear) deviation coefficients. Without Jacobians (Ceres's cost-only evaluations) it runs in plain doubles.
 //
 // Parameter blocks, in order: pose (7: quaternion, then c), core shape (CoreParameterCount values; absent when
 // 0), deviation coefficients (w.size(); absent when empty), the lens intrinsics (camera->intrinsics.size(), in
@@ -30,6 +32,11 @@ class ReprojectionCost final : public ceres::CostFunction {
   ReprojectionCost(const CameraModel* camera, ScreenModelKind kind, double s_mm, double y_mm, double half_width_mm,
                    const Eigen::Vector2d& detected_px, Eigen::VectorXd deviation_weights = {},
                    bool free_intrinsics = false);
+  // The same with the camera's projector shared among many costs (its lens model parsed once; with free
+  // intrinsics, projector.model() seeds only their count: the values come from the intrinsics block).
+  ReprojectionCost(const PointProjector& projector, ScreenModelKind kind, double s_mm, double y_mm,
+                   double half_width_mm, const Eigen::Vector2d& detected_px, Eigen::VectorXd deviation_weights = {},
+                   bool free_intrinsics = false);
 
   bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override;
 
@@ -38,7 +45,7 @@ class ReprojectionCost final : public ceres::CostFunction {
   bool PredictWithNormal(double const* const* parameters, Eigen::Vector2d* q_px, Eigen::Vector2d* dq_dnormal) const;
 
  private:
-  const CameraModel* camera_;
+  PointProjector projector_;
   ScreenModelKind kind_;
   double s_mm_, y_mm_, half_width_mm_;
   Eigen::Vector2d detected_px_;
@@ -46,8 +53,8 @@ class ReprojectionCost final : public ceres::CostFunction {
   int n_core_;
   int n_intrinsics_ = 0;  // > 0: the intrinsics are the last parameter block
 
-  // The camera to project with: *camera_, or a copy with the intrinsics block's values.
-  CameraModel Camera(double const* const* parameters) const;
+  // The intrinsics to project with: the intrinsics block's values, or nullptr (the projector's model's) when fixed.
+  const double* Intrinsics(double const* const* parameters) const;
 };
 
 // Zero-mean Gaussian prior on a block of n coefficients: r = z * (noise_px / prior_sigma), so that the residual

@@ -82,38 +82,80 @@ TEST(ReprojectionCostTest, AnalyticJacobianMatchesNumericForEveryModel) {
   EXPECT_EQ(probes, 30);
 }
 
-// With free intrinsics (the calibration from the screen), the intrinsics block's Jacobian is libmrcal's
-// dq/dintrinsics: checked against numeric differentiation with the other blocks, for the cylinder through OPENCV8.
-TEST(ReprojectionCostTest, FreeIntrinsicsJacobianMatchesNumeric) {
+// With free intrinsics (the calibration from the screen), the intrinsics are the last block and q uses its values
+// (not the camera's): every block's Jacobian, the intrinsics' being libmrcal's dq/dintrinsics written straight into
+// Ceres's block, is checked against numeric differentiation of the cost-only evaluation (plain doubles), for every
+// screen model through OPENCV8 with every intrinsic perturbed; the residual equals that of a cost with fixed
+// intrinsics on a camera holding the block's values; and a projector shared among costs gives the same numbers.
+TEST(ReprojectionCostTest, FreeIntrinsicsJacobianMatchesNumericForEveryModel) {
   const CameraModel camera = DefaultCamera();
   const Monitor m = LoadMonitor(kDefaultMonitorPreset);
+  const DeviationBasis basis(m, m.curvature_per_mm, 9, 5);
+  const PointProjector projector(camera);
   ceres::ProductManifold<ceres::EigenQuaternionManifold, ceres::EuclideanManifold<3>> pose_manifold{
       ceres::EigenQuaternionManifold(), ceres::EuclideanManifold<3>()};
   std::mt19937_64 rng(11);
   std::uniform_real_distribution<double> unit(-1, 1);
-  for (int trial = 0; trial < 5; ++trial) {
-    const Eigen::Vector2d uv(0.9 * unit(rng), 0.9 * unit(rng));
-    const ReprojectionCost cost(&camera, ScreenModelKind::kCylinder, 0.5 * uv.x() * m.width_mm,
-                                -0.5 * uv.y() * m.height_mm, 0.5 * m.width_mm, Eigen::Vector2d(3000, 2000), {}, true);
-    ASSERT_EQ(cost.parameter_block_sizes().size(), 3u);
-    const Eigen::Quaterniond q(Eigen::AngleAxisd(M_PI + 0.05 * unit(rng), Eigen::Vector3d::UnitX()));
-    double pose[7] = {q.x(), q.y(), q.z(), q.w(), 30 * unit(rng), 20 * unit(rng), 1500};
-    double core[1] = {1e-3};
-    std::vector<double> intr = camera.intrinsics;
-    intr[0] *= 1 + 0.05 * unit(rng);
-    std::vector<const double*> params = {pose, core, intr.data()};
-    std::vector<const ceres::Manifold*> manifolds = {&pose_manifold, nullptr, nullptr};
-    ceres::NumericDiffOptions nd;
-    nd.relative_step_size = 1e-7;
-    nd.ridders_relative_initial_step_size = 1e-4;
-    const ceres::GradientChecker checker(&cost, &manifolds, nd);
-    ceres::GradientChecker::ProbeResults results;
-    EXPECT_TRUE(checker.Probe(params.data(), 1e-2, &results)) << results.error_log;
-    const double scale = results.local_jacobians[2].cwiseAbs().maxCoeff();
-    const double diff = (results.local_jacobians[2] - results.local_numeric_jacobians[2]).cwiseAbs().maxCoeff();
-    EXPECT_GT(scale, 0);
-    EXPECT_LT(diff, 1e-6 * scale);
+  int probes = 0;
+  for (ScreenModelKind kind : AllScreenModels()) {
+    for (int trial = 0; trial < 3; ++trial) {
+      const Eigen::Vector2d uv(0.9 * unit(rng), 0.9 * unit(rng));
+      const double s = 0.5 * uv.x() * m.width_mm, y = -0.5 * uv.y() * m.height_mm;
+      Eigen::VectorXd w;
+      if (kind == ScreenModelKind::kCylinderDeviation) w = basis.Weights(uv);
+      const Eigen::Vector2d detected(3000, 2000);
+      const ReprojectionCost cost(&camera, kind, s, y, 0.5 * m.width_mm, detected, w, true);
+      const ReprojectionCost shared(projector, kind, s, y, 0.5 * m.width_mm, detected, w, true);
+      const Eigen::Quaterniond q(Eigen::AngleAxisd(M_PI + 0.05 * unit(rng), Eigen::Vector3d::UnitX()) *
+                                 Eigen::AngleAxisd(0.05 * unit(rng), Eigen::Vector3d::UnitY()));
+      double pose[7] = {q.x(), q.y(), q.z(), q.w(), 30 * unit(rng), 20 * unit(rng), 1500 + 50 * unit(rng)};
+      double core[3] = {1e-3 * (1 + 0.2 * unit(rng)), 0.02 * unit(rng), 2e-4 * unit(rng)};
+      std::vector<double> dev(static_cast<size_t>(w.size()));
+      for (double& d : dev) d = unit(rng);
+      CameraModel moved = camera;  // every intrinsic off the camera's: fx, fy, cx, cy by 2%, distortions by 10%
+      for (size_t i = 0; i < moved.intrinsics.size(); ++i) {
+        moved.intrinsics[i] = i < 4 ? moved.intrinsics[i] * (1 + 0.02 * unit(rng))
+                                    : moved.intrinsics[i] * (1 + 0.1 * unit(rng)) + 1e-4 * unit(rng);
+      }
+      std::vector<const double*> params = {pose};
+      std::vector<const ceres::Manifold*> manifolds = {&pose_manifold};
+      if (CoreParameterCount(kind) > 0) params.push_back(core), manifolds.push_back(nullptr);
+      if (!dev.empty()) params.push_back(dev.data()), manifolds.push_back(nullptr);
+      const ReprojectionCost fixed(&moved, kind, s, y, 0.5 * m.width_mm, detected, w);
+      double r_fixed[2];
+      ASSERT_TRUE(fixed.Evaluate(params.data(), r_fixed, nullptr)) << ScreenModelName(kind);
+      params.push_back(moved.intrinsics.data());
+      manifolds.push_back(nullptr);
+      ASSERT_EQ(cost.parameter_block_sizes().size(), params.size());
+      ASSERT_EQ(cost.parameter_block_sizes().back(), static_cast<int>(camera.intrinsics.size()));
+      double r[2], r_shared[2];
+      ASSERT_TRUE(cost.Evaluate(params.data(), r, nullptr)) << ScreenModelName(kind);
+      ASSERT_TRUE(shared.Evaluate(params.data(), r_shared, nullptr)) << ScreenModelName(kind);
+      EXPECT_EQ(r[0], r_fixed[0]) << ScreenModelName(kind);
+      EXPECT_EQ(r[1], r_fixed[1]) << ScreenModelName(kind);
+      EXPECT_EQ(r[0], r_shared[0]) << ScreenModelName(kind);
+      EXPECT_EQ(r[1], r_shared[1]) << ScreenModelName(kind);
+      Eigen::Vector2d q_px, dq_dn;
+      ASSERT_TRUE(cost.PredictWithNormal(params.data(), &q_px, &dq_dn)) << ScreenModelName(kind);
+      EXPECT_NEAR(q_px.x() - detected.x(), r[0], 1e-9) << ScreenModelName(kind);
+      EXPECT_NEAR(q_px.y() - detected.y(), r[1], 1e-9) << ScreenModelName(kind);
+      ceres::NumericDiffOptions nd;
+      nd.relative_step_size = 1e-7;
+      nd.ridders_relative_initial_step_size = 1e-4;
+      const ceres::GradientChecker checker(&cost, &manifolds, nd);
+      ceres::GradientChecker::ProbeResults results;
+      EXPECT_TRUE(checker.Probe(params.data(), 1e-2, &results)) << ScreenModelName(kind) << ": " << results.error_log;
+      ASSERT_EQ(results.local_jacobians.size(), params.size());
+      for (size_t b = 0; b < params.size(); ++b) {
+        const double scale = results.local_jacobians[b].cwiseAbs().maxCoeff();
+        const double diff = (results.local_jacobians[b] - results.local_numeric_jacobians[b]).cwiseAbs().maxCoeff();
+        EXPECT_GT(scale, 0) << ScreenModelName(kind) << " block " << b;
+        EXPECT_LT(diff, 1e-6 * scale) << ScreenModelName(kind) << " block " << b;
+      }
+      ++probes;
+    }
   }
+  EXPECT_EQ(probes, 18);
 }
 
 TEST(ReprojectionCostTest, ResidualIsPredictionMinusDetection) {

@@ -230,6 +230,31 @@ std::vector<Eigen::Vector2d> ProjectPoints(const CameraModel& model, const std::
   return out;
 }
 
+struct PointProjector::Lens {
+  mrcal_lensmodel_t lens;
+};
+
+PointProjector::PointProjector(const CameraModel& model)
+    : model_(&model), lens_(std::make_shared<const Lens>(Lens{LensModel(model.lensmodel, "camera model")})) {}
+
+Eigen::Vector2d PointProjector::Project(const Eigen::Vector3d& point, Eigen::Matrix<double, 2, 3>* dq_dp,
+                                        const double* intrinsics, double* dq_dintrinsics) const {
+  const mrcal_point3_t p = {{point.x(), point.y(), point.z()}};
+  mrcal_point2_t q;
+  mrcal_point3_t grad[2];
+  // mrcal's dq_dintrinsics of one point is (2, Nintrinsics), row-major: the layout asked for.
+  if (!mrcal_project(&q, dq_dp ? grad : nullptr, dq_dintrinsics, &p, 1, &lens_->lens,
+                     intrinsics ? intrinsics : model_->intrinsics.data())) {
+    throw Error("camera model", "mrcal_project failed for " + model_->lensmodel, "check the model");
+  }
+  if (dq_dp) {
+    for (int r = 0; r < 2; ++r) {
+      for (int c = 0; c < 3; ++c) (*dq_dp)(r, c) = grad[r].xyz[c];
+    }
+  }
+  return {q.x, q.y};
+}
+
 Eigen::Vector2d ProjectPoint(const CameraModel& model, const Eigen::Vector3d& point) {
   return ProjectPoints(model, {point}).front();
 }

@@ -6,6 +6,7 @@
 
 #include <Eigen/Core>
 #include <filesystem>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -45,6 +46,24 @@ std::vector<Eigen::Vector2d> ProjectPoints(const CameraModel& model, const std::
                                            std::vector<Eigen::Matrix<double, 2, Eigen::Dynamic>>* dq_dintrinsics =
                                                nullptr);
 Eigen::Vector2d ProjectPoint(const CameraModel& model, const Eigen::Vector3d& point);
+// ProjectPoints for one point at a time in inner loops (the screen fit's cost function, called millions of times):
+// the lens model is parsed once, at construction, and nothing is allocated per call. Same mrcal call, same numbers.
+// `model` must outlive the projector; copies share the parsed lens model.
+class PointProjector {
+ public:
+  explicit PointProjector(const CameraModel& model);
+  // The pixel of camera-frame point p and, optionally, its 2x3 gradient. intrinsics (optional): values to project
+  // with instead of the model's (same lens model, intrinsics.size() of them); dq_dintrinsics (optional): 2 x n
+  // row-major, the gradient with respect to them (libmrcal's exact one, as ProjectPoints). Throws Error if mrcal fails.
+  Eigen::Vector2d Project(const Eigen::Vector3d& p, Eigen::Matrix<double, 2, 3>* dq_dp = nullptr,
+                          const double* intrinsics = nullptr, double* dq_dintrinsics = nullptr) const;
+  const CameraModel& model() const { return *model_; }
+
+ private:
+  struct Lens;
+  const CameraModel* model_;
+  std::shared_ptr<const Lens> lens_;
+};
 // Unprojects pixel coordinates to unit direction vectors in the camera frame (mrcal's iterative solve).
 std::vector<Eigen::Vector3d> UnprojectPixels(const CameraModel& model, const std::vector<Eigen::Vector2d>& pixels);
 

@@ -1,0 +1,175 @@
+// Internal to the screen fit (analysis/screen_fit*.cc; the interface is analysis/screen_fit.h): the observations,
+// the parameters and the Ceres problem of one candidate model, the uncertainty budget's linearization, and the
+// functions that the fit's files share. Not installed, not included outside analysis/screen_fit*.cc.
+//   screen_fit.cc          FitScreen: the candidates' robust and final fits, radius, adequacy, deviations, warnings
+//   screen_fit_problem.cc  the Ceres problem: cost functions, solve, residuals, initial poses, covariances
+//   screen_fit_budget.cc   the uncertainty budget: linearization and propagation of each source
+//   screen_fit_misfit.cc   the lens-model-misfit row: the misfit field measured from the residuals' correlation
+//   screen_fit_select.cc   model selection: held-out error, the lens-field adjustment, the choice
+#pragma once
+
+#include <ceres/ceres.h>
+
+#include <Eigen/Core>
+#include <array>
+#include <limits>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "analysis/screen_fit.h"
+#include "analysis/screen_fit_cost.h"
+#include "analysis/screen_model.h"
+#include "core/camera_model.h"
+#include "core/monitor.h"
+
+namespace curvecheck::screen_fit_internal {
+
+inline constexpr double kZ95 = 1.959963984540054;
+inline constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+inline constexpr double kInf = std::numeric_limits<double>::infinity();
+
+using PoseBlock = std::array<double, 7>;  // quaternion x y z w (centre_from_cam), camera position in the centre frame
+
+struct Obs {
+  int photo = 0, index = 0;  // photo and index in it
+  int feature = 0;           // index of the feature id among all ids
+  Eigen::Vector2d uv, detected;
+  double s_mm = 0, y_mm = 0;
+};
+
+// All parameters of one model: poses and shape.
+struct State {
+  std::vector<PoseBlock> poses;
+  std::vector<double> core;  // CoreParameterCount
+  std::vector<double> dev;   // deviation coefficients (cylinder+deviation)
+  std::vector<double> intr;  // the lens intrinsics when they are free (FitOptions::fit_intrinsics), else empty
+};
+
+struct Setup {
+  const Monitor* nominal = nullptr;
+  const CameraModel* camera = nullptr;
+  // camera's projector, shared by the cost functions; MakeCost uses it only while it belongs to `camera` (a copy
+  // of the setup with another camera, as the lens-calibration row makes, gets a projector of its own).
+  std::optional<PointProjector> projector;
+  const FitOptions* options = nullptr;
+  int photos = 0;
+  std::vector<Obs> obs;
+  std::vector<std::string> feature_ids;
+  double half_width_mm = 0;
+};
+
+// The problem of one model over the active observations. Owns what Ceres does not.
+struct BuiltProblem {
+  std::unique_ptr<ceres::Problem> problem;
+  std::unique_ptr<ceres::LossFunction> loss;
+  std::unique_ptr<ceres::Manifold> pose_manifold;
+  // The residual blocks in the order added: one per active observation (obs_index: its index in Setup::obs),
+  // then the deviation prior (if any). The uncertainty budget's Jacobian rows follow this order.
+  std::vector<ceres::ResidualBlockId> blocks;
+  std::vector<size_t> obs_index;
+};
+
+// One candidate's residuals against the lens-model-misfit family (FitOptions::misfit_field_degree), after the
+// linearized refit of its own parameters: B~ = (I - J (J^T J)^+ J^T) B over the inliers' stacked coordinates.
+// gram = B~^T B~, projected = B~^T r, rss = r^T r, basis_trace = trace(B^T B) of the unprojected fields (per
+// coordinate), observations = inliers. Empty (observations 0) when the misfit was not measured.
+struct LensFieldProjection {
+  Eigen::MatrixXd gram;
+  Eigen::VectorXd projected;
+  double rss = 0, basis_trace = 0;
+  int observations = 0;
+};
+
+// Everything about one model's fit that the selection and the deviations need beyond ModelFit.
+struct ModelWork {
+  ScreenModelKind kind;
+  State state;
+  std::unique_ptr<DeviationBasis> basis;
+  double basis_curvature_per_mm = 0;  // what `basis` was built around
+  std::vector<Eigen::Vector2d> robust_residuals;
+  Eigen::MatrixXd dev_covariance;  // of the deviation coefficients, scaled by the noise
+  // Per photo: the covariance of the camera position (centre frame) with the curvature k (the mean curvature for
+  // varying curvature), scaled by the noise; NaN where it could not be computed.
+  std::vector<Eigen::Vector3d> position_curvature_cov;
+  bool robust_ok = false;
+  int robust_iterations = 0;
+  LensFieldProjection lens_field;
+};
+
+// ---- The uncertainty budget (metrology.md section 1; UncertaintyBudget in screen_fit.h). ----
+//
+// Every source is propagated to the same quantities of interest q = (k, c_1, ..., c_P): the curvature (the mean
+// curvature for varying curvature, as reported) and each photo's camera position in the centre frame. A source
+// that perturbs the residuals by dr moves the least-squares solution by d(theta) = -(J^T J)^+ J^T dr (the fit's
+// linearization at its solution; J in Ceres's tangent space, deviation prior rows included and unperturbed), so
+// dq = -G dr with G the rows of the pseudo-inverse of J that belong to q. Each source gives a covariance of q;
+// what is kept of it is var(k) and, per photo, var(c) (diagonal) and cov(c, k): all that the radius, its interval
+// and the axis-frame position (z - 1/k) need.
+struct QuantityVariance {
+  double var_k = 0;
+  std::vector<Eigen::Vector3d> var_pos, cov_pos_k;
+
+  explicit QuantityVariance(int photos)
+      : var_pos(static_cast<size_t>(photos), Eigen::Vector3d::Zero()),
+        cov_pos_k(static_cast<size_t>(photos), Eigen::Vector3d::Zero()) {}
+  // From a full covariance of q (1 + 3 P rows, as above).
+  static QuantityVariance FromCovariance(const Eigen::MatrixXd& c, int photos) {
+    QuantityVariance v(photos);
+    v.var_k = c(0, 0);
+    for (int p = 0; p < photos; ++p) {
+      for (int a = 0; a < 3; ++a) {
+        v.var_pos[static_cast<size_t>(p)][a] = c(1 + 3 * p + a, 1 + 3 * p + a);
+        v.cov_pos_k[static_cast<size_t>(p)][a] = c(1 + 3 * p + a, 0);
+      }
+    }
+    return v;
+  }
+};
+
+// The linearization of the final fit: G (rows of q, columns the residuals of the active observations, two per
+// observation in BuiltProblem order) and the active observations' indices.
+struct Linearization {
+  Eigen::MatrixXd g;             // (1 + 3 P) x (2 n_obs)
+  std::vector<size_t> obs;       // Setup::obs index of each column pair
+  Eigen::MatrixXd j_obs;         // (2 n_obs) x t: the observations' rows of J (tangent space)
+  Eigen::MatrixXd normal_pinv;   // (J^T J)^+, t x t
+};
+
+// screen_fit_problem.cc: one candidate's Ceres problem.
+std::unique_ptr<ReprojectionCost> MakeCost(const Setup& setup, ScreenModelKind kind, const DeviationBasis* basis,
+                                           const Obs& o);
+std::vector<const double*> Blocks(const State& st, int photo);
+BuiltProblem Build(const Setup& setup, ScreenModelKind kind, const DeviationBasis* basis,
+                   const std::vector<bool>& active, bool robust, State* st);
+ceres::Solver::Summary Solve(const Setup& setup, BuiltProblem& b, State* st);
+std::vector<Eigen::Vector2d> Residuals(const Setup& setup, ScreenModelKind kind, const DeviationBasis* basis,
+                                       const State& st);
+double MadSigma(const std::vector<Eigen::Vector2d>& r);
+PoseBlock InitialPose(const Setup& setup, int photo);
+void Covariances(const Setup& setup, ModelWork& w, BuiltProblem& b, ModelFit* fit);
+
+// screen_fit_budget.cc: the uncertainty budget.
+std::vector<Eigen::Vector2d> DetectedPoints(const Setup& setup, const Linearization& lin);
+std::vector<QuantityVariance> Budget(const Setup& setup, ModelWork& w, BuiltProblem& b, int n_residuals,
+                                     ModelFit* fit);
+void FinishBudget(const std::vector<QuantityVariance>& vars, ModelFit* fit);
+
+// screen_fit_misfit.cc: the lens-model-misfit row.
+QuantityVariance GaussianFieldVariance(const Setup& setup, const Linearization& lin, double s2, double length_px);
+void EstimateMisfit(const Setup& setup, const Linearization& lin, const std::vector<Eigen::Vector2d>& residual,
+                    double sigma_px, UncertaintyBudget* bud, LensFieldProjection* projection);
+
+// screen_fit_select.cc: model selection.
+double HeldOut(const Setup& setup, const ModelWork& w, const std::vector<bool>& inlier);
+void AdjustForLensField(const FitOptions& o, int width_px, const std::vector<ModelWork>& work,
+                        ScreenFitResult* result);
+void Choose(const FitOptions& options, ScreenFitResult* result);
+
+// screen_fit.cc: the adequacy test.
+double DetectionSigma(const FitOptions& o);
+double AdequacyLimit(const FitOptions& o);
+void Adequacy(const FitOptions& o, double rss, int n, ModelFit* fit, const std::string& what = "");
+
+}  // namespace curvecheck::screen_fit_internal

@@ -10,6 +10,8 @@
 // curvature; writes the model, cam.calibration.json (with `screen`) and the intrinsics covariance.
 #include "app/calibrate_command.h"
 
+#include <fmt/format.h>
+
 #include <iostream>
 #include <memory>
 

@@ -12,6 +12,8 @@
 #include <Eigen/Geometry>
 #include <filesystem>
 #include <random>
+#include <string>
+#include <vector>
 
 #include "core/camera_model.h"
 #include "datasets/monitor_presets.h"
@@ -22,6 +24,28 @@ namespace {
 CameraModel DefaultCamera() {
   return ReadCameraModel(std::filesystem::path(std::getenv("CURVECHECK_SOURCE_DIR")) / "datasets/cameras" /
                          "default-24mp-opencv8.cameramodel");
+}
+
+// Every block's analytic Jacobian against Ceres's numeric one (Ridders). Ceres steps relative to max(|x|, 1): the
+// curvature (~1e-3 /mm) needs a small first step. Element-wise relative precision 1e-2 (Ridders' estimate of
+// entries near zero carries ~1e-10 px of absolute noise, 0.4% of the smallest entries), and block-wise: the largest
+// difference below block_tolerance of the block's largest entry.
+void ExpectJacobiansMatchNumeric(const ceres::CostFunction& cost, const std::vector<const ceres::Manifold*>& manifolds,
+                                 const std::vector<const double*>& params, double block_tolerance,
+                                 const std::string& label) {
+  ceres::NumericDiffOptions nd;
+  nd.relative_step_size = 1e-7;
+  nd.ridders_relative_initial_step_size = 1e-4;
+  const ceres::GradientChecker checker(&cost, &manifolds, nd);
+  ceres::GradientChecker::ProbeResults results;
+  EXPECT_TRUE(checker.Probe(params.data(), 1e-2, &results)) << label << ": " << results.error_log;
+  ASSERT_EQ(results.local_jacobians.size(), params.size());
+  for (size_t b = 0; b < params.size(); ++b) {
+    const double scale = results.local_jacobians[b].cwiseAbs().maxCoeff();
+    const double diff = (results.local_jacobians[b] - results.local_numeric_jacobians[b]).cwiseAbs().maxCoeff();
+    EXPECT_GT(scale, 0) << label << " block " << b;
+    EXPECT_LT(diff, block_tolerance * scale) << label << " block " << b;
+  }
 }
 
 TEST(ReprojectionCostTest, AnalyticJacobianMatchesNumericForEveryModel) {
@@ -59,23 +83,7 @@ TEST(ReprojectionCostTest, AnalyticJacobianMatchesNumericForEveryModel) {
       }
       double r0[2];
       ASSERT_TRUE(cost.Evaluate(params.data(), r0, nullptr)) << ScreenModelName(kind);
-      ceres::NumericDiffOptions nd;
-      nd.relative_step_size = 1e-7;
-      // Ceres steps relative to max(|x|, 1): the curvature (~1e-3 /mm) needs a small first step.
-      nd.ridders_relative_initial_step_size = 1e-4;
-      const ceres::GradientChecker checker(&cost, &manifolds, nd);
-      ceres::GradientChecker::ProbeResults results;
-      // Element-wise relative precision 1e-2 (Ridders' estimate of entries near zero carries ~1e-10 px of
-      // absolute noise, 0.4% of the smallest entries), and block-wise: the largest difference below 1e-7 of the
-      // block's largest entry.
-      EXPECT_TRUE(checker.Probe(params.data(), 1e-2, &results)) << ScreenModelName(kind) << ": " << results.error_log;
-      ASSERT_EQ(results.local_jacobians.size(), params.size());
-      for (size_t b = 0; b < params.size(); ++b) {
-        const double scale = results.local_jacobians[b].cwiseAbs().maxCoeff();
-        const double diff = (results.local_jacobians[b] - results.local_numeric_jacobians[b]).cwiseAbs().maxCoeff();
-        EXPECT_GT(scale, 0) << ScreenModelName(kind) << " block " << b;
-        EXPECT_LT(diff, 1e-7 * scale) << ScreenModelName(kind) << " block " << b;
-      }
+      ExpectJacobiansMatchNumeric(cost, manifolds, params, 1e-7, ScreenModelName(kind));
       ++probes;
     }
   }
@@ -139,19 +147,7 @@ TEST(ReprojectionCostTest, FreeIntrinsicsJacobianMatchesNumericForEveryModel) {
       ASSERT_TRUE(cost.PredictWithNormal(params.data(), &q_px, &dq_dn)) << ScreenModelName(kind);
       EXPECT_NEAR(q_px.x() - detected.x(), r[0], 1e-9) << ScreenModelName(kind);
       EXPECT_NEAR(q_px.y() - detected.y(), r[1], 1e-9) << ScreenModelName(kind);
-      ceres::NumericDiffOptions nd;
-      nd.relative_step_size = 1e-7;
-      nd.ridders_relative_initial_step_size = 1e-4;
-      const ceres::GradientChecker checker(&cost, &manifolds, nd);
-      ceres::GradientChecker::ProbeResults results;
-      EXPECT_TRUE(checker.Probe(params.data(), 1e-2, &results)) << ScreenModelName(kind) << ": " << results.error_log;
-      ASSERT_EQ(results.local_jacobians.size(), params.size());
-      for (size_t b = 0; b < params.size(); ++b) {
-        const double scale = results.local_jacobians[b].cwiseAbs().maxCoeff();
-        const double diff = (results.local_jacobians[b] - results.local_numeric_jacobians[b]).cwiseAbs().maxCoeff();
-        EXPECT_GT(scale, 0) << ScreenModelName(kind) << " block " << b;
-        EXPECT_LT(diff, 1e-6 * scale) << ScreenModelName(kind) << " block " << b;
-      }
+      ExpectJacobiansMatchNumeric(cost, manifolds, params, 1e-6, ScreenModelName(kind));
       ++probes;
     }
   }

@@ -120,6 +120,29 @@ Eigen::MatrixXd LegendreFieldBasis(const std::vector<Eigen::Vector2d>& points_px
   return b;
 }
 
+namespace {
+
+// Random Fourier features sqrt(2 / D) cos(w_m . p + b_m) at each point (rows) for each (w_m, b_m) (columns). The
+// arguments are formed and reduced to [-pi, pi] in double, the cosine taken by Eigen's vectorized single-precision
+// cosine (absolute error ~1e-7, immaterial for a random basis): libm's double cosine was a sixth of a 10-photo fit's
+// time (perf), the bases holding up to 13 x 400 features per observation.
+Eigen::MatrixXd CosineFeatures(const std::vector<Eigen::Vector2d>& points_px, const Eigen::MatrixXd& omega,
+                               const Eigen::VectorXd& offset) {
+  constexpr double kTwoPi = 6.283185307179586;
+  const long features = omega.rows();
+  const double scale = std::sqrt(2.0 / static_cast<double>(features));
+  Eigen::MatrixXd b(static_cast<long>(points_px.size()), features);
+  Eigen::ArrayXd arg(features);
+  for (size_t r = 0; r < points_px.size(); ++r) {
+    arg = (omega * points_px[r] + offset).array();
+    arg -= kTwoPi * (arg / kTwoPi).round();
+    b.row(static_cast<long>(r)) = (scale * arg.cast<float>().cos().cast<double>()).matrix().transpose();
+  }
+  return b;
+}
+
+}  // namespace
+
 Eigen::MatrixXd GaussianFieldBasis(const std::vector<Eigen::Vector2d>& points_px, double length_px, int features,
                                    unsigned seed) {
   if (!(length_px > 0) || features < 1) {
@@ -131,15 +154,7 @@ Eigen::MatrixXd GaussianFieldBasis(const std::vector<Eigen::Vector2d>& points_px
   Eigen::MatrixXd omega(features, 2);
   Eigen::VectorXd offset(features);
   for (int m = 0; m < features; ++m) omega(m, 0) = unit(rng), omega(m, 1) = unit(rng), offset[m] = phase(rng);
-  const double scale = std::sqrt(2.0 / features);
-  Eigen::MatrixXd b(static_cast<long>(points_px.size()), features);
-  for (size_t r = 0; r < points_px.size(); ++r) {
-    for (int m = 0; m < features; ++m) {
-      const double arg = (omega(m, 0) * points_px[r].x() + omega(m, 1) * points_px[r].y()) / length_px + offset[m];
-      b(static_cast<long>(r), m) = scale * std::cos(arg);
-    }
-  }
-  return b;
+  return CosineFeatures(points_px, omega / length_px, offset);
 }
 
 Eigen::MatrixXd RingFieldBasis(const std::vector<Eigen::Vector2d>& points_px, double period_px, int features,
@@ -156,14 +171,7 @@ Eigen::MatrixXd RingFieldBasis(const std::vector<Eigen::Vector2d>& points_px, do
     const double t = 3.141592653589793 * (m + unit(rng)) / features;
     omega(m, 0) = k * std::cos(t), omega(m, 1) = k * std::sin(t), offset[m] = 6.283185307179586 * unit(rng);
   }
-  const double scale = std::sqrt(2.0 / features);
-  Eigen::MatrixXd b(static_cast<long>(points_px.size()), features);
-  for (size_t r = 0; r < points_px.size(); ++r) {
-    for (int m = 0; m < features; ++m) {
-      b(static_cast<long>(r), m) = scale * std::cos(omega(m, 0) * points_px[r].x() + omega(m, 1) * points_px[r].y() + offset[m]);
-    }
-  }
-  return b;
+  return CosineFeatures(points_px, omega, offset);
 }
 
 std::filesystem::path IntrinsicsCovariancePathFor(const std::filesystem::path& camera_path) {

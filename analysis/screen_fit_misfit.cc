@@ -144,6 +144,7 @@ void EstimateMisfitCorrelation(const Setup& setup, const Linearization& lin,
   // of coordinate c, n x t). J is sparse (a row holds its photo's 6 pose columns and the shape's and the lens's), so
   // the products go through J_c's non-zeros: ~t/10 of the dense products' work with 10 photos.
   const std::array<SparseRows, 2> jc = CoordinateRows(lin.j_obs);
+  const RowMajor jx = jc[0], jy = jc[1];  // dense copies for the pair sums' row dots
   std::vector<UncertaintyBudget::FieldComponent> candidates;
   for (double factor : {1.0, 2.0, 4.0, 8.0, 16.0, 32.0}) {
     const double length = std::min(factor * spacing, static_cast<double>(setup.camera->width));
@@ -177,7 +178,6 @@ void EstimateMisfitCorrelation(const Setup& setup, const Linearization& lin,
     RowMajor wx(n, cross_x.cols()), wy(n, cross_y.cols());  // n x t
     wx.noalias() = jc[0] * cross_x;
     wy.noalias() = jc[1] * cross_y;
-    const RowMajor jx = jc[0], jy = jc[1];
     const double variance = phi.squaredNorm() / n;  // the field's mean variance at the points (1 but for sampling)
     Eigen::VectorXd kappa(static_cast<long>(stats.size()));
     for (size_t k = 0; k < stats.size(); ++k) {

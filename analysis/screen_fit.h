@@ -219,7 +219,7 @@ struct UncertaintyBudget {
   std::string dominant;  // the component with the largest u(k)
   std::array<std::string, 3> dominant_position;  // per axis (axis frame)
   ResidualPixelLocking pixel_locking;
-  double systematic_bound_px = 0;  // b = max(amplitude + 2 sigma, noise floor), RMS per coordinate of the fields
+  double systematic_bound_px = 0;  // b: the stated smooth bias, RMS per coordinate of the fields
   std::string systematic_bound_reason;
   // The detector-systematic row's two parts, u(k) (1/mm): the smooth fields and the pixel-locking signature.
   double smooth_share_curvature_per_mm = 0, pixel_locking_share_curvature_per_mm = 0;

@@ -330,7 +330,9 @@ QuantityVariance SystematicVariance(const Setup& setup, const Linearization& lin
 }
 
 // Pixel-locking itself, propagated in its own shape: per coordinate c a bias A_c sin(2 pi phi_i + psi) with phi_i
-// the detection's subpixel phase, A_c the bound (estimate + 2 sigma) and the phase offset psi unknown (uniform):
+// the detection's subpixel phase, A_c^2 its expectation given the estimate (estimate^2 + sigma^2: a standard
+// uncertainty, not the 95% bound estimate + 2 sigma, which stated as one inflated the row 1.3-2x in variance)
+// and the phase offset psi unknown (uniform):
 // dq = A_c (G s_c cos psi + G c_c sin psi), s_c = sin 2 pi phi, c_c = cos 2 pi phi, whose covariance over psi is
 // A_c^2 / 2 (G s_c s_c^T G^T + G c_c c_c^T G^T). On a regular board the phases beat across the image, so this
 // field is correlated in a way that low-order smooth fields do not represent.
@@ -438,12 +440,12 @@ std::vector<QuantityVariance> Budget(const Setup& setup, ModelWork& w, BuiltProb
     const ResidualPixelLocking& pl = bud.pixel_locking;
     double upper = 0;
     for (int c = 0; c < 2; ++c) {
-      if (std::isfinite(pl.amplitude_px[c])) upper = std::max(upper, pl.amplitude_px[c] + 2 * pl.sigma_px[c]);
+      if (std::isfinite(pl.amplitude_px[c])) upper = std::max(upper, std::hypot(pl.amplitude_px[c], pl.sigma_px[c]));
     }
     bud.systematic_bound_px = o.smooth_bias_px;
     bud.systematic_bound_reason = fmt::format(
         "the stated smooth detector bias FitOptions::smooth_bias_px (type B, not measured); the pixel-locking "
-        "signature's amplitude is its estimate plus 2 sigma, {:.4f} px (x {:.4f} +- {:.4f}, y {:.4f} +- {:.4f} px)",
+        "signature's RMS amplitude sqrt(estimate^2 + sigma^2), at most {:.4f} px (x {:.4f} +- {:.4f}, y {:.4f} +- {:.4f} px)",
         upper, pl.amplitude_px.x(), pl.sigma_px.x(), pl.amplitude_px.y(), pl.sigma_px.y());
     BudgetComponent c;
     c.name = "detector systematic";
@@ -457,14 +459,15 @@ std::vector<QuantityVariance> Budget(const Setup& setup, ModelWork& w, BuiltProb
         "scaled to RMS b ({} seeded draws); its standard uncertainty is the RMS effect. Correlated across features, "
         "unlike the noise row (independent per-feature errors are in that row already); plus, in quadrature, the "
         "pixel-locking signature in its own shape: A sin(2 pi phase + psi) per coordinate at each detection's "
-        "subpixel phase, A = the estimate + 2 sigma, psi uniform (on a regular board the phases beat across the "
+        "subpixel phase, A^2 = estimate^2 + sigma^2 (its expectation), psi uniform (on a regular board the phases beat across the "
         "image: a correlated field that smooth fields do not represent)",
         o.systematic_field_degree, o.systematic_field_draws);
     bud.components.push_back(c);
     QuantityVariance v(setup.photos);
     if (lin && (bud.systematic_bound_px > 0 || upper > 0)) {
       // Two parts in quadrature: smooth bias fields of RMS b, and the pixel-locking signature in its own shape.
-      Eigen::Vector2d pl_bound = pl.amplitude_px + 2 * pl.sigma_px;
+      Eigen::Vector2d pl_bound(std::hypot(pl.amplitude_px.x(), pl.sigma_px.x()),
+                               std::hypot(pl.amplitude_px.y(), pl.sigma_px.y()));
       const QuantityVariance smooth = SystematicVariance(
           setup, *lin, bud.systematic_bound_px,
           LegendreFieldBasis(DetectedPoints(setup, *lin), setup.camera->width, setup.camera->height,

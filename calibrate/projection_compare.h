@@ -17,6 +17,8 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <functional>
+#include <utility>
 #include <vector>
 
 #include "core/camera_model.h"
@@ -24,8 +26,19 @@
 namespace curvecheck {
 
 struct LensWithCovariance {
+  LensWithCovariance(CameraModel m, Eigen::MatrixXd c = {}) : model(std::move(m)), covariance(std::move(c)) {}
   CameraModel model;
   Eigen::MatrixXd covariance;  // intrinsics, mrcal's order; empty = exact (no uncertainty)
+  // A lens that departs from its model by a field delta (a synthetic truth: synth/lens_misfit.h): true_image_of(q)
+  // = q + delta(q) maps the model's projection q to the true image, model_pixel_of inverts it. Both empty: the
+  // model is the lens. Set both or neither.
+  std::function<Eigen::Vector2d(const Eigen::Vector2d&)> true_image_of, model_pixel_of;
+  // The lens's departure from this model that no intrinsics of the model follow (a calibration's measured lens
+  // model misfit): a stationary Gaussian field of this variance per coordinate (px^2) and correlation length (px),
+  // independent per coordinate. Added to the difference's covariance (cell to cell, exp(-d^2 / 2 L^2)) only when
+  // the other model is exact (a truth): two calibrations of one lens see the same departure, which cancels in their
+  // difference. Conservative: the part of the field the intrinsics absorbed is counted in both terms.
+  double unmodelled_variance_px2 = 0, unmodelled_length_px = 0;
 };
 
 struct ProjectionComparison {

@@ -349,6 +349,18 @@ FlatVsBoardTrial RunFlatVsBoardTrial(const BenchFlatVsBoardOptions& o, uint64_t 
       bl.unmodelled_length_px = bc.misfit_length_px;
     }
     t.board_misfit_px = std::sqrt(std::max(0.0, bc.misfit_variance_px2));
+    t.screen_summary = FromScreenSummary(fs);
+    std::string board_rows = "board (mrcal, " + b.model.lensmodel + "): sigma of the intrinsics, noise:";
+    for (long k = 0; k < bc.intrinsics_covariance.rows(); ++k) {
+      board_rows += fmt::format(" {:.3g}", std::sqrt(std::max(0.0, bc.intrinsics_covariance(k, k))));
+    }
+    board_rows += "; misfit share:";
+    for (long k = 0; k < bc.intrinsics_covariance_misfit.rows(); ++k) {
+      board_rows += fmt::format(" {:.3g}", std::sqrt(std::max(0.0, bc.intrinsics_covariance_misfit(k, k))));
+    }
+    t.screen_summary += board_rows + fmt::format("; misfit RMS {:.4f} px at {:.0f} px{}\n", t.board_misfit_px,
+                                                 bc.misfit_length_px,
+                                                 bc.misfit_note.empty() ? "" : " (" + bc.misfit_note + ")");
     LensWithCovariance truth(scene.camera);
     truth.true_image_of = [misfit](const Eigen::Vector2d& q) { return misfit->TrueImageOf(q); };
     truth.model_pixel_of = [misfit](const Eigen::Vector2d& q) { return misfit->ModelPixelOf(q); };
@@ -437,6 +449,7 @@ void RunBenchFlatVsBoard(const BenchFlatVsBoardOptions& o, const std::filesystem
         ds.per_photo_smooth_rms_px, db.rms_px, db.mean_px.x(), db.mean_px.y(), db.smooth_rms_px,
         db.per_photo_smooth_rms_px, t.from_cache ? 1 : 0, t.seconds,
         t.screen_budget_note, t.error);
+    WriteFileAtomic(dir / fmt::format("trial-{}.txt", k), t.screen_summary + t.error + "\n");
     if (!t.error.empty()) {
       ++failed;
       log << fmt::format("{:>5} {:>6} refused or failed: {}\n", k, t.photos, t.error) << std::flush;

@@ -88,6 +88,7 @@ struct FlatVsBoardTrial {
   double true_misfit_px = 0;        // the synthetic lens's misfit RMS (px per coordinate)
   double board_misfit_px = 0;       // the misfit RMS the board calibration measured (mrcal_solve.py misfit_field)
   DetectionErrors screen_detection, board_detection;
+  std::string screen_summary;  // FromScreenSummary of the calibration from the screen, and the board's misfit
   bool from_cache = false;
   double seconds = 0;
 };
@@ -98,7 +99,8 @@ FlatVsBoardTrial RunFlatVsBoardTrial(const BenchFlatVsBoardOptions& options, uin
                                      const std::filesystem::path& cache_dir = {});
 
 // Runs the bench, prints a row per trial and the summary (agreement with its Wilson 95% interval) to `log`, and
-// writes flat_vs_board_trials.csv into `dir` (an existing folder).
+// writes flat_vs_board_trials.csv and, per trial, trial-K.txt (the screen calibration's summary with its
+// uncertainty rows, the board's measured misfit) into `dir` (an existing folder).
 void RunBenchFlatVsBoard(const BenchFlatVsBoardOptions& options, const std::filesystem::path& dir, std::ostream& log);
 
 }  // namespace curvecheck::experiments

@@ -242,10 +242,16 @@ struct UncertaintyBudget {
     int pairs = 0;
     double statistic_px2 = 0, noise_share_px2 = 0, field_share_px2 = 0;
   };
+  // The components' families: kGaussian, covariance s^2 exp(-d^2 / 2 L^2) (L = length_px), positive at every lag;
+  // kRing, covariance s^2 J0(2 pi d / P) (P = length_px, the period), a band-pass field whose correlation changes
+  // sign (a beat of the features' spacing against a pixel grid).
+  enum class FieldFamily { kGaussian, kRing };
   struct FieldComponent {
+    FieldFamily family = FieldFamily::kGaussian;
     double length_px = 0, variance_px2 = 0, variance_sd_px2 = 0;
   };
-  std::vector<FieldComponent> misfit_components;  // one or two (short-range, then long-range), each propagated
+  // Up to two Gaussian components (short-range, then long-range) and one ring, each propagated.
+  std::vector<FieldComponent> misfit_components;
   double misfit_length_px = std::numeric_limits<double>::quiet_NaN();
   double misfit_variance_px2 = std::numeric_limits<double>::quiet_NaN();
   double misfit_variance_sd_px2 = std::numeric_limits<double>::quiet_NaN();
@@ -427,6 +433,12 @@ Eigen::MatrixXd LegendreFieldBasis(const std::vector<Eigen::Vector2d>& points_px
 // w_m ~ N(0, I), b_m ~ U(0, 2 pi), seeded; N(0, 1) coefficients give the field.
 Eigen::MatrixXd GaussianFieldBasis(const std::vector<Eigen::Vector2d>& points_px, double length_px, int features,
                                    unsigned seed);
+
+// A stationary random field of unit variance whose spectrum is a ring of radius 2 pi / P (P = period_px): covariance
+// J0(2 pi |d| / P), which changes sign at |d| = 0.38 P. Column m is sqrt(2/features) cos(w_m . p + b_m),
+// w_m = (2 pi / P)(cos t_m, sin t_m) with the directions t_m stratified over [0, pi), b_m ~ U(0, 2 pi), seeded.
+Eigen::MatrixXd RingFieldBasis(const std::vector<Eigen::Vector2d>& points_px, double period_px, int features,
+                               unsigned seed);
 
 
 // The intrinsics covariance written beside a camera model at calibration time (format

@@ -13,6 +13,7 @@
 #include <Eigen/Core>
 #include <array>
 #include <limits>
+#include <map>
 #include <memory>
 #include <optional>
 #include <string>
@@ -58,6 +59,15 @@ struct Setup {
   std::vector<Obs> obs;
   std::vector<std::string> feature_ids;
   double half_width_mm = 0;
+  // The lens-model-misfit row's random-feature bases at every observation's detected point, by family and
+  // length (screen_fit_misfit.cc: the same fields for every candidate, so built once per fit; a candidate takes
+  // the rows of its active observations), and the feature spacing its candidate lengths are counted in. A cache,
+  // filled on first use, shared by copies of the setup (same observations); the fit runs in one thread.
+  struct MisfitCache {
+    std::map<std::pair<int, double>, Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>> bases;
+    double spacing_px = 0;
+  };
+  std::shared_ptr<MisfitCache> misfit_cache = std::make_shared<MisfitCache>();
 };
 
 // The problem of one model over the active observations. Owns what Ceres does not.
@@ -157,7 +167,8 @@ std::vector<QuantityVariance> Budget(const Setup& setup, ModelWork& w, BuiltProb
 void FinishBudget(const std::vector<QuantityVariance>& vars, ModelFit* fit);
 
 // screen_fit_misfit.cc: the lens-model-misfit row.
-QuantityVariance GaussianFieldVariance(const Setup& setup, const Linearization& lin, double s2, double length_px);
+QuantityVariance FieldVariance(const Setup& setup, const Linearization& lin,
+                               const UncertaintyBudget::FieldComponent& component);
 void EstimateMisfit(const Setup& setup, const Linearization& lin, const std::vector<Eigen::Vector2d>& residual,
                     double sigma_px, UncertaintyBudget* bud, LensFieldProjection* projection);
 

@@ -1,6 +1,7 @@
 // The lens-model-misfit row of the uncertainty budget (analysis/screen_fit_internal.h): the misfit field's RMS
 // and correlation length measured from the residuals' correlation between features, and its propagation.
 #include <Eigen/Dense>
+#include <Eigen/SparseCore>
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -11,41 +12,106 @@
 namespace curvecheck::screen_fit_internal {
 namespace {
 
-// The misfit field's RMS s and correlation length L, from the residuals' correlation at several lags
-// (UncertaintyBudget::misfit_length_px, misfit_lags). The neighbour statistic alone cannot tell a field smooth over
-// the whole image (which moves the radius) from errors correlated over a few features only (the detector's
-// pixel-locking beat, demosaicing, moire: they average out over the board): propagated as a smooth field, the
-// latter gave radius sigmas 1.4-3x the scatter of seeded trials (bench validity, realistic camera). Per lag bin j
-// (pairs in the same photo at a distance of [0, 1.5), [1.5, 3), [3, 6), [6, 12), [12, 24) feature spacings),
-// S_j = mean of r_a . r_b / 2 has E[S_j] = s^2 kappa_j(L) + sigma^2 nu_j: kappa_j the same mean of the stationary
-// Gaussian field of unit variance and covariance exp(-d^2 / 2 L^2) after the linearized refit, exactly from its
-// random-feature basis Phi (E[e_a . e_b] = (R R^T)_ab, R = (I - J (J^T J)^+ J^T) Phi), nu_j the refit's share
-// -(J (J^T J)^+ J^T)_ab. For each L of a grid (1 to 32 feature spacings, at most the image width) s^2 >= 0 is
-// fitted by weighted least squares (weights pairs_j / sigma^4: S_j's variance under noise); the L of the smallest
-// weighted misfit is kept, with s^2's standard error. Pairs beyond kMaxPairsPerLag per bin are thinned evenly.
+using RowMajor = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+using SparseRows = Eigen::SparseMatrix<double, Eigen::RowMajor>;
+
+// The rows of the observations' Jacobian (2n x t, coordinates interleaved) split by coordinate, sparse: J_x (rows
+// 2i) and J_y (rows 2i + 1), each n x t.
+std::array<SparseRows, 2> CoordinateRows(const Eigen::MatrixXd& j_obs) {
+  const long n = j_obs.rows() / 2, t = j_obs.cols();
+  std::array<SparseRows, 2> out;
+  for (long c = 0; c < 2; ++c) {
+    std::vector<Eigen::Triplet<double>> entries;
+    for (long k = 0; k < t; ++k) {
+      for (long i = 0; i < n; ++i) {
+        const double v = j_obs(2 * i + c, k);
+        if (v != 0) entries.emplace_back(i, k, v);
+      }
+    }
+    out[static_cast<size_t>(c)].resize(n, t);
+    out[static_cast<size_t>(c)].setFromTriplets(entries.begin(), entries.end());
+  }
+  return out;
+}
+
+// The median distance from each observation to its nearest neighbour in the same photo, over all observations
+// (Setup::misfit_cache, computed once per fit): the unit of the lags and of the candidates' lengths.
+double FeatureSpacing(const Setup& setup) {
+  if (setup.misfit_cache->spacing_px > 0) return setup.misfit_cache->spacing_px;
+  std::vector<std::vector<size_t>> in_photo(static_cast<size_t>(setup.photos));
+  for (size_t i = 0; i < setup.obs.size(); ++i) in_photo[static_cast<size_t>(setup.obs[i].photo)].push_back(i);
+  std::vector<double> nn;
+  for (const std::vector<size_t>& photo : in_photo) {
+    for (const size_t a : photo) {
+      double best = kInf;
+      for (const size_t b : photo) {
+        if (b != a) best = std::min(best, (setup.obs[b].detected - setup.obs[a].detected).squaredNorm());
+      }
+      if (std::isfinite(best)) nn.push_back(std::sqrt(best));
+    }
+  }
+  if (nn.size() < 8) return 0;
+  std::nth_element(nn.begin(), nn.begin() + static_cast<long>(nn.size() / 2), nn.end());
+  setup.misfit_cache->spacing_px = nn[nn.size() / 2];
+  return setup.misfit_cache->spacing_px;
+}
+
+// The basis of one component's family at the active observations (lin.obs), seeded per family so that the
+// measurement and the propagation use the same fields; built once per fit at every observation (Setup::
+// misfit_cache) and gathered.
+RowMajor ComponentBasis(const Setup& setup, const Linearization& lin, const UncertaintyBudget::FieldComponent& c) {
+  const FitOptions& o = *setup.options;
+  const bool ring = c.family == UncertaintyBudget::FieldFamily::kRing;
+  auto it = setup.misfit_cache->bases.find({ring ? 1 : 0, c.length_px});
+  if (it == setup.misfit_cache->bases.end()) {
+    std::vector<Eigen::Vector2d> all;
+    for (const Obs& ob : setup.obs) all.push_back(ob.detected);
+    RowMajor basis = ring ? RingFieldBasis(all, c.length_px, o.misfit_features, o.systematic_field_seed + 3)
+                          : GaussianFieldBasis(all, c.length_px, o.misfit_features, o.systematic_field_seed + 2);
+    it = setup.misfit_cache->bases.emplace(std::make_pair(ring ? 1 : 0, c.length_px), std::move(basis)).first;
+  }
+  RowMajor phi(static_cast<long>(lin.obs.size()), it->second.cols());
+  for (size_t r = 0; r < lin.obs.size(); ++r) phi.row(static_cast<long>(r)) = it->second.row(static_cast<long>(lin.obs[r]));
+  return phi;
+}
+
+// The correlated error's components (UncertaintyBudget::misfit_components, misfit_lags), from the residuals'
+// correlation at several lags. The neighbour statistic alone cannot tell a field smooth over the whole image (which
+// moves the radius) from errors correlated over a few features only (the detector's pixel-locking beat,
+// demosaicing, moire: they average out over the board): propagated as a smooth field, the latter gave radius
+// sigmas 1.4-3x the scatter of seeded trials (bench validity, realistic camera). Per lag bin j (pairs in the same
+// photo at distances between kLagEdges feature spacings), S_j = mean of r_a . r_b / 2 has
+// E[S_j] = sum_c s_c^2 kappa_j(c) + sigma^2 nu_j: kappa_j(c) the same mean for a stationary field of unit variance
+// of component c's family after the linearized refit, exactly from its random-feature basis Phi
+// (E[e_a . e_b] = (R R^T)_ab, R = (I - J (J^T J)^+ J^T) Phi), nu_j the refit's share -(J (J^T J)^+ J^T)_ab.
+// Two families: Gaussian fields (covariance exp(-d^2 / 2 L^2), L of 1 to 32 feature spacings, at most the image
+// width), positive at every lag, and ring fields (covariance J0(2 pi d / P), P of 3 to 24 spacings), band-pass
+// processes whose correlation changes sign, as a beat between the features' spacing and a pixel grid does (the
+// residuals of frontal photos of the realistic camera correlate positively at 1-2 spacings and negatively at ~9:
+// fitted by Gaussians alone, that beat was taken for a long-range field and the radius sigma came out ~2x the
+// scatter on axis). The variances s_c^2 >= 0 of up to two Gaussian components and one ring are fitted by weighted
+// least squares for every combination of the candidate scales; the combination of the smallest weighted misfit
+// plus twice its number of components (AIC) is kept, with the variances' standard errors (scaled by the fit's
+// own scatter when it exceeds them). Pairs beyond kMaxPairsPerLag per bin are thinned evenly.
 void EstimateMisfitCorrelation(const Setup& setup, const Linearization& lin,
                                const std::vector<Eigen::Vector2d>& residual, double sigma_px,
                                const std::vector<std::pair<int, int>>& neighbours, UncertaintyBudget* bud) {
-  const FitOptions& o = *setup.options;
-  constexpr size_t kMaxPairsPerLag = 6000;
-  constexpr std::array<double, 6> kLagEdges = {0, 1.5, 3, 6, 12, 24};
+  constexpr size_t kMaxPairsPerLag = 2000;
+  constexpr std::array<double, 10> kLagEdges = {0, 1.5, 2.5, 3.5, 5, 7, 10, 14, 20, 28};
   const int n = static_cast<int>(lin.obs.size());
   const std::vector<Eigen::Vector2d> points = DetectedPoints(setup, lin);
-  std::vector<double> nn;
-  for (const auto& [a, b] : neighbours) nn.push_back((points[static_cast<size_t>(a)] - points[static_cast<size_t>(b)]).norm());
-  if (nn.size() < 8 || !(sigma_px > 0)) return;
-  std::nth_element(nn.begin(), nn.begin() + static_cast<long>(nn.size() / 2), nn.end());
-  const double spacing = nn[nn.size() / 2];
-  if (!(spacing > 0)) return;
+  const double spacing = FeatureSpacing(setup);
+  if (neighbours.size() < 8 || !(sigma_px > 0) || !(spacing > 0)) return;
   const size_t bins = kLagEdges.size() - 1;
   std::vector<std::vector<std::pair<int, int>>> lag(bins);
+  std::vector<std::vector<int>> in_photo(static_cast<size_t>(setup.photos));  // ascending: the pairs' order is a, b
+  for (int a = 0; a < n; ++a) in_photo[static_cast<size_t>(setup.obs[lin.obs[static_cast<size_t>(a)]].photo)].push_back(a);
   for (int a = 0; a < n; ++a) {
-    for (int b = a + 1; b < n; ++b) {
-      if (setup.obs[lin.obs[static_cast<size_t>(a)]].photo != setup.obs[lin.obs[static_cast<size_t>(b)]].photo) continue;
+    for (const int b : in_photo[static_cast<size_t>(setup.obs[lin.obs[static_cast<size_t>(a)]].photo)]) {
+      if (b <= a) continue;
       const double d = (points[static_cast<size_t>(a)] - points[static_cast<size_t>(b)]).norm() / spacing;
-      for (size_t j = 0; j < bins; ++j) {
-        if (d >= kLagEdges[j] && d < kLagEdges[j + 1]) lag[j].emplace_back(a, b);
-      }
+      const auto j = std::upper_bound(kLagEdges.begin(), kLagEdges.end(), d) - kLagEdges.begin() - 1;
+      if (j >= 0 && static_cast<size_t>(j) < bins) lag[static_cast<size_t>(j)].emplace_back(a, b);
     }
   }
   for (auto& l : lag) {
@@ -56,8 +122,7 @@ void EstimateMisfitCorrelation(const Setup& setup, const Linearization& lin,
     l.swap(thin);
   }
   const Eigen::MatrixXd jp = lin.j_obs * lin.normal_pinv;  // 2n x t
-  const double s4 = std::pow(sigma_px, 4);
-  struct Bin { double lag = 0, stat = 0, nu = 0, weight = 0; int pairs = 0; };
+  struct Bin { double lag = 0, stat = 0, nu = 0; int pairs = 0; };
   std::vector<Bin> stats;
   std::vector<size_t> used_bins;
   for (size_t j = 0; j < bins; ++j) {
@@ -70,38 +135,59 @@ void EstimateMisfitCorrelation(const Setup& setup, const Linearization& lin,
       for (int c = 0; c < 2; ++c) bin.nu -= 0.5 * jp.row(2 * a + c).dot(lin.j_obs.row(2 * b + c));
     }
     bin.lag /= bin.pairs, bin.stat /= bin.pairs, bin.nu /= bin.pairs;
-    bin.weight = bin.pairs / s4;
     stats.push_back(bin);
     used_bins.push_back(j);
   }
   if (stats.size() < 2) return;
-  // kappa_j(L) for each length of the grid.
-  std::vector<double> lengths;
-  std::vector<Eigen::VectorXd> kappas;
+  // kappa_j of each candidate component. A field on coordinate f (phi on the rows of f, zero on the other) leaves,
+  // on the rows of coordinate c, R_fc = delta_fc phi - J_c (J^T J)^+ J_f^T phi after the refit (J_c: the rows of J
+  // of coordinate c, n x t). J is sparse (a row holds its photo's 6 pose columns and the shape's and the lens's), so
+  // the products go through J_c's non-zeros: ~t/10 of the dense products' work with 10 photos.
+  const std::array<SparseRows, 2> jc = CoordinateRows(lin.j_obs);
+  const RowMajor jx = jc[0], jy = jc[1];  // dense copies for the pair sums' row dots
+  std::vector<UncertaintyBudget::FieldComponent> candidates;
   for (double factor : {1.0, 2.0, 4.0, 8.0, 16.0, 32.0}) {
     const double length = std::min(factor * spacing, static_cast<double>(setup.camera->width));
-    if (!lengths.empty() && length <= lengths.back()) continue;
-    const Eigen::MatrixXd phi = GaussianFieldBasis(points, length, o.misfit_features, o.systematic_field_seed + 2);
-    const long d = phi.cols();
-    Eigen::MatrixXd dx = Eigen::MatrixXd::Zero(2 * n, d), dy = Eigen::MatrixXd::Zero(2 * n, d);
-    for (int i = 0; i < n; ++i) dx.row(2 * i) = phi.row(i), dy.row(2 * i + 1) = phi.row(i);
-    // Row-major: the pair sums below read whole rows (400 features each); column-major rows are strided by 2n and
-    // made this loop half of analyze's time on one photo (perf).
-    using RowMajor = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
-    const RowMajor rx = dx - jp * (lin.j_obs.transpose() * dx);
-    const RowMajor ry = dy - jp * (lin.j_obs.transpose() * dy);
+    if (!candidates.empty() && length <= candidates.back().length_px) continue;
+    candidates.push_back({UncertaintyBudget::FieldFamily::kGaussian, length, 0, 0});
+  }
+  const size_t gaussians = candidates.size();
+  for (double factor : {3.0, 4.0, 6.0, 8.0, 12.0, 16.0, 24.0}) {
+    if (factor * spacing > setup.camera->width) break;
+    candidates.push_back({UncertaintyBudget::FieldFamily::kRing, factor * spacing, 0, 0});
+  }
+  std::vector<Eigen::VectorXd> kappas;
+  for (const UncertaintyBudget::FieldComponent& candidate : candidates) {
+    // Row-major throughout: the sparse products run over rows, and the pair sums read whole rows.
+    const RowMajor phi = ComponentBasis(setup, lin, candidate);
+    // Own coordinate (f = c): R_ff = phi - J_f U_f, U_f = (J^T J)^+ J_f^T phi (t x D), formed. The other
+    // (f != c): R_fc = -J_c U_f, whose pair products are J_c,a (U_f U_f^T) J_c,b^T: through t x t matrices.
+    std::array<RowMajor, 2> own;
+    RowMajor cross_x(lin.normal_pinv.rows(), lin.normal_pinv.rows()), cross_y = cross_x;
+    for (int f = 0; f < 2; ++f) {
+      const SparseRows& jf = jc[static_cast<size_t>(f)];
+      RowMajor jtp(jf.cols(), phi.cols());
+      jtp.noalias() = jf.transpose() * phi;
+      const RowMajor u = lin.normal_pinv * jtp;
+      RowMajor& r = own[static_cast<size_t>(f)];
+      r.resize(phi.rows(), phi.cols());
+      r.noalias() = jf * u;
+      r = phi - r;
+      (f == 0 ? cross_y : cross_x).noalias() = u * u.transpose();  // the x field seen on y's rows, and vice versa
+    }
+    RowMajor wx(n, cross_x.cols()), wy(n, cross_y.cols());  // n x t
+    wx.noalias() = jc[0] * cross_x;
+    wy.noalias() = jc[1] * cross_y;
     const double variance = phi.squaredNorm() / n;  // the field's mean variance at the points (1 but for sampling)
     Eigen::VectorXd kappa(static_cast<long>(stats.size()));
     for (size_t k = 0; k < stats.size(); ++k) {
       double sum = 0;
       for (const auto& [a, b] : lag[used_bins[k]]) {
-        for (int c = 0; c < 2; ++c) {
-          sum += 0.5 * (rx.row(2 * a + c).dot(rx.row(2 * b + c)) + ry.row(2 * a + c).dot(ry.row(2 * b + c)));
-        }
+        sum += own[0].row(a).dot(own[0].row(b)) + own[1].row(a).dot(own[1].row(b)) + wx.row(a).dot(jx.row(b)) +
+               wy.row(a).dot(jy.row(b));
       }
-      kappa[static_cast<long>(k)] = sum / stats[k].pairs / variance;
+      kappa[static_cast<long>(k)] = 0.5 * sum / stats[k].pairs / variance;
     }
-    lengths.push_back(length);
     kappas.push_back(kappa);
   }
   // The statistics beyond the noise's share, and their weights: a pair's product has a variance of about
@@ -112,82 +198,95 @@ void EstimateMisfitCorrelation(const Setup& setup, const Linearization& lin,
   for (long k = 0; k < m; ++k) y[k] = stats[static_cast<size_t>(k)].stat - sigma_px * sigma_px * stats[static_cast<size_t>(k)].nu;
   const double total = sigma_px * sigma_px + std::max(0.0, y[0]);
   for (long k = 0; k < m; ++k) w[k] = stats[static_cast<size_t>(k)].pairs / (total * total);
-  // Non-negative weighted least squares of y on one or two of the kappa vectors (a short- and a long-range
-  // component: detector errors correlated over a few features, and the lens's smooth field); the best fit wins,
-  // a second component only when it lowers chi^2 by more than 2 (one parameter more, AIC).
   struct Choice {
     double cost = kInf;
-    std::vector<std::pair<size_t, double>> parts;  // (length index, variance)
+    std::vector<std::pair<size_t, double>> parts;  // (candidate index, variance)
     Eigen::MatrixXd covariance;
   };
   Choice best;
   const auto consider = [&](const std::vector<size_t>& idx) {
     const long p = static_cast<long>(idx.size());
+    if (p >= m) return;
     Eigen::MatrixXd a(m, p);
     for (long c = 0; c < p; ++c) a.col(c) = kappas[idx[static_cast<size_t>(c)]];
     const Eigen::MatrixXd normal = a.transpose() * w.asDiagonal() * a;
     if (normal.determinant() <= 1e-300 * std::pow(normal.norm(), static_cast<double>(p))) return;
     const Eigen::VectorXd x = normal.ldlt().solve(a.transpose() * w.asDiagonal() * y);
-    if ((x.array() < 0).any()) return;  // the one-component fits cover the boundary
+    if ((x.array() < 0).any()) return;  // the fits with fewer components cover the boundary
     const Eigen::VectorXd e = y - a * x;
     const double cost = e.dot(w.asDiagonal() * e) + 2.0 * p;
     if (cost >= best.cost) return;
     best.cost = cost;
     best.parts.clear();
     for (long c = 0; c < p; ++c) best.parts.emplace_back(idx[static_cast<size_t>(c)], x[c]);
-    const double birge = m > p ? std::max(1.0, (cost - 2.0 * p) / static_cast<double>(m - p)) : 1.0;
+    const double birge = std::max(1.0, (cost - 2.0 * p) / static_cast<double>(m - p));
     best.covariance = birge * normal.inverse();
   };
-  for (size_t i = 0; i < lengths.size(); ++i) {
-    consider({i});
-    for (size_t j = i + 1; j < lengths.size() && m > 2; ++j) consider({i, j});
+  // Up to two Gaussian components (short- and long-range) and one ring.
+  for (size_t ring = gaussians; ring <= candidates.size(); ++ring) {
+    std::vector<size_t> with_ring;
+    if (ring < candidates.size()) with_ring.push_back(ring);
+    if (!with_ring.empty()) consider(with_ring);
+    for (size_t i = 0; i < gaussians; ++i) {
+      std::vector<size_t> one = {i};
+      one.insert(one.end(), with_ring.begin(), with_ring.end());
+      consider(one);
+      for (size_t j = i + 1; j < gaussians; ++j) {
+        std::vector<size_t> two = {i, j};
+        two.insert(two.end(), with_ring.begin(), with_ring.end());
+        consider(two);
+      }
+    }
   }
-  if (best.parts.empty()) {  // every one-component fit was negative: no correlated error seen
-    best.parts = {{lengths.size() - 1, 0.0}};
-    const double kw = kappas.back().dot(w.asDiagonal() * kappas.back());
+  if (best.parts.empty()) {  // every fit was negative: no correlated error seen
+    best.parts = {{gaussians - 1, 0.0}};
+    const double kw = kappas[gaussians - 1].dot(w.asDiagonal() * kappas[gaussians - 1]);
     best.covariance = Eigen::MatrixXd::Constant(1, 1, kw > 0 ? 1 / kw : kInf);
-    const Eigen::VectorXd e = y;
-    best.cost = e.dot(w.asDiagonal() * e) + 2.0;
+    best.cost = y.dot(w.asDiagonal() * y) + 2.0;
   }
   bud->misfit_components.clear();
   Eigen::VectorXd model = Eigen::VectorXd::Zero(m);
   for (size_t c = 0; c < best.parts.size(); ++c) {
-    const auto& [li, v] = best.parts[c];
-    bud->misfit_components.push_back(
-        {lengths[li], v, std::sqrt(std::max(0.0, best.covariance(static_cast<long>(c), static_cast<long>(c))))});
-    model += v * kappas[li];
+    const auto& [ci, v] = best.parts[c];
+    UncertaintyBudget::FieldComponent component = candidates[ci];
+    component.variance_px2 = v;
+    component.variance_sd_px2 = std::sqrt(std::max(0.0, best.covariance(static_cast<long>(c), static_cast<long>(c))));
+    bud->misfit_components.push_back(component);
+    model += v * kappas[ci];
   }
-  // The long-range component is the one that moves the radius; the summary fields name it.
-  const UncertaintyBudget::FieldComponent& longest = bud->misfit_components.back();
-  bud->misfit_length_px = longest.length_px;
-  bud->misfit_variance_px2 = longest.variance_px2;
-  bud->misfit_variance_sd_px2 = longest.variance_sd_px2;
+  // The longest Gaussian component is the one that moves the radius most; the summary fields name it (the ring
+  // when there is none).
+  const UncertaintyBudget::FieldComponent* longest = &bud->misfit_components.back();
+  for (const UncertaintyBudget::FieldComponent& c : bud->misfit_components) {
+    if (c.family == UncertaintyBudget::FieldFamily::kGaussian) longest = &c;
+  }
+  bud->misfit_length_px = longest->length_px;
+  bud->misfit_variance_px2 = longest->variance_px2;
+  bud->misfit_variance_sd_px2 = longest->variance_sd_px2;
   bud->misfit_lags.clear();
   for (long k = 0; k < m; ++k) {
     const size_t kk = static_cast<size_t>(k);
     bud->misfit_lags.push_back({stats[kk].lag, stats[kk].pairs, stats[kk].stat, sigma_px * sigma_px * stats[kk].nu, model[k]});
   }
-  const double best_cost = best.cost;
   bud->misfit_spacing_px = spacing;
-  bud->misfit_fit_chi2 = best_cost;
+  bud->misfit_fit_chi2 = best.cost;
 }
-
 
 }  // namespace
 
-// A stationary Gaussian field of variance s2 px^2 per coordinate and correlation length length_px over the image,
-// common to every photo, propagated through G exactly from its random-feature basis: cov(q) = s2 / v (G_x Phi
-// Phi^T G_x^T + G_y Phi Phi^T G_y^T), v the basis's mean variance at the points.
-QuantityVariance GaussianFieldVariance(const Setup& setup, const Linearization& lin, double s2, double length_px) {
-  const FitOptions& o = *setup.options;
+// A stationary field of one component's family and variance, common to every photo, propagated through G exactly
+// from its random-feature basis: cov(q) = s2 / v (G_x Phi Phi^T G_x^T + G_y Phi Phi^T G_y^T), v the basis's mean
+// variance at the points.
+QuantityVariance FieldVariance(const Setup& setup, const Linearization& lin,
+                               const UncertaintyBudget::FieldComponent& component) {
   const int n = static_cast<int>(lin.obs.size()), nq = static_cast<int>(lin.g.rows());
-  const Eigen::MatrixXd phi =
-      GaussianFieldBasis(DetectedPoints(setup, lin), length_px, o.misfit_features, o.systematic_field_seed + 2);
+  const RowMajor phi = ComponentBasis(setup, lin, component);
   Eigen::MatrixXd gx(nq, n), gy(nq, n);
   for (int i = 0; i < n; ++i) gx.col(i) = lin.g.col(2 * i), gy.col(i) = lin.g.col(2 * i + 1);
   const Eigen::MatrixXd mx = gx * phi, my = gy * phi;
   const double variance = phi.squaredNorm() / n;
-  return QuantityVariance::FromCovariance(s2 / variance * (mx * mx.transpose() + my * my.transpose()), setup.photos);
+  return QuantityVariance::FromCovariance(
+      component.variance_px2 / variance * (mx * mx.transpose() + my * my.transpose()), setup.photos);
 }
 
 // The lens model misfit's RMS, measured from the residuals (UncertaintyBudget::misfit_*). Each detection is paired

@@ -526,12 +526,22 @@ nlohmann::json FromScreenJson(const FromScreenResult& r) {
       {"residual_check_px", Num(ib.residual_check_px)},
       {"noise_check_relative", Num(ib.noise_check)},
       {"unmodelled_rms_px", Num(std::sqrt(ib.unmodelled_variance_px2))},
-      {"unmodelled_length_px", Num(ib.unmodelled_length_px)},
+      {"unmodelled_components", [&] {
+         nlohmann::json a = nlohmann::json::array();
+         for (const UncertaintyBudget::FieldComponent& c : ib.unmodelled) {
+           const bool ring = c.family == UncertaintyBudget::FieldFamily::kRing;
+           a.push_back({{"family", ring ? "ring" : "gaussian"},
+                        {ring ? "period_px" : "length_px", Num(c.length_px)},
+                        {"rms_px", Num(std::sqrt(c.variance_px2))}});
+         }
+         return a;
+       }()},
       {"stated", ib.computed ? "intrinsics_covariance is the sum of the rows (independent sources)"
                              : "intrinsics_covariance is the detection noise row alone (see note)"},
       {"unmodelled_meaning",
-       "the lens's departure from its model that no intrinsics of this lens model follow (the misfit field's RMS "
-       "per coordinate): a comparison with the true lens, not with another calibration of it, adds it per point"}};
+       "the lens's departure from its model that no intrinsics of this lens model follow (the misfit fields' "
+       "combined RMS per coordinate; its components: Gaussian fields by correlation length, ring fields by period): "
+       "a comparison with the true lens, not with another calibration of it, adds it per point"}};
   const FromScreenObservability& o = r.observability;
   nlohmann::json sig = nlohmann::json::array();
   for (double v : o.sigma) sig.push_back(Num(v));

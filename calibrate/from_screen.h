@@ -127,11 +127,12 @@ struct FromScreenIntrinsicsBudget {
   // Checks of the rebuilt linearization against the fit: the largest difference of the residuals (px) and the
   // relative (Frobenius) difference of the noise row rebuilt from it against the fit's own covariance.
   double residual_check_px = 0, noise_check = 0;
-  // The lens's departure from any model of this family that no intrinsics can follow (the misfit field's variance
-  // per coordinate, px^2): what a comparison with the true lens (not with another calibration of it) adds per point.
-  // unmodelled_length_px: the correlation length of its largest component (projection_compare.h
-  // LensWithCovariance::unmodelled_*).
-  double unmodelled_variance_px2 = 0, unmodelled_length_px = 0;
+  // The lens's departure from any model of this family that no intrinsics can follow: the screen fit's measured
+  // misfit components (Gaussian and ring fields, UncertaintyBudget::FieldComponent) and their summed variance per
+  // coordinate (px^2), what a comparison with the true lens (not with another calibration of it) adds per point
+  // (projection_compare.h LensWithCovariance::unmodelled).
+  std::vector<UncertaintyBudget::FieldComponent> unmodelled;
+  double unmodelled_variance_px2 = 0;
 };
 
 struct LensCandidateFit {

@@ -29,9 +29,6 @@ namespace {
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
 constexpr double kTwoPi = 6.283185307179586;
-// Seed of the random Fourier features of the misfit field (its covariance does not depend on it beyond the
-// features' sampling error, ~1/sqrt(features)).
-constexpr unsigned kMisfitFeatureSeed = 20261202;
 
 Eigen::Matrix3d Skew(const Eigen::Vector3d& v) {
   Eigen::Matrix3d s;
@@ -186,8 +183,11 @@ FromScreenIntrinsicsBudget IntrinsicsBudgetFromScreen(const std::vector<PhotoObs
     out.rows.push_back(row);
   }
 
-  // 3. Lens model misfit: the screen fit's measured field (its components' variance s^2 and length L, from the
-  //    residuals' correlation at several lags), propagated to the intrinsics: the part of the lens's departure from
+  // 3. Lens model misfit: the screen fit's measured fields (its components: Gaussian fields of variance s^2 and
+  //    length L, ring fields of variance s^2 and period P, from the residuals' correlation at several lags),
+  //    propagated to the intrinsics as the screen fit's budget propagates them (screen_fit_misfit.cc
+  //    FieldVariance: the family's random-feature basis Phi, the same seeds, normalized by its mean variance v at
+  //    the points): Cov = s^2 / v (A_x Phi Phi^T A_x^T + A_y Phi Phi^T A_y^T), the part of the lens's departure from
   //    its model that the intrinsics absorb where the screen was seen.
   {
     const UncertaintyBudget& bud = m.budget;
@@ -196,20 +196,20 @@ FromScreenIntrinsicsBudget IntrinsicsBudgetFromScreen(const std::vector<PhotoObs
     row.type = "A";
     row.covariance = Eigen::MatrixXd::Zero(ni, ni);
     std::string parts;
-    double var_sum = 0, dof_denominator = 0, largest = 0;
+    double var_sum = 0, dof_denominator = 0;
     for (const UncertaintyBudget::FieldComponent& f : bud.misfit_components) {
       if (!(f.variance_px2 > 0) || !(f.length_px > 0)) continue;
-      const Eigen::MatrixXd phi = GaussianFieldBasis(detected, f.length_px, options.misfit_features, kMisfitFeatureSeed);
+      const Eigen::MatrixXd phi = MisfitComponentBasis(detected, f, options);
+      const double basis_variance = phi.squaredNorm() / static_cast<double>(n);
       const Eigen::MatrixXd px = ax * phi, py = ay * phi;
-      const Eigen::MatrixXd part = f.variance_px2 * (px * px.transpose() + py * py.transpose());
+      const Eigen::MatrixXd part = f.variance_px2 / basis_variance * (px * px.transpose() + py * py.transpose());
       row.covariance += part;
-      if (f.variance_px2 > largest) {
-        largest = f.variance_px2;
-        out.unmodelled_length_px = f.length_px;
-      }
+      out.unmodelled.push_back(f);
       out.unmodelled_variance_px2 += f.variance_px2;
-      parts += fmt::format("{}RMS {:.4f} px at {:.0f} px", parts.empty() ? "" : ", plus ", std::sqrt(f.variance_px2),
-                           f.length_px);
+      const bool ring = f.family == UncertaintyBudget::FieldFamily::kRing;
+      parts += fmt::format("{}{} RMS {:.4f} px at a {} of {:.0f} px", parts.empty() ? "" : ", plus ",
+                           ring ? "ring (band-pass)" : "Gaussian", std::sqrt(f.variance_px2),
+                           ring ? "period" : "length", f.length_px);
       const double tr = part.diagonal().cwiseQuotient(m.intrinsics_covariance.diagonal().cwiseMax(1e-300)).sum();
       var_sum += tr;
       if (f.variance_sd_px2 > 0) {
@@ -220,8 +220,8 @@ FromScreenIntrinsicsBudget IntrinsicsBudgetFromScreen(const std::vector<PhotoObs
     if (dof_denominator > 0) row.dof = var_sum * var_sum / dof_denominator;
     row.source = parts.empty()
                      ? std::string("none measured (the screen fit's lens-model-misfit row is empty)")
-                     : fmt::format("the screen fit's misfit field ({}; stationary Gaussian, the same in every photo, "
-                                   "independent per coordinate, {} random Fourier features) propagated to the "
+                     : fmt::format("the screen fit's misfit fields ({}; stationary, the same in every photo, "
+                                   "independent per coordinate, {} random Fourier features each) propagated to the "
                                    "intrinsics",
                                    parts, options.misfit_features);
     out.rows.push_back(row);

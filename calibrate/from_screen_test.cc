@@ -15,6 +15,7 @@
 #include <gtest/gtest.h>
 
 #include <filesystem>
+#include <iostream>
 #include <memory>
 #include <random>
 
@@ -338,13 +339,20 @@ TEST(FromScreenTest, StatedCovarianceCoversTheTrueLensWithAMisfitField) {
   true_lens.true_image_of = [misfit](const Eigen::Vector2d& q) { return misfit->TrueImageOf(q); };
   true_lens.model_pixel_of = [misfit](const Eigen::Vector2d& q) { return misfit->ModelPixelOf(q); };
   LensWithCovariance stated(fs.model, fs.intrinsics_covariance);
-  stated.unmodelled_variance_px2 = b.unmodelled_variance_px2;
-  stated.unmodelled_length_px = b.unmodelled_length_px;
+  stated.unmodelled = b.unmodelled;
   const LensWithCovariance noise_only(fs.model, fs.Chosen().fit.Chosen().intrinsics_covariance);
   const ProjectionComparison before = CompareProjections(true_lens, noise_only, fs.projection.pixel_px,
                                                          fs.projection.covered);
   const ProjectionComparison after = CompareProjections(true_lens, stated, fs.projection.pixel_px,
                                                         fs.projection.covered);
+  std::cout << "measured misfit components:";
+  for (const UncertaintyBudget::FieldComponent& c : b.unmodelled) {
+    std::cout << " " << (c.family == UncertaintyBudget::FieldFamily::kRing ? "ring, period " : "Gaussian, length ")
+              << c.length_px << " px, RMS " << std::sqrt(c.variance_px2) << " px;";
+  }
+  std::cout << " largest Mahalanobis distance against the true lens: noise row " << before.max_mahalanobis
+            << " (bound " << AgreementBound(before) << "), stated " << after.max_mahalanobis << " (bound "
+            << AgreementBound(after) << ")\n";
   EXPECT_GT(before.max_mahalanobis, AgreementBound(before)) << FromScreenSummary(fs);
   EXPECT_LE(after.max_mahalanobis, AgreementBound(after)) << FromScreenSummary(fs);
   // Not by a sigma far too large (that would hide real differences): the stated projection sigma stays within a

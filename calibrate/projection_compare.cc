@@ -80,6 +80,12 @@ bool HasCovariance(const LensWithCovariance& m) {
   return m.covariance.rows() == n && m.covariance.cols() == n && n > 0;
 }
 
+bool HasUnmodelledField(const LensWithCovariance& m) {
+  return std::any_of(m.unmodelled.begin(), m.unmodelled.end(), [](const UncertaintyBudget::FieldComponent& c) {
+    return c.variance_px2 > 0 && c.length_px > 0;
+  });
+}
+
 }  // namespace
 
 std::vector<Eigen::Vector2d> ImagerGrid(int width, int height, int gx, int gy) {
@@ -140,15 +146,18 @@ ProjectionComparison CompareProjections(const LensWithCovariance& a, const LensW
     joined << l, g * half;
     l = joined;
     const LensWithCovariance& other = which == 0 ? b : a;
-    if (!HasCovariance(other) && m.unmodelled_variance_px2 > 0 && m.unmodelled_length_px > 0) {
-      // The unmodelled field over the grid: K = v exp(-d^2 / 2 L^2) per coordinate, factored K = U S U^T (modes
-      // below 1e-9 of the largest dropped).
+    if (!HasCovariance(other) && HasUnmodelledField(m)) {
+      // The unmodelled field over the grid: K = sum over the components of their covariance at the distance,
+      // per coordinate, factored K = U S U^T (modes below 1e-9 of the largest dropped).
       const long n = static_cast<long>(grid.size());
-      Eigen::MatrixXd k(n, n);
-      for (long i = 0; i < n; ++i) {
-        for (long j = 0; j < n; ++j) {
-          const double d2 = (grid[static_cast<size_t>(i)] - grid[static_cast<size_t>(j)]).squaredNorm();
-          k(i, j) = m.unmodelled_variance_px2 * std::exp(-0.5 * d2 / (m.unmodelled_length_px * m.unmodelled_length_px));
+      Eigen::MatrixXd k = Eigen::MatrixXd::Zero(n, n);
+      for (const UncertaintyBudget::FieldComponent& c : m.unmodelled) {
+        if (!(c.variance_px2 > 0) || !(c.length_px > 0)) continue;
+        for (long i = 0; i < n; ++i) {
+          for (long j = 0; j < n; ++j) {
+            k(i, j) += MisfitComponentCovariance(
+                c, (grid[static_cast<size_t>(i)] - grid[static_cast<size_t>(j)]).norm());
+          }
         }
       }
       const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> ke(k);

@@ -21,6 +21,7 @@
 #include <utility>
 #include <vector>
 
+#include "analysis/screen_fit.h"
 #include "core/camera_model.h"
 
 namespace curvecheck {
@@ -34,11 +35,13 @@ struct LensWithCovariance {
   // model is the lens. Set both or neither.
   std::function<Eigen::Vector2d(const Eigen::Vector2d&)> true_image_of, model_pixel_of;
   // The lens's departure from this model that no intrinsics of the model follow (a calibration's measured lens
-  // model misfit): a stationary Gaussian field of this variance per coordinate (px^2) and correlation length (px),
-  // independent per coordinate. Added to the difference's covariance (cell to cell, exp(-d^2 / 2 L^2)) only when
-  // the other model is exact (a truth): two calibrations of one lens see the same departure, which cancels in their
-  // difference. Conservative: the part of the field the intrinsics absorbed is counted in both terms.
-  double unmodelled_variance_px2 = 0, unmodelled_length_px = 0;
+  // model misfit): stationary fields, independent per coordinate, one per component (Gaussian: variance s^2 per
+  // coordinate and correlation length; ring: variance and period; analysis/screen_fit.h UncertaintyBudget::
+  // FieldComponent). Added to the difference's covariance (cell to cell, MisfitComponentCovariance summed over the
+  // components) only when the other model is exact (a truth): two calibrations of one lens see the same departure,
+  // which cancels in their difference. Conservative: the part of the field the intrinsics absorbed is counted in
+  // both terms.
+  std::vector<UncertaintyBudget::FieldComponent> unmodelled;
 };
 
 struct ProjectionComparison {

@@ -338,15 +338,16 @@ FlatVsBoardTrial RunFlatVsBoardTrial(const BenchFlatVsBoardOptions& o, uint64_t 
             CoveredCells(board_px, scene.camera.width, scene.camera.height, kGridX, kGridY));
     t.cells = static_cast<int>(std::count(region.begin(), region.end(), true));
     LensWithCovariance s(fs.model, screen_cov);
-    s.unmodelled_variance_px2 = fs.intrinsics_budget.unmodelled_variance_px2;
-    s.unmodelled_length_px = fs.intrinsics_budget.unmodelled_length_px;
+    s.unmodelled = fs.intrinsics_budget.unmodelled;
     const LensWithCovariance s_noise(fs.model, screen_noise), bl_noise(b.model, bc.intrinsics_covariance);
     // The board's stated covariance: mrcal's (noise) plus its measured misfit's share (mrcal_solve.py misfit_field).
     LensWithCovariance bl(b.model, bc.intrinsics_covariance);
     if (bc.intrinsics_covariance_misfit.rows() == bc.intrinsics_covariance.rows()) {
       bl.covariance += bc.intrinsics_covariance_misfit;
-      bl.unmodelled_variance_px2 = bc.misfit_variance_px2;
-      bl.unmodelled_length_px = bc.misfit_length_px;
+      UncertaintyBudget::FieldComponent field;  // mrcal_solve.py misfit_field: one Gaussian field
+      field.length_px = bc.misfit_length_px;
+      field.variance_px2 = bc.misfit_variance_px2;
+      bl.unmodelled = {field};
     }
     t.board_misfit_px = std::sqrt(std::max(0.0, bc.misfit_variance_px2));
     t.screen_summary = FromScreenSummary(fs);

@@ -28,7 +28,7 @@
 // sum of its intrinsics budget's rows: FromScreenIntrinsicsBudget), the board's as mrcal's (detection noise) plus
 // the share of its misfit measured from its residuals (CandidateResult::intrinsics_covariance_misfit); each with the
 // misfit field it measured as the lens's unmodelled departure when compared with the truth
-// (LensWithCovariance::unmodelled_*). For the record, both detection-noise covariances alone (what was stated
+// (LensWithCovariance::unmodelled). For the record, both detection-noise covariances alone (what was stated
 // before the budgets; the "noise" columns). Diagnostics per
 // trial: the detectors' errors against the true image positions (RMS, mean, and the RMS of their smooth part: a
 // Legendre field of degree 3 fitted to them), for the screen's features and the board's corners; where the largest

@@ -75,6 +75,18 @@ std::vector<Eigen::Vector3d> CheckPositions() {
   return p;
 }
 
+// Ten positions in front of a flat monitor (screen frame, mm): yaw -24 to 24 deg in steps of 12, tilt +-10 deg,
+// at 850 and 700 mm from the screen centre alternately.
+std::vector<Eigen::Vector3d> FlatMonitorPositions() {
+  std::vector<Eigen::Vector3d> p;
+  for (int i = 0; i < 10; ++i) {
+    const double yaw = (i % 5 - 2) * 12 / kDegPerRad, tilt = (i < 5 ? 10 : -10) / kDegPerRad;
+    const double d = i % 2 ? 700 : 850;
+    p.emplace_back(d * std::sin(yaw), d * std::sin(tilt), d * std::cos(yaw) * std::cos(tilt));
+  }
+  return p;
+}
+
 TEST(FromScreenTest, RecoversTheLensAndTheRadiusFromEightViews) {
   const Monitor m = LoadMonitor("49in-5120x1440-1000r");
   const CameraModel truth = QuarterTruth();
@@ -223,12 +235,7 @@ TEST(FromScreenTest, ImpreciseViewsAreRefusedWithPositionsThatFixThem) {
 TEST(FromScreenTest, FlatMonitorAgreesWithABoardCalibration) {
   const Monitor m = LoadMonitor("27in-2560x1440-flat");
   const CameraModel truth = QuarterTruth();
-  std::vector<Eigen::Vector3d> p;
-  for (int i = 0; i < 10; ++i) {
-    const double yaw = (i % 5 - 2) * 12 / kDegPerRad, tilt = (i < 5 ? 10 : -10) / kDegPerRad;
-    const double d = i % 2 ? 700 : 850;
-    p.emplace_back(d * std::sin(yaw), d * std::sin(tilt), d * std::cos(yaw) * std::cos(tilt));
-  }
+  const std::vector<Eigen::Vector3d> p = FlatMonitorPositions();
   FromScreenOptions o;
   o.focal_px = 0.92 * truth.intrinsics[0];
   const std::vector<PhotoObservations> obs = Observe(m, truth, p, 0.05, 7);
@@ -298,16 +305,10 @@ TEST(FromScreenTest, MisfitRowPropagatesARingFieldAsBruteForceRefitsMoveTheIntri
   constexpr int kDraws = 24;
   const Monitor m = LoadMonitor("27in-2560x1440-flat");
   const CameraModel truth = QuarterTruth();
-  std::vector<Eigen::Vector3d> positions;
-  for (int i = 0; i < 10; ++i) {
-    const double yaw = (i % 5 - 2) * 12 / kDegPerRad, tilt = (i < 5 ? 10 : -10) / kDegPerRad;
-    const double d = i % 2 ? 700 : 850;
-    positions.emplace_back(d * std::sin(yaw), d * std::sin(tilt), d * std::cos(yaw) * std::cos(tilt));
-  }
   FromScreenOptions o;
   o.focal_px = truth.intrinsics[0];
   o.lensmodels = {"LENSMODEL_OPENCV4"};  // one model in every refit (the intrinsics compared one by one)
-  const std::vector<PhotoObservations> obs = Observe(m, truth, positions, 0.02, 11);
+  const std::vector<PhotoObservations> obs = Observe(m, truth, FlatMonitorPositions(), 0.02, 11);
   const FromScreenResult base = CalibrateFromScreen(obs, m, truth.width, truth.height, o);
   // The row for a budget holding the ring alone (the fit's options as CalibrateFromScreen sets them).
   FitOptions fo = o.fit;
@@ -385,10 +386,9 @@ TEST(FromScreenTest, StatedCovarianceCoversTheTrueLensWithAMisfitField) {
   std::mt19937_64 rng(11);
   std::normal_distribution<double> noise(0, 0.03);
   std::vector<PhotoObservations> obs;
-  for (int i = 0; i < 10; ++i) {
-    const double yaw = (i % 5 - 2) * 12 / kDegPerRad, tilt = (i < 5 ? 10 : -10) / kDegPerRad;
-    const double d = i % 2 ? 700 : 850;
-    const Eigen::Vector3d position(d * std::sin(yaw), d * std::sin(tilt), d * std::cos(yaw) * std::cos(tilt));
+  const std::vector<Eigen::Vector3d> positions = FlatMonitorPositions();
+  for (size_t i = 0; i < positions.size(); ++i) {
+    const Eigen::Vector3d& position = positions[i];
     const Pose cam_from_screen =
         ScreenFromCamLookAt(position, ScreenCentreInScreen(m), Eigen::Vector3d::UnitY()).Inverse();
     PhotoObservations o;

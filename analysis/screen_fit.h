@@ -440,6 +440,17 @@ Eigen::MatrixXd GaussianFieldBasis(const std::vector<Eigen::Vector2d>& points_px
 Eigen::MatrixXd RingFieldBasis(const std::vector<Eigen::Vector2d>& points_px, double period_px, int features,
                                unsigned seed);
 
+// The random-feature basis of one lens-model-misfit component (UncertaintyBudget::FieldComponent) at the points: its
+// family's basis (GaussianFieldBasis at length_px, RingFieldBasis at period length_px) with options.misfit_features
+// features, seeded per family from options.systematic_field_seed as the budget's own measurement and propagation
+// are, so that a propagation elsewhere (calibrate/from_screen_budget.cc) uses the same fields.
+Eigen::MatrixXd MisfitComponentBasis(const std::vector<Eigen::Vector2d>& points_px,
+                                     const UncertaintyBudget::FieldComponent& component, const FitOptions& options);
+
+// The component's covariance per coordinate (px^2) between two points distance_px apart: s^2 exp(-d^2 / 2 L^2)
+// (kGaussian) or s^2 J0(2 pi d / P) (kRing), s^2 = variance_px2.
+double MisfitComponentCovariance(const UncertaintyBudget::FieldComponent& component, double distance_px);
+
 
 // The intrinsics covariance written beside a camera model at calibration time (format
 // curvecheck.intrinsics_covariance/1: lensmodel, intrinsics, covariance n x n, dof, ...). Throws Error naming the

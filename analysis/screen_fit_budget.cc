@@ -174,6 +174,23 @@ Eigen::MatrixXd RingFieldBasis(const std::vector<Eigen::Vector2d>& points_px, do
   return CosineFeatures(points_px, omega, offset);
 }
 
+Eigen::MatrixXd MisfitComponentBasis(const std::vector<Eigen::Vector2d>& points_px,
+                                     const UncertaintyBudget::FieldComponent& component, const FitOptions& options) {
+  return component.family == UncertaintyBudget::FieldFamily::kRing
+             ? RingFieldBasis(points_px, component.length_px, options.misfit_features,
+                              options.systematic_field_seed + 3)
+             : GaussianFieldBasis(points_px, component.length_px, options.misfit_features,
+                                  options.systematic_field_seed + 2);
+}
+
+double MisfitComponentCovariance(const UncertaintyBudget::FieldComponent& component, double distance_px) {
+  if (component.family == UncertaintyBudget::FieldFamily::kRing) {
+    return component.variance_px2 * std::cyl_bessel_j(0.0, 6.283185307179586 * distance_px / component.length_px);
+  }
+  const double z = distance_px / component.length_px;
+  return component.variance_px2 * std::exp(-0.5 * z * z);
+}
+
 std::filesystem::path IntrinsicsCovariancePathFor(const std::filesystem::path& camera_path) {
   std::filesystem::path p = camera_path;
   p.replace_extension(".intrinsics_covariance.json");

@@ -277,6 +277,28 @@ TEST(UncertaintyBudgetTest, FieldBasesHaveTheirStatedCovariances) {
     EXPECT_NEAR(cr, std::cyl_bessel_j(0.0, 2 * M_PI * d / kScale), 0.03) << "d " << d;
   }
   EXPECT_LT(r.row(0).dot(r.row(3)), -0.2);  // d = 0.5 P: J0(pi) = -0.30
+  // A budget component's basis (MisfitComponentBasis: its family's, the budget's seeds) and its stated covariance
+  // (MisfitComponentCovariance, what calibrate/projection_compare.cc adds cell to cell): variance s^2 times the
+  // family's correlation, which the basis reproduces.
+  FitOptions o;
+  o.misfit_features = kFeatures;
+  for (const UncertaintyBudget::FieldFamily family :
+       {UncertaintyBudget::FieldFamily::kGaussian, UncertaintyBudget::FieldFamily::kRing}) {
+    UncertaintyBudget::FieldComponent c;
+    c.family = family;
+    c.length_px = kScale;
+    c.variance_px2 = 2.5;
+    const bool ring = family == UncertaintyBudget::FieldFamily::kRing;
+    const Eigen::MatrixXd phi = MisfitComponentBasis(points, c, o);
+    for (size_t i = 0; i < points.size(); ++i) {
+      const double d = (points[i] - points[0]).norm();
+      const double expected =
+          ring ? std::cyl_bessel_j(0.0, 2 * M_PI * d / kScale) : std::exp(-d * d / (2 * kScale * kScale));
+      EXPECT_NEAR(MisfitComponentCovariance(c, d), 2.5 * expected, 1e-12) << (ring ? "ring" : "gaussian") << " d " << d;
+      EXPECT_NEAR(2.5 * phi.row(0).dot(phi.row(static_cast<long>(i))), 2.5 * expected, 2.5 * 0.03)
+          << (ring ? "ring" : "gaussian") << " d " << d;
+    }
+  }
 }
 
 // A band-pass correlated error (ring fields, covariance J0(2 pi d / P): the beat of the features' spacing against a

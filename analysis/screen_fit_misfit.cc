@@ -66,8 +66,7 @@ RowMajor ComponentBasis(const Setup& setup, const Linearization& lin, const Unce
   if (it == setup.misfit_cache->bases.end()) {
     std::vector<Eigen::Vector2d> all;
     for (const Obs& ob : setup.obs) all.push_back(ob.detected);
-    RowMajor basis = ring ? RingFieldBasis(all, c.length_px, o.misfit_features, o.systematic_field_seed + 3)
-                          : GaussianFieldBasis(all, c.length_px, o.misfit_features, o.systematic_field_seed + 2);
+    RowMajor basis = MisfitComponentBasis(all, c, o);
     it = setup.misfit_cache->bases.emplace(std::make_pair(ring ? 1 : 0, c.length_px), std::move(basis)).first;
   }
   RowMajor phi(static_cast<long>(lin.obs.size()), it->second.cols());

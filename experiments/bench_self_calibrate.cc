@@ -66,7 +66,7 @@ SelfCalibrationTrial RunSelfCalibrationTrial(const SyntheticScene& base, const T
   const int gw = 30, gh = 20;
   const std::vector<Eigen::Vector2d> grid = ImagerGrid(base.camera.width, base.camera.height, gw, gh);
   const auto compare = [&](const FromScreenResult& r) {
-    return CompareProjections({base.camera, {}}, {r.model, r.Chosen().fit.Chosen().intrinsics_covariance}, grid,
+    return CompareProjections({base.camera, {}}, {r.model, r.intrinsics_covariance}, grid,
                               CoveredCells(observed, base.camera.width, base.camera.height, gw, gh));
   };
   try {

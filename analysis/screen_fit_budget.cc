@@ -354,19 +354,12 @@ QuantityVariance SystematicVariance(const Setup& setup, const Linearization& lin
 // A_c^2 / 2 (G s_c s_c^T G^T + G c_c c_c^T G^T). On a regular board the phases beat across the image, so this
 // field is correlated in a way that low-order smooth fields do not represent.
 QuantityVariance PixelLockingVariance(const Setup& setup, const Linearization& lin, const Eigen::Vector2d& bound_px) {
-  constexpr double kTwoPi = 6.283185307179586;
-  const int n = static_cast<int>(lin.obs.size()), nq = static_cast<int>(lin.g.rows());
+  const int nq = static_cast<int>(lin.g.rows());
+  const Eigen::MatrixXd shapes = PixelLockingShapes(setup, lin);
   Eigen::MatrixXd cov = Eigen::MatrixXd::Zero(nq, nq);
   for (int c = 0; c < 2; ++c) {
     if (!std::isfinite(bound_px[c]) || !(bound_px[c] > 0)) continue;
-    Eigen::VectorXd sv = Eigen::VectorXd::Zero(2 * n), cv = Eigen::VectorXd::Zero(2 * n);
-    for (int i = 0; i < n; ++i) {
-      const double q = setup.obs[lin.obs[static_cast<size_t>(i)]].detected[c];
-      const double phase = kTwoPi * (q - std::floor(q));
-      sv[2 * i + c] = std::sin(phase);
-      cv[2 * i + c] = std::cos(phase);
-    }
-    const Eigen::VectorXd gs = lin.g * sv, gc = lin.g * cv;
+    const Eigen::VectorXd gs = lin.g * shapes.col(2 * c), gc = lin.g * shapes.col(2 * c + 1);
     cov += 0.5 * bound_px[c] * bound_px[c] * (gs * gs.transpose() + gc * gc.transpose());
   }
   return QuantityVariance::FromCovariance(cov, setup.photos);
@@ -405,6 +398,23 @@ QuantityVariance LensVariance(const Setup& setup, const ModelWork& w, const Line
 std::string Percent(double relative) { return fmt::format("{:.3g}%", 100 * relative); }
 
 }  // namespace
+
+// The pixel-locking signature's shapes at the active observations (2n x 4, rows interleaved x, y): columns 2c and
+// 2c + 1 hold sin and cos of 2 pi x the subpixel phase of coordinate c on that coordinate's rows, zero elsewhere.
+Eigen::MatrixXd PixelLockingShapes(const Setup& setup, const Linearization& lin) {
+  constexpr double kTwoPi = 6.283185307179586;
+  const int n = static_cast<int>(lin.obs.size());
+  Eigen::MatrixXd shapes = Eigen::MatrixXd::Zero(2 * n, 4);
+  for (int i = 0; i < n; ++i) {
+    const Eigen::Vector2d q = setup.obs[lin.obs[static_cast<size_t>(i)]].detected;
+    for (int c = 0; c < 2; ++c) {
+      const double phase = kTwoPi * (q[c] - std::floor(q[c]));
+      shapes(2 * i + c, 2 * c) = std::sin(phase);
+      shapes(2 * i + c, 2 * c + 1) = std::cos(phase);
+    }
+  }
+  return shapes;
+}
 
 // The active observations' detected positions, in Linearization order.
 std::vector<Eigen::Vector2d> DetectedPoints(const Setup& setup, const Linearization& lin) {

@@ -162,6 +162,7 @@ void Covariances(const Setup& setup, ModelWork& w, BuiltProblem& b, ModelFit* fi
 
 // screen_fit_budget.cc: the uncertainty budget.
 std::vector<Eigen::Vector2d> DetectedPoints(const Setup& setup, const Linearization& lin);
+Eigen::MatrixXd PixelLockingShapes(const Setup& setup, const Linearization& lin);
 std::vector<QuantityVariance> Budget(const Setup& setup, ModelWork& w, BuiltProblem& b, int n_residuals,
                                      ModelFit* fit);
 void FinishBudget(const std::vector<QuantityVariance>& vars, ModelFit* fit);

@@ -83,19 +83,10 @@ RowMajor ComponentBasis(const Setup& setup, const Linearization& lin, const Unce
 // grew).
 std::vector<Eigen::Vector2d> WithoutPixelLocking(const Setup& setup, const Linearization& lin,
                                                  const std::vector<Eigen::Vector2d>& residual) {
-  constexpr double kTwoPi = 6.283185307179586;
   const int n = static_cast<int>(lin.obs.size());
-  Eigen::MatrixXd shapes = Eigen::MatrixXd::Zero(2 * n, 4);
+  const Eigen::MatrixXd shapes = PixelLockingShapes(setup, lin);
   Eigen::VectorXd r(2 * n);
-  for (int i = 0; i < n; ++i) {
-    const Eigen::Vector2d q = setup.obs[lin.obs[static_cast<size_t>(i)]].detected;
-    for (int c = 0; c < 2; ++c) {
-      const double phase = kTwoPi * (q[c] - std::floor(q[c]));
-      shapes(2 * i + c, 2 * c) = std::sin(phase);
-      shapes(2 * i + c, 2 * c + 1) = std::cos(phase);
-      r[2 * i + c] = residual[static_cast<size_t>(i)][c];
-    }
-  }
+  for (int i = 0; i < n; ++i) r.segment<2>(2 * i) = residual[static_cast<size_t>(i)];
   const Eigen::MatrixXd projected = shapes - lin.j_obs * (lin.normal_pinv * (lin.j_obs.transpose() * shapes));
   const Eigen::MatrixXd normal = projected.transpose() * projected;
   if (!r.allFinite() || !(normal.diagonal().minCoeff() > 1e-9 * n)) return residual;

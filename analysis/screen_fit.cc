@@ -116,11 +116,26 @@ void FitFinal(const Setup& setup, ModelWork& w, const std::vector<bool>& inlier,
   fit->shape.insert(fit->shape.end(), w.state.dev.begin(), w.state.dev.end());
   fit->deviation_basis_curvature_per_mm = w.basis ? w.basis_curvature_per_mm : 0;
   Covariances(setup, w, b, fit);
-  std::vector<QuantityVariance> budget_vars;
-  if (fit->cameras.size() == static_cast<size_t>(setup.photos)) budget_vars = Budget(setup, w, b, n, fit);
-  RadiusFromCurvature(setup, w, fit);
-  FinishBudget(budget_vars, fit);
+  if (fit->cameras.size() == static_cast<size_t>(setup.photos)) Budget(setup, w, b, n, fit);
   Adequacy(*setup.options, rss, n, fit);
+}
+
+// Once the model is chosen: the lens-model-misfit field measured on the chosen model's residuals, then every
+// candidate's budget completed with it (CompleteBudget), its radius and interval.
+void CompleteFits(const Setup& setup, std::vector<ModelWork>& work, ScreenFitResult* result) {
+  if (result->chosen < 0 || static_cast<size_t>(result->chosen) >= work.size()) return;
+  ModelFit& chosen = result->candidates[static_cast<size_t>(result->chosen)];
+  const ModelWork& cw = work[static_cast<size_t>(result->chosen)];
+  if (cw.lin && setup.options->measure_lens_misfit) {
+    MeasureMisfitCorrelation(setup, *cw.lin, LinearizedResiduals(setup, *cw.lin, chosen), chosen.noise_px,
+                             &chosen.budget);
+  }
+  for (size_t i = 0; i < work.size(); ++i) {
+    ModelFit& fit = result->candidates[i];
+    const std::vector<QuantityVariance> vars = CompleteBudget(setup, work[i], chosen, &fit);
+    RadiusFromCurvature(setup, work[i], &fit);
+    FinishBudget(vars, &fit);
+  }
 }
 
 void Deviations(const Setup& setup, const ModelWork& w, ScreenFitResult* result) {
@@ -540,6 +555,7 @@ ScreenFitResult FitScreen(const Monitor& nominal, const CameraModel& camera,
   result.adequacy_limit_px = AdequacyLimit(options);
   AdjustForLensField(options, camera.width, work, &result);
   Choose(options, &result);
+  CompleteFits(setup, work, &result);
   result.noise_px = result.Chosen().noise_px;
   if (!result.Chosen().adequate) {
     result.status = "inadequate";

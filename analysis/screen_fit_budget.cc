@@ -424,15 +424,23 @@ std::vector<Eigen::Vector2d> DetectedPoints(const Setup& setup, const Linearizat
 }
 
 
-// Builds the budget of one candidate at its final solution and replaces its sigmas by the combined ones (the
-// curvature's, the cameras' centre-frame positions and their covariance with k). Returns the components'
-// variances for FinishBudget, which fills the radius and axis-frame columns once the radius is known.
-std::vector<QuantityVariance> Budget(const Setup& setup, ModelWork& w, BuiltProblem& b, int n_residuals,
-                                     ModelFit* fit) {
+std::vector<Eigen::Vector2d> LinearizedResiduals(const Setup& setup, const Linearization& lin, const ModelFit& fit) {
+  std::vector<Eigen::Vector2d> res;
+  res.reserve(lin.obs.size());
+  for (size_t i : lin.obs) {
+    res.push_back(fit.residual_px[static_cast<size_t>(setup.obs[i].photo)][static_cast<size_t>(setup.obs[i].index)]);
+  }
+  return res;
+}
+
+// Builds the rows of one candidate's budget at its final solution (ModelWork::budget_vars, ::lin), all but the
+// lens-model-misfit row's variance, which CompleteBudget adds once the model is chosen.
+void Budget(const Setup& setup, ModelWork& w, BuiltProblem& b, int n_residuals, ModelFit* fit) {
   const FitOptions& o = *setup.options;
   UncertaintyBudget& bud = fit->budget;
   bud.coverage_probability = o.coverage_probability;
-  std::vector<QuantityVariance> vars;
+  std::vector<QuantityVariance>& vars = w.budget_vars;
+  vars.clear();
   // 1. Detection noise: the covariance scaled by the residual noise (Covariances).
   QuantityVariance noise(setup.photos);
   noise.var_k = fit->curvature_sigma_per_mm * fit->curvature_sigma_per_mm;
@@ -453,16 +461,13 @@ std::vector<QuantityVariance> Budget(const Setup& setup, ModelWork& w, BuiltProb
   bud.components.push_back(c_noise);
   vars.push_back(noise);
 
-  const std::optional<Linearization> lin = Linearize(setup, w, b, &bud.note);
+  w.lin = Linearize(setup, w, b, &bud.note);
+  const std::optional<Linearization>& lin = w.lin;
   // 2. Detector systematic (pixel-locking and other detector bias).
   {
-    std::vector<Eigen::Vector2d> det, res;
-    if (lin) {
-      for (size_t i : lin->obs) {
-        det.push_back(setup.obs[i].detected);
-        res.push_back(fit->residual_px[static_cast<size_t>(setup.obs[i].photo)][static_cast<size_t>(setup.obs[i].index)]);
-      }
-    }
+    const std::vector<Eigen::Vector2d> det = lin ? DetectedPoints(setup, *lin) : std::vector<Eigen::Vector2d>();
+    const std::vector<Eigen::Vector2d> res =
+        lin ? LinearizedResiduals(setup, *lin, *fit) : std::vector<Eigen::Vector2d>();
     bud.pixel_locking = EstimatePixelLocking(det, res);
     const ResidualPixelLocking& pl = bud.pixel_locking;
     double upper = 0;
@@ -538,68 +543,18 @@ std::vector<QuantityVariance> Budget(const Setup& setup, ModelWork& w, BuiltProb
     }
     bud.components.push_back(c);
   }
-  // 4. Lens model misfit, measured from the residuals' correlation between neighbours.
+  // 4. Lens model misfit: the neighbour statistic and the projection on the misfit family here (the model choice
+  // uses it); the field's correlation, and so the row's variance, in CompleteBudget.
   {
     BudgetComponent c;
     c.name = "lens model misfit";
     c.type = "A";
-    QuantityVariance v(setup.photos);
     if (lin && o.measure_lens_misfit) {
-      std::vector<Eigen::Vector2d> res;
-      for (size_t i : lin->obs) {
-        res.push_back(fit->residual_px[static_cast<size_t>(setup.obs[i].photo)][static_cast<size_t>(setup.obs[i].index)]);
-      }
-      EstimateMisfit(setup, *lin, res, fit->noise_px, &bud, &w.lens_field);
+      EstimateMisfit(setup, *lin, LinearizedResiduals(setup, *lin, *fit), fit->noise_px, &bud, &w.lens_field);
     }
-    if (!bud.misfit_components.empty()) {
-      std::string lags, parts;
-      for (const UncertaintyBudget::Lag& l : bud.misfit_lags) {
-        lags += fmt::format("{}{:.1f}: {:.3g} (noise {:.3g}, field {:.3g})", lags.empty() ? "" : "; ", l.lag_spacings,
-                            l.statistic_px2, l.noise_share_px2, l.field_share_px2);
-      }
-      double var_sum = 0, dof_denominator = 0;
-      for (const UncertaintyBudget::FieldComponent& f : bud.misfit_components) {
-        const bool ring = f.family == UncertaintyBudget::FieldFamily::kRing;
-        parts += fmt::format("{}{} field of RMS {:.4f} px per coordinate (variance {:.3g} +- {:.3g} px^2) at a {} of "
-                             "{:.0f} px",
-                             parts.empty() ? "" : ", plus a ", ring ? "ring (band-pass)" : "Gaussian",
-                             std::sqrt(f.variance_px2), f.variance_px2, f.variance_sd_px2,
-                             ring ? "period" : "correlation length", f.length_px);
-        if (!(f.variance_px2 > 0)) continue;
-        const QuantityVariance part = FieldVariance(setup, *lin, f);
-        v.var_k += part.var_k;
-        for (int p = 0; p < setup.photos; ++p) {
-          v.var_pos[static_cast<size_t>(p)] += part.var_pos[static_cast<size_t>(p)];
-          v.cov_pos_k[static_cast<size_t>(p)] += part.cov_pos_k[static_cast<size_t>(p)];
-        }
-        var_sum += part.var_k;
-        const double ratio = f.variance_sd_px2 > 0 ? f.variance_px2 / f.variance_sd_px2 : kInf;
-        if (std::isfinite(ratio)) dof_denominator += part.var_k * part.var_k / (2 * ratio * ratio);
-      }
-      if (dof_denominator > 0) c.dof = var_sum * var_sum / dof_denominator;
-      c.source = fmt::format(
-          "the residuals' correlation at several lags (in feature spacings of {:.1f} px: mean r_a . r_b / 2 in px^2, "
-          "{}), fitted by stationary fields: a {}; propagated through the fit's linearization",
-          bud.misfit_spacing_px, lags, parts);
-    } else if (!o.measure_lens_misfit) {
-      c.source = "none: not measured (FitOptions::measure_lens_misfit off; the lens taken as exact beyond its "
-                 "calibration)";
-    } else {
-      c.source = "not measurable here (too few features or pairs)";
-    }
-    c.assumption = fmt::format(
-        "the true lens departs from its model by stationary fields over the image, independent per coordinate and "
-        "common to every photo: up to two Gaussian fields (covariance s^2 exp(-d^2 / 2 L^2)) and one ring field "
-        "(band-pass, covariance s^2 J0(2 pi d / P): a beat whose correlation changes sign), each as {} random "
-        "Fourier features; the variances, lengths and period are those that reproduce the residuals' correlation "
-        "at 1 to 28 feature spacings after the fit (the part the fit absorbs into the poses and the screen is "
-        "inferred from the part it leaves, in the same family), the combination chosen by AIC. Any other error "
-        "correlated between features (detector bias that varies with the image position, moire) is measured here "
-        "too, so it may be counted twice with the detector row: conservative. Degrees of freedom "
-        "2 (s^2 / u(s^2))^2",
-        o.misfit_features);
+    static_assert(kMisfitRow == 3, "the lens model misfit is the budget's fourth row");
     bud.components.push_back(c);
-    vars.push_back(v);
+    vars.push_back(QuantityVariance(setup.photos));
   }
   // 5. Pixel pitch: the scene scales with the pitch (R and every position proportional to it, k inversely).
   {
@@ -623,6 +578,81 @@ std::vector<QuantityVariance> Budget(const Setup& setup, ModelWork& w, BuiltProb
     bud.components.push_back(c);
     vars.push_back(v);
   }
+}
+
+// The lens-model-misfit row's variance and the combined budget of one candidate (after Budget), replacing its
+// sigmas by the combined ones (the curvature's, the cameras' centre-frame positions and their covariance with k).
+// The misfit field is a property of the lens and the detector, common to every candidate: it is measured once, on
+// the residuals of `reference` (the chosen model; its budget holds the components), and propagated through each
+// candidate's own linearization. Returns the rows' variances, the combined last, for FinishBudget.
+std::vector<QuantityVariance> CompleteBudget(const Setup& setup, ModelWork& w, const ModelFit& reference,
+                                             ModelFit* fit) {
+  const FitOptions& o = *setup.options;
+  UncertaintyBudget& bud = fit->budget;
+  std::vector<QuantityVariance> vars = w.budget_vars;
+  if (vars.empty()) return vars;
+  const UncertaintyBudget& ref = reference.budget;
+  if (&reference != fit) {
+    bud.misfit_components = ref.misfit_components;
+    bud.misfit_lags = ref.misfit_lags;
+    bud.misfit_length_px = ref.misfit_length_px;
+    bud.misfit_variance_px2 = ref.misfit_variance_px2;
+    bud.misfit_variance_sd_px2 = ref.misfit_variance_sd_px2;
+    bud.misfit_spacing_px = ref.misfit_spacing_px;
+    bud.misfit_fit_chi2 = ref.misfit_fit_chi2;
+  }
+  const std::optional<Linearization>& lin = w.lin;
+  BudgetComponent& c = bud.components[kMisfitRow];
+  QuantityVariance& misfit = vars[kMisfitRow];
+  if (!bud.misfit_components.empty() && lin) {
+    std::string lags, parts;
+    for (const UncertaintyBudget::Lag& l : bud.misfit_lags) {
+      lags += fmt::format("{}{:.1f}: {:.3g} (noise {:.3g}, field {:.3g})", lags.empty() ? "" : "; ", l.lag_spacings,
+                          l.statistic_px2, l.noise_share_px2, l.field_share_px2);
+    }
+    double var_sum = 0, dof_denominator = 0;
+    for (const UncertaintyBudget::FieldComponent& f : bud.misfit_components) {
+      const bool ring = f.family == UncertaintyBudget::FieldFamily::kRing;
+      parts += fmt::format("{}{} field of RMS {:.4f} px per coordinate (variance {:.3g} +- {:.3g} px^2) at a {} of "
+                           "{:.0f} px",
+                           parts.empty() ? "" : ", plus a ", ring ? "ring (band-pass)" : "Gaussian",
+                           std::sqrt(f.variance_px2), f.variance_px2, f.variance_sd_px2,
+                           ring ? "period" : "correlation length", f.length_px);
+      if (!(f.variance_px2 > 0)) continue;
+      const QuantityVariance part = FieldVariance(setup, *lin, f);
+      misfit.var_k += part.var_k;
+      for (int p = 0; p < setup.photos; ++p) {
+        misfit.var_pos[static_cast<size_t>(p)] += part.var_pos[static_cast<size_t>(p)];
+        misfit.cov_pos_k[static_cast<size_t>(p)] += part.cov_pos_k[static_cast<size_t>(p)];
+      }
+      var_sum += part.var_k;
+      const double ratio = f.variance_sd_px2 > 0 ? f.variance_px2 / f.variance_sd_px2 : kInf;
+      if (std::isfinite(ratio)) dof_denominator += part.var_k * part.var_k / (2 * ratio * ratio);
+    }
+    if (dof_denominator > 0) c.dof = var_sum * var_sum / dof_denominator;
+    c.source = fmt::format(
+        "the residuals' correlation at several lags (in feature spacings of {:.1f} px: mean r_a . r_b / 2 in px^2, "
+        "{}{}), fitted by stationary fields: a {}; propagated through {} linearization",
+        bud.misfit_spacing_px, lags,
+        &reference == fit ? "" : fmt::format("; measured on the residuals of the chosen model, {}", reference.model),
+        parts, &reference == fit ? "the fit's" : "this model's");
+  } else if (!o.measure_lens_misfit) {
+    c.source = "none: not measured (FitOptions::measure_lens_misfit off; the lens taken as exact beyond its "
+               "calibration)";
+  } else {
+    c.source = "not measurable here (too few features or pairs)";
+  }
+  c.assumption = fmt::format(
+      "the true lens departs from its model by stationary fields over the image, independent per coordinate and "
+      "common to every photo (and so to every screen model: measured once, on the chosen model's residuals): up to "
+      "two Gaussian fields (covariance s^2 exp(-d^2 / 2 L^2)) and one ring field (band-pass, covariance "
+      "s^2 J0(2 pi d / P): a beat whose correlation changes sign), each as {} random Fourier features; the "
+      "variances, lengths and period are those that reproduce the residuals' correlation at 1 to 28 feature "
+      "spacings after the fit (the part the fit absorbs into the poses and the screen is inferred from the part it "
+      "leaves, in the same family), the combination chosen by AIC. Any other error correlated between features "
+      "(detector bias that varies with the image position, moire) is measured here too, so it may be counted twice "
+      "with the detector row: conservative. Degrees of freedom 2 (s^2 / u(s^2))^2",
+      o.misfit_features);
   // Combined, fully in quadrature (the sources are independent; within a source the correlation of k with the
   // positions is kept).
   QuantityVariance total(setup.photos);

@@ -92,22 +92,6 @@ struct LensFieldProjection {
   int observations = 0;
 };
 
-// Everything about one model's fit that the selection and the deviations need beyond ModelFit.
-struct ModelWork {
-  ScreenModelKind kind;
-  State state;
-  std::unique_ptr<DeviationBasis> basis;
-  double basis_curvature_per_mm = 0;  // what `basis` was built around
-  std::vector<Eigen::Vector2d> robust_residuals;
-  Eigen::MatrixXd dev_covariance;  // of the deviation coefficients, scaled by the noise
-  // Per photo: the covariance of the camera position (centre frame) with the curvature k (the mean curvature for
-  // varying curvature), scaled by the noise; NaN where it could not be computed.
-  std::vector<Eigen::Vector3d> position_curvature_cov;
-  bool robust_ok = false;
-  int robust_iterations = 0;
-  LensFieldProjection lens_field;
-};
-
 // ---- The uncertainty budget (metrology.md section 1; UncertaintyBudget in screen_fit.h). ----
 //
 // Every source is propagated to the same quantities of interest q = (k, c_1, ..., c_P): the curvature (the mean
@@ -147,6 +131,26 @@ struct Linearization {
   Eigen::MatrixXd normal_pinv;   // (J^T J)^+, t x t
 };
 
+// Everything about one model's fit that the selection and the deviations need beyond ModelFit.
+struct ModelWork {
+  ScreenModelKind kind;
+  State state;
+  std::unique_ptr<DeviationBasis> basis;
+  double basis_curvature_per_mm = 0;  // what `basis` was built around
+  std::vector<Eigen::Vector2d> robust_residuals;
+  Eigen::MatrixXd dev_covariance;  // of the deviation coefficients, scaled by the noise
+  // Per photo: the covariance of the camera position (centre frame) with the curvature k (the mean curvature for
+  // varying curvature), scaled by the noise; NaN where it could not be computed.
+  std::vector<Eigen::Vector3d> position_curvature_cov;
+  bool robust_ok = false;
+  int robust_iterations = 0;
+  LensFieldProjection lens_field;
+  // The final fit's linearization and its budget's rows (Budget), the lens-model-misfit row's variance added and
+  // the rows combined by CompleteBudget once the model is chosen.
+  std::optional<Linearization> lin;
+  std::vector<QuantityVariance> budget_vars;
+};
+
 // screen_fit_problem.cc: one candidate's Ceres problem.
 std::unique_ptr<ReprojectionCost> MakeCost(const Setup& setup, ScreenModelKind kind, const DeviationBasis* basis,
                                            const Obs& o);
@@ -163,8 +167,11 @@ void Covariances(const Setup& setup, ModelWork& w, BuiltProblem& b, ModelFit* fi
 // screen_fit_budget.cc: the uncertainty budget.
 std::vector<Eigen::Vector2d> DetectedPoints(const Setup& setup, const Linearization& lin);
 Eigen::MatrixXd PixelLockingShapes(const Setup& setup, const Linearization& lin);
-std::vector<QuantityVariance> Budget(const Setup& setup, ModelWork& w, BuiltProblem& b, int n_residuals,
-                                     ModelFit* fit);
+inline constexpr size_t kMisfitRow = 3;  // the lens-model-misfit row's index in UncertaintyBudget::components
+std::vector<Eigen::Vector2d> LinearizedResiduals(const Setup& setup, const Linearization& lin, const ModelFit& fit);
+void Budget(const Setup& setup, ModelWork& w, BuiltProblem& b, int n_residuals, ModelFit* fit);
+std::vector<QuantityVariance> CompleteBudget(const Setup& setup, ModelWork& w, const ModelFit& reference,
+                                             ModelFit* fit);
 void FinishBudget(const std::vector<QuantityVariance>& vars, ModelFit* fit);
 
 // screen_fit_misfit.cc: the lens-model-misfit row.
@@ -172,6 +179,8 @@ QuantityVariance FieldVariance(const Setup& setup, const Linearization& lin,
                                const UncertaintyBudget::FieldComponent& component);
 void EstimateMisfit(const Setup& setup, const Linearization& lin, const std::vector<Eigen::Vector2d>& residual,
                     double sigma_px, UncertaintyBudget* bud, LensFieldProjection* projection);
+void MeasureMisfitCorrelation(const Setup& setup, const Linearization& lin,
+                              const std::vector<Eigen::Vector2d>& residual, double sigma_px, UncertaintyBudget* bud);
 
 // screen_fit_select.cc: model selection.
 double HeldOut(const Setup& setup, const ModelWork& w, const std::vector<bool>& inlier);

@@ -74,6 +74,27 @@ RowMajor ComponentBasis(const Setup& setup, const Linearization& lin, const Unce
   return phi;
 }
 
+// Each active observation paired with its nearest neighbour in the same photo (indices into lin.obs); candidates
+// in ascending order, so the first of equally near neighbours wins.
+std::vector<std::pair<int, int>> NeighbourPairs(const Setup& setup, const Linearization& lin) {
+  const int n = static_cast<int>(lin.obs.size());
+  std::vector<std::vector<int>> in_photo(static_cast<size_t>(setup.photos));
+  for (int a = 0; a < n; ++a) in_photo[static_cast<size_t>(setup.obs[lin.obs[static_cast<size_t>(a)]].photo)].push_back(a);
+  std::vector<std::pair<int, int>> pairs;
+  for (int a = 0; a < n; ++a) {
+    const Obs& oa = setup.obs[lin.obs[static_cast<size_t>(a)]];
+    int best = -1;
+    double best_d2 = kInf;
+    for (const int b : in_photo[static_cast<size_t>(oa.photo)]) {
+      if (b == a) continue;
+      const double d2 = (setup.obs[lin.obs[static_cast<size_t>(b)]].detected - oa.detected).squaredNorm();
+      if (d2 < best_d2) best_d2 = d2, best = b;
+    }
+    if (best >= 0) pairs.emplace_back(a, best);
+  }
+  return pairs;
+}
+
 // The residuals without the detector's pixel-locking signature, which the detector systematic row propagates: per
 // coordinate c the bias a_c sin 2 pi phi + b_c cos 2 pi phi (phi the detection's subpixel phase in c) reaches the
 // residuals through the refit as P s_c, P c_c (P = I - J (J^T J)^+ J^T), so the coefficients are fitted to the
@@ -420,21 +441,7 @@ void EstimateMisfit(const Setup& setup, const Linearization& lin, const std::vec
   const int n = static_cast<int>(lin.obs.size());
   if (n < 8 || static_cast<int>(fit_residual.size()) != n) return;
   const std::vector<Eigen::Vector2d> residual = WithoutPixelLocking(setup, lin, fit_residual);
-  // Candidates per photo (in ascending order, so the first of equally near neighbours wins, as in one pass over all).
-  std::vector<std::vector<int>> in_photo(static_cast<size_t>(setup.photos));
-  for (int a = 0; a < n; ++a) in_photo[static_cast<size_t>(setup.obs[lin.obs[static_cast<size_t>(a)]].photo)].push_back(a);
-  std::vector<std::pair<int, int>> pairs;
-  for (int a = 0; a < n; ++a) {
-    const Obs& oa = setup.obs[lin.obs[static_cast<size_t>(a)]];
-    int best = -1;
-    double best_d2 = kInf;
-    for (const int b : in_photo[static_cast<size_t>(oa.photo)]) {
-      if (b == a) continue;
-      const double d2 = (setup.obs[lin.obs[static_cast<size_t>(b)]].detected - oa.detected).squaredNorm();
-      if (d2 < best_d2) best_d2 = d2, best = b;
-    }
-    if (best >= 0) pairs.emplace_back(a, best);
-  }
+  const std::vector<std::pair<int, int>> pairs = NeighbourPairs(setup, lin);
   if (pairs.size() < 8) return;
   const double np = static_cast<double>(pairs.size());
   double stat = 0, nu = 0;
@@ -502,7 +509,14 @@ void EstimateMisfit(const Setup& setup, const Linearization& lin, const std::vec
   if (!(kappa > 1e-6)) return;  // the family is invisible in the residuals: nothing can be measured
   bud->misfit_estimate_px = std::sqrt(std::max(0.0, stat - noise_share) / kappa);
   bud->misfit_bound_px = std::sqrt(std::max(0.0, stat - noise_share + 2 * sd_stat) / kappa);
-  EstimateMisfitCorrelation(setup, lin, residual, sigma_px, pairs, bud);
+}
+
+void MeasureMisfitCorrelation(const Setup& setup, const Linearization& lin,
+                              const std::vector<Eigen::Vector2d>& fit_residual, double sigma_px,
+                              UncertaintyBudget* bud) {
+  if (lin.obs.size() < 8 || fit_residual.size() != lin.obs.size() || !(bud->misfit_kappa > 1e-6)) return;
+  EstimateMisfitCorrelation(setup, lin, WithoutPixelLocking(setup, lin, fit_residual), sigma_px,
+                            NeighbourPairs(setup, lin), bud);
 }
 
 }  // namespace curvecheck::screen_fit_internal

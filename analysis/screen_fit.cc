@@ -15,6 +15,7 @@
 #include "analysis/screen_fit_internal.h"
 #include "analysis/screen_model.h"
 #include "core/error.h"
+#include "core/parallel.h"
 #include "core/screen_geometry.h"
 #include "core/stats.h"
 #include "core/stopwatch.h"
@@ -541,15 +542,18 @@ ScreenFitResult FitScreen(const Monitor& nominal, const CameraModel& camera,
     for (size_t i = 0; i < r.size(); ++i) inlier[i] = r[i].allFinite() && r[i].norm() <= threshold;
   }
 
-  for (size_t i = 0; i < work.size(); ++i) {
+  // Pass 2: each candidate's final fit, budget rows and held-out error, independent of the others: on all cores,
+  // the richest (slowest) first.
+  result.candidates.resize(work.size());
+  ParallelFor(static_cast<int>(work.size()), [&](int k) {
+    const size_t i = work.size() - 1 - static_cast<size_t>(k);
     const Stopwatch watch;
-    ModelFit fit;
+    ModelFit& fit = result.candidates[i];
     fit.model = ScreenModelName(work[i].kind);
     FitFinal(setup, work[i], inlier, &fit);
     fit.heldout_rms_px = HeldOut(setup, work[i], inlier);
     fit.time_ms = time_ms[i] + watch.Ms();
-    result.candidates.push_back(std::move(fit));
-  }
+  });
   result.detection_noise_px = DetectionSigma(options);
   result.detection_noise_assumed = !(options.detection_noise_px > 0);
   result.adequacy_limit_px = AdequacyLimit(options);

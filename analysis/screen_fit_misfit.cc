@@ -8,6 +8,7 @@
 #include <random>
 
 #include "analysis/screen_fit_internal.h"
+#include "core/parallel.h"
 
 namespace curvecheck::screen_fit_internal {
 namespace {
@@ -56,21 +57,41 @@ double FeatureSpacing(const Setup& setup) {
   return setup.misfit_cache->spacing_px;
 }
 
+// The cache key of a component's basis (Setup::misfit_cache): family and length.
+std::pair<int, double> BasisKey(const UncertaintyBudget::FieldComponent& c) {
+  return {c.family == UncertaintyBudget::FieldFamily::kRing ? 1 : 0, c.length_px};
+}
+
+// Builds the bases of `components` at every observation that the cache does not hold yet, on all cores; the
+// cache is written here only, on the calling thread, so that ComponentBasis may then read it from any thread.
+void PrepareComponentBases(const Setup& setup, const std::vector<UncertaintyBudget::FieldComponent>& components) {
+  std::vector<size_t> missing;
+  for (size_t i = 0; i < components.size(); ++i) {
+    const auto key = BasisKey(components[i]);
+    const bool queued = std::any_of(missing.begin(), missing.end(),
+                                    [&](size_t m) { return BasisKey(components[m]) == key; });
+    if (!queued && !setup.misfit_cache->bases.count(key)) missing.push_back(i);
+  }
+  if (missing.empty()) return;
+  std::vector<Eigen::Vector2d> all;
+  for (const Obs& ob : setup.obs) all.push_back(ob.detected);
+  std::vector<RowMajor> built(missing.size());
+  ParallelFor(static_cast<int>(missing.size()), [&](int k) {
+    built[static_cast<size_t>(k)] = MisfitComponentBasis(all, components[missing[static_cast<size_t>(k)]], *setup.options);
+  });
+  for (size_t k = 0; k < missing.size(); ++k) {
+    setup.misfit_cache->bases.emplace(BasisKey(components[missing[k]]), std::move(built[k]));
+  }
+}
+
 // The basis of one component's family at the active observations (lin.obs), seeded per family so that the
 // measurement and the propagation use the same fields; built once per fit at every observation (Setup::
-// misfit_cache) and gathered.
+// misfit_cache, PrepareComponentBases) and gathered.
 RowMajor ComponentBasis(const Setup& setup, const Linearization& lin, const UncertaintyBudget::FieldComponent& c) {
-  const FitOptions& o = *setup.options;
-  const bool ring = c.family == UncertaintyBudget::FieldFamily::kRing;
-  auto it = setup.misfit_cache->bases.find({ring ? 1 : 0, c.length_px});
-  if (it == setup.misfit_cache->bases.end()) {
-    std::vector<Eigen::Vector2d> all;
-    for (const Obs& ob : setup.obs) all.push_back(ob.detected);
-    RowMajor basis = MisfitComponentBasis(all, c, o);
-    it = setup.misfit_cache->bases.emplace(std::make_pair(ring ? 1 : 0, c.length_px), std::move(basis)).first;
-  }
-  RowMajor phi(static_cast<long>(lin.obs.size()), it->second.cols());
-  for (size_t r = 0; r < lin.obs.size(); ++r) phi.row(static_cast<long>(r)) = it->second.row(static_cast<long>(lin.obs[r]));
+  PrepareComponentBases(setup, {c});
+  const RowMajor& basis = setup.misfit_cache->bases.at(BasisKey(c));
+  RowMajor phi(static_cast<long>(lin.obs.size()), basis.cols());
+  for (size_t r = 0; r < lin.obs.size(); ++r) phi.row(static_cast<long>(r)) = basis.row(static_cast<long>(lin.obs[r]));
   return phi;
 }
 
@@ -254,10 +275,12 @@ void EstimateMisfitCorrelation(const Setup& setup, const Linearization& lin,
     if (factor * spacing > setup.camera->width) break;
     candidates.push_back({UncertaintyBudget::FieldFamily::kRing, factor * spacing, 0, 0});
   }
-  std::vector<Eigen::VectorXd> kappas;
-  for (const UncertaintyBudget::FieldComponent& candidate : candidates) {
+  // One candidate per core (the bases built first: ComponentBasis then only reads the cache).
+  PrepareComponentBases(setup, candidates);
+  std::vector<Eigen::VectorXd> kappas(candidates.size());
+  ParallelFor(static_cast<int>(candidates.size()), [&](int ci) {
     // Row-major throughout: the sparse products run over rows, and the pair sums read whole rows.
-    const RowMajor phi = ComponentBasis(setup, lin, candidate);
+    const RowMajor phi = ComponentBasis(setup, lin, candidates[static_cast<size_t>(ci)]);
     // Own coordinate (f = c): R_ff = phi - J_f U_f, U_f = (J^T J)^+ J_f^T phi (t x D), formed. The other
     // (f != c): R_fc = -J_c U_f, whose pair products are J_c,a (U_f U_f^T) J_c,b^T: through t x t matrices.
     std::array<RowMajor, 2> own;
@@ -286,8 +309,8 @@ void EstimateMisfitCorrelation(const Setup& setup, const Linearization& lin,
       }
       kappa[static_cast<long>(k)] = 0.5 * sum / stats[k].pairs / variance;
     }
-    kappas.push_back(kappa);
-  }
+    kappas[static_cast<size_t>(ci)] = kappa;
+  });
   // The statistics beyond the noise's share. Their covariance: pairs overlap (a feature is in many pairs) and the
   // residuals are correlated, so the pair products are not independent; a first selection weights the bins as if
   // they were (a product's variance about (sigma^2 + s^2)^2 / 2, s^2 from the nearest lag), then the statistics'

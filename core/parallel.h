@@ -13,12 +13,13 @@ namespace curvecheck {
 // Threads ParallelFor uses: all cores.
 inline int ThreadCount() { return static_cast<int>(std::max(1u, std::thread::hardware_concurrency())); }
 
-// body(i) for i in [0, count) on all cores; indices are handed out in blocks of `block` as threads free up (so
-// uneven pieces balance). The first exception a body throws is rethrown here, after every thread has stopped; the
-// other threads stop early. The bodies must not share mutable state.
+// body(i) for i in [0, count) on all cores (at most max_threads when > 0); indices are handed out in blocks of
+// `block` as threads free up (so uneven pieces balance). The first exception a body throws is rethrown here, after
+// every thread has stopped; the other threads stop early. The bodies must not share mutable state.
 template <typename F>
-void ParallelFor(int count, const F& body, int block = 1) {
-  const int threads = std::min(ThreadCount(), std::max(1, (count + block - 1) / block));
+void ParallelFor(int count, const F& body, int block = 1, int max_threads = 0) {
+  const int cores = max_threads > 0 ? std::min(max_threads, ThreadCount()) : ThreadCount();
+  const int threads = std::min(cores, std::max(1, (count + block - 1) / block));
   std::atomic<int> next{0};
   std::exception_ptr failure;
   std::mutex failure_mutex;

@@ -3,14 +3,13 @@
 #include <fmt/format.h>
 
 #include <algorithm>
-#include <atomic>
 #include <cmath>
 #include <opencv2/core.hpp>
 #include <optional>
-#include <thread>
 
 #include "core/error.h"
 #include "core/file_io.h"
+#include "core/parallel.h"
 #include "core/stopwatch.h"
 #include "detect/detect.h"
 #include "detect/detect_board.h"
@@ -152,36 +151,29 @@ std::vector<ChessboardDetection> DetectChessboards(const std::vector<std::filesy
                 "use --detector opencv (or auto)");
   }
   std::vector<ChessboardDetection> out(photos.size());
-  std::atomic<size_t> next{0};
-  auto worker = [&] {
-    for (size_t i = next++; i < photos.size(); i = next++) {
-      const Stopwatch watch;
+  // One photo per core (at most options.threads); a photo's failure is kept in its detection.
+  ParallelFor(static_cast<int>(photos.size()), [&](int k) {
+    const size_t i = static_cast<size_t>(k);
+    const Stopwatch watch;
+    try {
+      // Core's one decoder with its header checks (format, size cap, cut-off files), as gray, in 8 bits.
+      cv::Mat gray;
       try {
-        // Core's one decoder with its header checks (format, size cap, cut-off files), as gray, in 8 bits.
-        cv::Mat gray;
-        try {
-          gray = DecodePhotoGray(ReadFileToString(photos[i]), photos[i].string());
-          if (gray.depth() == CV_16U) gray.convertTo(gray, CV_8U, 1.0 / 257.0);
-        } catch (const Error& e) {
-          out[i].problem = e.problem();
-        }
-        if (out[i].problem.empty()) {
-          out[i] = DetectChessboard(gray, board, options);
-        }
-      } catch (const std::exception& e) {  // no exception may leave a worker thread
-        out[i] = ChessboardDetection();
-        out[i].problem = fmt::format("detection failed: {}", e.what());
+        gray = DecodePhotoGray(ReadFileToString(photos[i]), photos[i].string());
+        if (gray.depth() == CV_16U) gray.convertTo(gray, CV_8U, 1.0 / 257.0);
+      } catch (const Error& e) {
+        out[i].problem = e.problem();
       }
-      out[i].photo = photos[i];
-      out[i].ms = watch.Ms();
+      if (out[i].problem.empty()) {
+        out[i] = DetectChessboard(gray, board, options);
+      }
+    } catch (const std::exception& e) {  // the failure stays with its photo, the others go on
+      out[i] = ChessboardDetection();
+      out[i].problem = fmt::format("detection failed: {}", e.what());
     }
-  };
-  const unsigned cores = std::max(1u, std::thread::hardware_concurrency());
-  const size_t n = std::min(photos.size(), static_cast<size_t>(options.threads > 0 ? unsigned(options.threads) : cores));
-  std::vector<std::thread> pool;
-  for (size_t t = 1; t < n; ++t) pool.emplace_back(worker);
-  worker();
-  for (auto& t : pool) t.join();
+    out[i].photo = photos[i];
+    out[i].ms = watch.Ms();
+  }, 1, options.threads);
   return out;
 }
 

@@ -142,8 +142,9 @@ ChessboardDetection DetectChessboard(const cv::Mat& gray8, const BoardSpec& boar
   return d;
 }
 
-std::vector<ChessboardDetection> DetectChessboards(const std::vector<std::filesystem::path>& photos, const BoardSpec& board,
-                                         const ChessboardOptions& options) {
+std::vector<ChessboardDetection> DetectChessboards(
+    const std::vector<std::filesystem::path>& photos, const BoardSpec& board, const ChessboardOptions& options,
+    const std::function<void(size_t index, const cv::Mat& decoded)>& on_decoded) {
   options.Check();
   if (options.detector == ChessboardDetector::kMrgingham && board.corners_x != board.corners_y) {
     throw Error("--detector", fmt::format("mrgingham finds square NxN boards only, not {}x{}", board.corners_x,
@@ -160,11 +161,12 @@ std::vector<ChessboardDetection> DetectChessboards(const std::vector<std::filesy
       cv::Mat gray;
       try {
         gray = DecodePhotoGray(ReadFileToString(photos[i]), photos[i].string());
-        if (gray.depth() == CV_16U) gray.convertTo(gray, CV_8U, 1.0 / 257.0);
       } catch (const Error& e) {
         out[i].problem = e.problem();
       }
       if (out[i].problem.empty()) {
+        if (on_decoded) on_decoded(i, gray);
+        if (gray.depth() == CV_16U) gray.convertTo(gray, CV_8U, 1.0 / 257.0);
         out[i] = DetectChessboard(gray, board, options);
       }
     } catch (const std::exception& e) {  // the failure stays with its photo, the others go on

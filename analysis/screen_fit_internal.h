@@ -62,7 +62,8 @@ struct Setup {
   // The lens-model-misfit row's random-feature bases at every observation's detected point, by family and
   // length (screen_fit_misfit.cc: the same fields for every candidate, so built once per fit; a candidate takes
   // the rows of its active observations), and the feature spacing its candidate lengths are counted in. A cache,
-  // filled on first use, shared by copies of the setup (same observations); the fit runs in one thread.
+  // filled on first use, shared by copies of the setup (same observations); written only on the
+  // calling thread (PrepareComponentBases in screen_fit_misfit.cc), read by the parallel candidates after.
   struct MisfitCache {
     std::map<std::pair<int, double>, Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>> bases;
     double spacing_px = 0;

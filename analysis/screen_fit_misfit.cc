@@ -534,6 +534,9 @@ void EstimateMisfit(const Setup& setup, const Linearization& lin, const std::vec
   bud->misfit_bound_px = std::sqrt(std::max(0.0, stat - noise_share + 2 * sd_stat) / kappa);
 }
 
+// The misfit field's components (EstimateMisfitCorrelation) from one model's residuals, the pixel-locking
+// signature removed and each observation paired with its nearest neighbour as in EstimateMisfit. Called once per
+// fit, on the chosen model (CompleteFits in screen_fit.cc); nothing when EstimateMisfit found the family invisible.
 void MeasureMisfitCorrelation(const Setup& setup, const Linearization& lin,
                               const std::vector<Eigen::Vector2d>& fit_residual, double sigma_px,
                               UncertaintyBudget* bud) {

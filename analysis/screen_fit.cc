@@ -551,7 +551,7 @@ ScreenFitResult FitScreen(const Monitor& nominal, const CameraModel& camera,
     ModelFit& fit = result.candidates[i];
     fit.model = ScreenModelName(work[i].kind);
     FitFinal(setup, work[i], inlier, &fit);
-    fit.heldout_rms_px = HeldOut(setup, work[i], inlier);
+    fit.heldout_rms_px = HeldOut(setup, work[i], inlier, fit);
     fit.time_ms = time_ms[i] + watch.Ms();
   });
   result.detection_noise_px = DetectionSigma(options);

@@ -270,7 +270,8 @@ std::optional<Linearization> Linearize(const Setup& setup, const ModelWork& w, B
   if (!st.dev.empty()) eo.parameter_blocks.push_back(st.dev.data()), t += static_cast<int>(st.dev.size());
   if (!st.intr.empty()) eo.parameter_blocks.push_back(st.intr.data()), t += static_cast<int>(st.intr.size());
   ceres::CRSMatrix crs;
-  if (!b.problem->Evaluate(eo, nullptr, nullptr, nullptr, &crs)) {
+  std::vector<double> gradient;
+  if (!b.problem->Evaluate(eo, nullptr, nullptr, &gradient, &crs)) {
     *note += "the Jacobian could not be evaluated; ";
     return std::nullopt;
   }
@@ -302,7 +303,8 @@ std::optional<Linearization> Linearize(const Setup& setup, const ModelWork& w, B
   Eigen::VectorXd scale = j.colwise().norm().transpose();
   for (long c = 0; c < scale.size(); ++c) scale[c] = scale[c] > 0 ? 1 / scale[c] : 0;
   const Eigen::MatrixXd js = j * scale.asDiagonal();
-  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(js.transpose() * js);
+  const Eigen::MatrixXd normal_scaled = js.transpose() * js;
+  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(normal_scaled);
   const Eigen::VectorXd ev = eig.eigenvalues();
   const double cut = 1e-12 * std::max(ev.maxCoeff(), 1e-300);
   Eigen::VectorXd inv = Eigen::VectorXd::Zero(ev.size());
@@ -316,6 +318,11 @@ std::optional<Linearization> Linearize(const Setup& setup, const ModelWork& w, B
   lin.obs = b.obs_index;
   lin.j_obs = j.topRows(static_cast<long>(2 * n_obs));
   lin.normal_pinv = vs * inv.asDiagonal() * vs.transpose();
+  // J^T J back from the scaled one (a zero column has scale 0 and a zero row and column in J^T J).
+  Eigen::VectorXd unscale = Eigen::VectorXd::Zero(scale.size());
+  for (long c = 0; c < scale.size(); ++c) unscale[c] = scale[c] > 0 ? 1 / scale[c] : 0;
+  lin.normal = unscale.asDiagonal() * normal_scaled * unscale.asDiagonal();
+  lin.gradient = Eigen::Map<const Eigen::VectorXd>(gradient.data(), static_cast<long>(gradient.size()));
   return lin;
 }
 

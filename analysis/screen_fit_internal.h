@@ -130,6 +130,8 @@ struct Linearization {
   std::vector<size_t> obs;       // Setup::obs index of each column pair
   Eigen::MatrixXd j_obs;         // (2 n_obs) x t: the observations' rows of J (tangent space)
   Eigen::MatrixXd normal_pinv;   // (J^T J)^+, t x t
+  Eigen::MatrixXd normal;        // J^T J over every row (deviation prior included), t x t
+  Eigen::VectorXd gradient;      // J^T e at the solution (e: Ceres's residuals, all rows), t
 };
 
 // Everything about one model's fit that the selection and the deviations need beyond ModelFit.
@@ -184,7 +186,7 @@ void MeasureMisfitCorrelation(const Setup& setup, const Linearization& lin,
                               const std::vector<Eigen::Vector2d>& residual, double sigma_px, UncertaintyBudget* bud);
 
 // screen_fit_select.cc: model selection.
-double HeldOut(const Setup& setup, const ModelWork& w, const std::vector<bool>& inlier);
+double HeldOut(const Setup& setup, const ModelWork& w, const std::vector<bool>& inlier, const ModelFit& fit);
 void AdjustForLensField(const FitOptions& o, int width_px, const std::vector<ModelWork>& work,
                         ScreenFitResult* result);
 void Choose(const FitOptions& options, ScreenFitResult* result);

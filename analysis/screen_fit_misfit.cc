@@ -1,7 +1,6 @@
 // The lens-model-misfit row of the uncertainty budget (analysis/screen_fit_internal.h): the misfit field's RMS
 // and correlation length measured from the residuals' correlation between features, and its propagation.
 #include <Eigen/Dense>
-#include <Eigen/SparseCore>
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -14,23 +13,40 @@ namespace curvecheck::screen_fit_internal {
 namespace {
 
 using RowMajor = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
-using SparseRows = Eigen::SparseMatrix<double, Eigen::RowMajor>;
 
-// The rows of the observations' Jacobian (2n x t, coordinates interleaved) split by coordinate, sparse: J_x (rows
-// 2i) and J_y (rows 2i + 1), each n x t.
-std::array<SparseRows, 2> CoordinateRows(const Eigen::MatrixXd& j_obs) {
-  const long n = j_obs.rows() / 2, t = j_obs.cols();
-  std::array<SparseRows, 2> out;
-  for (long c = 0; c < 2; ++c) {
-    std::vector<Eigen::Triplet<double>> entries;
-    for (long k = 0; k < t; ++k) {
-      for (long i = 0; i < n; ++i) {
-        const double v = j_obs(2 * i + c, k);
-        if (v != 0) entries.emplace_back(i, k, v);
+// One photo's rows of the observations' Jacobian (2n x t, coordinates interleaved), dense over the columns that any
+// of them touches (its pose's and the shared ones: the shape, the deviation field, free intrinsics): rows (indices
+// into lin.obs, ascending), cols (ascending) and J_x, J_y on them (rows 2i and 2i + 1 of j_obs).
+struct PhotoBlock {
+  std::vector<int> rows;
+  std::vector<long> cols;
+  std::array<RowMajor, 2> j;
+};
+
+std::vector<PhotoBlock> PhotoBlocks(const Setup& setup, const Linearization& lin) {
+  std::vector<PhotoBlock> blocks(static_cast<size_t>(setup.photos));
+  for (size_t r = 0; r < lin.obs.size(); ++r) {
+    blocks[static_cast<size_t>(setup.obs[lin.obs[r]].photo)].rows.push_back(static_cast<int>(r));
+  }
+  std::vector<PhotoBlock> out;
+  for (PhotoBlock& block : blocks) {
+    if (block.rows.empty()) continue;
+    for (long c = 0; c < lin.j_obs.cols(); ++c) {
+      const bool used = std::any_of(block.rows.begin(), block.rows.end(), [&](int r) {
+        return lin.j_obs(2L * r, c) != 0 || lin.j_obs(2L * r + 1, c) != 0;
+      });
+      if (used) block.cols.push_back(c);
+    }
+    for (long f = 0; f < 2; ++f) {
+      RowMajor& j = block.j[static_cast<size_t>(f)];
+      j.resize(static_cast<long>(block.rows.size()), static_cast<long>(block.cols.size()));
+      for (size_t r = 0; r < block.rows.size(); ++r) {
+        for (size_t c = 0; c < block.cols.size(); ++c) {
+          j(static_cast<long>(r), static_cast<long>(c)) = lin.j_obs(2L * block.rows[r] + f, block.cols[c]);
+        }
       }
     }
-    out[static_cast<size_t>(c)].resize(n, t);
-    out[static_cast<size_t>(c)].setFromTriplets(entries.begin(), entries.end());
+    out.push_back(std::move(block));
   }
   return out;
 }
@@ -260,10 +276,32 @@ void EstimateMisfitCorrelation(const Setup& setup, const Linearization& lin,
   if (stats.size() < 2) return;
   // kappa_j of each candidate component. A field on coordinate f (phi on the rows of f, zero on the other) leaves,
   // on the rows of coordinate c, R_fc = delta_fc phi - J_c (J^T J)^+ J_f^T phi after the refit (J_c: the rows of J
-  // of coordinate c, n x t). J is sparse (a row holds its photo's 6 pose columns and the shape's and the lens's), so
-  // the products go through J_c's non-zeros: ~t/10 of the dense products' work with 10 photos.
-  const std::array<SparseRows, 2> jc = CoordinateRows(lin.j_obs);
-  const RowMajor jx = jc[0], jy = jc[1];  // dense copies for the pair sums' row dots
+  // of coordinate c, n x t). Own coordinate (f = c): R_ff = phi - J_f U_f, U_f = (J^T J)^+ J_f^T phi (t x D). The
+  // other (f != c): R_fc = -J_c U_f, whose pair products are J_c,a (U_f U_f^T) J_c,b^T: through t x t matrices.
+  // Pairs lie within one photo and a photo's rows of J are non-zero only in its own pose's and the shared columns,
+  // so everything runs photo by photo on dense blocks (PhotoBlock): J_f^T phi summed over the photos, then per
+  // photo R_ff's rows formed and the photo's pairs summed while they are in cache. (Formed for all photos at once,
+  // the n x D matrices and the sparse products over them were memory-bound: ~100 ms per candidate at 10 photos.)
+  const std::vector<PhotoBlock> blocks = PhotoBlocks(setup, lin);
+  const size_t used = stats.size();
+  std::vector<std::vector<std::vector<std::pair<int, int>>>> photo_pairs(
+      blocks.size(), std::vector<std::vector<std::pair<int, int>>>(used));  // [block][used bin]: local rows
+  {
+    std::vector<std::pair<int, int>> local(static_cast<size_t>(n), {-1, -1});  // lin row -> (block, local row)
+    for (size_t bi = 0; bi < blocks.size(); ++bi) {
+      for (size_t r = 0; r < blocks[bi].rows.size(); ++r) {
+        local[static_cast<size_t>(blocks[bi].rows[r])] = {static_cast<int>(bi), static_cast<int>(r)};
+      }
+    }
+    for (size_t k = 0; k < used; ++k) {
+      for (const auto& [a, b] : lag[used_bins[k]]) {
+        const auto [ba, ra] = local[static_cast<size_t>(a)];
+        const auto [bb, rb] = local[static_cast<size_t>(b)];
+        if (ba < 0 || ba != bb) continue;  // not reached: the pairs are within one photo
+        photo_pairs[static_cast<size_t>(ba)][k].emplace_back(ra, rb);
+      }
+    }
+  }
   std::vector<UncertaintyBudget::FieldComponent> candidates;
   for (double factor : {1.0, 2.0, 4.0, 8.0, 16.0, 32.0}) {
     const double length = std::min(factor * spacing, static_cast<double>(setup.camera->width));
@@ -275,40 +313,70 @@ void EstimateMisfitCorrelation(const Setup& setup, const Linearization& lin,
     if (factor * spacing > setup.camera->width) break;
     candidates.push_back({UncertaintyBudget::FieldFamily::kRing, factor * spacing, 0, 0});
   }
-  // One candidate per core (the bases built first: ComponentBasis then only reads the cache).
+  // One candidate per core (the bases built first: the cache is then only read).
   PrepareComponentBases(setup, candidates);
+  const long t = lin.normal_pinv.rows();
   std::vector<Eigen::VectorXd> kappas(candidates.size());
   ParallelFor(static_cast<int>(candidates.size()), [&](int ci) {
-    // Row-major throughout: the sparse products run over rows, and the pair sums read whole rows.
-    const RowMajor phi = ComponentBasis(setup, lin, candidates[static_cast<size_t>(ci)]);
-    // Own coordinate (f = c): R_ff = phi - J_f U_f, U_f = (J^T J)^+ J_f^T phi (t x D), formed. The other
-    // (f != c): R_fc = -J_c U_f, whose pair products are J_c,a (U_f U_f^T) J_c,b^T: through t x t matrices.
-    std::array<RowMajor, 2> own;
-    RowMajor cross_x(lin.normal_pinv.rows(), lin.normal_pinv.rows()), cross_y = cross_x;
-    for (int f = 0; f < 2; ++f) {
-      const SparseRows& jf = jc[static_cast<size_t>(f)];
-      RowMajor jtp(jf.cols(), phi.cols());
-      jtp.noalias() = jf.transpose() * phi;
-      const RowMajor u = lin.normal_pinv * jtp;
-      RowMajor& r = own[static_cast<size_t>(f)];
-      r.resize(phi.rows(), phi.cols());
-      r.noalias() = jf * u;
-      r = phi - r;
-      (f == 0 ? cross_y : cross_x).noalias() = u * u.transpose();  // the x field seen on y's rows, and vice versa
-    }
-    RowMajor wx(n, cross_x.cols()), wy(n, cross_y.cols());  // n x t
-    wx.noalias() = jc[0] * cross_x;
-    wy.noalias() = jc[1] * cross_y;
-    const double variance = phi.squaredNorm() / n;  // the field's mean variance at the points (1 but for sampling)
-    Eigen::VectorXd kappa(static_cast<long>(stats.size()));
-    for (size_t k = 0; k < stats.size(); ++k) {
-      double sum = 0;
-      for (const auto& [a, b] : lag[used_bins[k]]) {
-        sum += own[0].row(a).dot(own[0].row(b)) + own[1].row(a).dot(own[1].row(b)) + wx.row(a).dot(jx.row(b)) +
-               wy.row(a).dot(jy.row(b));
+    const RowMajor& basis = setup.misfit_cache->bases.at(BasisKey(candidates[static_cast<size_t>(ci)]));
+    const long features = basis.cols();
+    RowMajor phi;  // one photo's rows of the basis
+    const auto gather = [&](const PhotoBlock& block) {
+      phi.resize(static_cast<long>(block.rows.size()), features);
+      for (size_t r = 0; r < block.rows.size(); ++r) {
+        phi.row(static_cast<long>(r)) = basis.row(static_cast<long>(lin.obs[static_cast<size_t>(block.rows[r])]));
       }
-      kappa[static_cast<long>(k)] = 0.5 * sum / stats[k].pairs / variance;
+    };
+    // U_f = (J^T J)^+ J_f^T phi, J_f^T phi summed photo by photo.
+    std::array<RowMajor, 2> jtp = {RowMajor::Zero(t, features), RowMajor::Zero(t, features)};
+    double phi_squared = 0;
+    RowMajor part;
+    for (const PhotoBlock& block : blocks) {
+      gather(block);
+      phi_squared += phi.squaredNorm();
+      for (size_t f = 0; f < 2; ++f) {
+        part.noalias() = block.j[f].transpose() * phi;
+        for (size_t c = 0; c < block.cols.size(); ++c) jtp[f].row(block.cols[c]) += part.row(static_cast<long>(c));
+      }
     }
+    std::array<RowMajor, 2> u;
+    for (size_t f = 0; f < 2; ++f) u[f].noalias() = lin.normal_pinv * jtp[f];
+    // The x field seen on y's rows (cross_y = U_x U_x^T), and vice versa.
+    RowMajor cross_y(t, t), cross_x(t, t);
+    cross_y.noalias() = u[0] * u[0].transpose();
+    cross_x.noalias() = u[1] * u[1].transpose();
+    Eigen::VectorXd sums = Eigen::VectorXd::Zero(static_cast<long>(used));
+    std::array<RowMajor, 2> own, w;
+    RowMajor u_block;
+    for (size_t bi = 0; bi < blocks.size(); ++bi) {
+      const PhotoBlock& block = blocks[bi];
+      gather(block);
+      const long nc = static_cast<long>(block.cols.size());
+      for (size_t f = 0; f < 2; ++f) {
+        u_block.resize(nc, features);
+        for (long c = 0; c < nc; ++c) u_block.row(c) = u[f].row(block.cols[static_cast<size_t>(c)]);
+        own[f] = phi;
+        own[f].noalias() -= block.j[f] * u_block;
+        // J_c,a (U_f U_f^T) restricted to the block's columns (J_c,a is zero elsewhere): c = f's other coordinate.
+        const RowMajor& cross = f == 0 ? cross_x : cross_y;
+        RowMajor cross_block(nc, nc);
+        for (long a = 0; a < nc; ++a) {
+          for (long b = 0; b < nc; ++b) cross_block(a, b) = cross(block.cols[static_cast<size_t>(a)], block.cols[static_cast<size_t>(b)]);
+        }
+        w[f].noalias() = block.j[f] * cross_block;
+      }
+      for (size_t k = 0; k < used; ++k) {
+        double sum = 0;
+        for (const auto& [a, b] : photo_pairs[bi][k]) {
+          sum += own[0].row(a).dot(own[0].row(b)) + own[1].row(a).dot(own[1].row(b)) +
+                 w[0].row(a).dot(block.j[0].row(b)) + w[1].row(a).dot(block.j[1].row(b));
+        }
+        sums[static_cast<long>(k)] += sum;
+      }
+    }
+    const double variance = phi_squared / n;  // the field's mean variance at the points (1 but for sampling)
+    Eigen::VectorXd kappa(static_cast<long>(used));
+    for (size_t k = 0; k < used; ++k) kappa[static_cast<long>(k)] = 0.5 * sums[static_cast<long>(k)] / stats[k].pairs / variance;
     kappas[static_cast<size_t>(ci)] = kappa;
   });
   // The statistics beyond the noise's share. Their covariance: pairs overlap (a feature is in many pairs) and the

@@ -133,10 +133,15 @@ Eigen::MatrixXd CosineFeatures(const std::vector<Eigen::Vector2d>& points_px, co
   const double scale = std::sqrt(2.0 / static_cast<double>(features));
   Eigen::MatrixXd b(static_cast<long>(points_px.size()), features);
   Eigen::ArrayXd arg(features);
+  Eigen::ArrayXf reduced(features);
   for (size_t r = 0; r < points_px.size(); ++r) {
     arg = (omega * points_px[r] + offset).array();
     arg -= kTwoPi * (arg / kTwoPi).round();
-    b.row(static_cast<long>(r)) = (scale * arg.cast<float>().cos().cast<double>()).matrix().transpose();
+    // The cosine alone in an expression of its own: inside the casts, Eigen evaluated it one scalar at a time
+    // through libm's cosf (a sixth of a ten-photo fit, perf); on a float array it takes its vectorized cosine.
+    reduced = arg.cast<float>();
+    reduced = reduced.cos();
+    b.row(static_cast<long>(r)) = (scale * reduced.cast<double>()).matrix().transpose();
   }
   return b;
 }

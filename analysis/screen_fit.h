@@ -73,7 +73,7 @@ struct FitOptions {
   double outlier_sigmas = 5;
   double outlier_min_px = 0.5;
   // k-fold cross-validation over features (by id, across photos); 0 turns held-out errors off (then the choice
-  // rests on BIC alone). Each fold refits from the full fit's solution.
+  // rests on BIC alone). Each fold is refitted from the full fit's solution (heldout_exact_refit says how).
   int heldout_folds = 5;
   // How a fold is refitted: false, one Gauss-Newton step from the full fit's solution through its linearization
   // (the normal matrix and gradient less the fold's rows; a few small t x t solves); true, a Ceres solve per fold

@@ -220,7 +220,9 @@ nlohmann::json BudgetJson(const ModelFit& f, const std::string& first_photo) {
         {"components", [&] {
            nlohmann::json a = nlohmann::json::array();
            for (const UncertaintyBudget::FieldComponent& component : b.misfit_components) {
-             a.push_back({{"length_px", component.length_px},
+             const bool ring = component.family == UncertaintyBudget::FieldFamily::kRing;
+             a.push_back({{"family", ring ? "ring" : "gaussian"},
+                          {ring ? "period_px" : "length_px", component.length_px},
                           {"variance_px2", component.variance_px2},
                           {"variance_sd_px2", component.variance_sd_px2}});
            }
@@ -237,10 +239,12 @@ nlohmann::json BudgetJson(const ModelFit& f, const std::string& first_photo) {
            }
            return a;
          }()},
-        {"method", "what the row propagates: mean r_a . r_b / 2 over pairs in the same photo at 0-1.5, 1.5-3, 3-6, "
-                   "6-12, 12-24 feature spacings, fitted by a stationary Gaussian field (variance s^2, covariance "
-                   "exp(-d^2 / 2 L^2)) after the fit's linearized refit plus the noise's share; L from 1-32 feature "
-                   "spacings, the best weighted fit"}}}};
+        {"method", "what the row propagates: mean r_a . r_b / 2 over pairs in the same photo at 0-1.5, 1.5-2.5, "
+                   "2.5-3.5, 3.5-5, 5-7, 7-10, 10-14, 14-20, 20-28 feature spacings, fitted by up to two stationary "
+                   "Gaussian fields (family gaussian: covariance s^2 exp(-d^2 / 2 L^2), L of 1-32 feature spacings) "
+                   "and one ring field (family ring: covariance s^2 J0(2 pi d / P), P of 3-24 spacings, a band-pass "
+                   "beat whose correlation changes sign) after the fit's linearized refit plus the noise's share; "
+                   "the combination of the smallest weighted misfit + 2 per component (AIC)"}}}};
   j["correlations"] = "rows are independent of one another and combined in quadrature; within a row the curvature "
                       "and the camera positions are correlated (their covariance is carried into the axis-frame z)";
   if (!b.note.empty()) j["note"] = b.note;

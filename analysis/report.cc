@@ -316,7 +316,7 @@ std::string ReportHtml(const json& r, const ReportAssets& assets, const ReportOp
   }
   std::optional<ChartDataFolder> dir;
   if (options.charts) dir.emplace("the report's charts");
-  const fs::path* chart_dir = dir ? &dir->path() : nullptr;
+  const ChartDataFolder* chart_dir = dir ? &*dir : nullptr;
 
   const json& v = r["verification"];
   const json& fit = r["fit"];

@@ -15,15 +15,14 @@ namespace curvecheck::report_internal {
 
 namespace fs = std::filesystem;
 
-std::string Figure(const Chart& chart, const ReportOptions& options, const fs::path* dir) {
+std::string Figure(const Chart& chart, const ReportOptions& options, const ChartDataFolder* dir) {
   std::string body;
   if (!chart.missing.empty()) {
     body = fmt::format("<p class=\"note\">No chart: {}</p>", Html(chart.missing));
   } else if (!options.charts || dir == nullptr) {
     body = "<p class=\"note\">Chart not drawn (charts were switched off).</p>";
   } else {
-    const fs::path sub = *dir / chart.id;
-    fs::create_directories(sub);
+    const fs::path sub = dir->Subfolder(chart.id);
     for (const auto& [name, contents] : chart.files) WriteFileAtomic(sub / name, contents);
     // Charts drawn to scale get the height their plot needs (about 260 px of margins and colour box across, 150 down).
     const int height = chart.aspect > 0 ? std::clamp(static_cast<int>(std::lround((options.chart_width_px - 260) *

@@ -12,6 +12,7 @@
 
 #include "analysis/report.h"
 #include "analysis/report_format.h"
+#include "core/gnuplot.h"
 
 namespace curvecheck::report_internal {
 
@@ -27,7 +28,7 @@ struct Chart {
 
 // The <figure> of a chart: drawn by gnuplot into `dir`/<chart id>/ and embedded as a PNG data: URI, or a note
 // saying why it is not drawn (chart.missing, charts switched off, or no folder).
-std::string Figure(const Chart& chart, const ReportOptions& options, const std::filesystem::path* dir);
+std::string Figure(const Chart& chart, const ReportOptions& options, const ChartDataFolder* dir);
 
 // Length of a 2-vector member, nullopt when absent or not two numbers.
 std::optional<double> Length(const json& f, const char* key);

@@ -15,6 +15,7 @@
 #include "analysis/screen_fit_internal.h"
 #include "analysis/screen_model.h"
 #include "core/error.h"
+#include "core/parallel.h"
 #include "core/screen_geometry.h"
 #include "core/stats.h"
 #include "core/stopwatch.h"
@@ -116,11 +117,26 @@ void FitFinal(const Setup& setup, ModelWork& w, const std::vector<bool>& inlier,
   fit->shape.insert(fit->shape.end(), w.state.dev.begin(), w.state.dev.end());
   fit->deviation_basis_curvature_per_mm = w.basis ? w.basis_curvature_per_mm : 0;
   Covariances(setup, w, b, fit);
-  std::vector<QuantityVariance> budget_vars;
-  if (fit->cameras.size() == static_cast<size_t>(setup.photos)) budget_vars = Budget(setup, w, b, n, fit);
-  RadiusFromCurvature(setup, w, fit);
-  FinishBudget(budget_vars, fit);
+  if (fit->cameras.size() == static_cast<size_t>(setup.photos)) Budget(setup, w, b, n, fit);
   Adequacy(*setup.options, rss, n, fit);
+}
+
+// Once the model is chosen: the lens-model-misfit field measured on the chosen model's residuals, then every
+// candidate's budget completed with it (CompleteBudget), its radius and interval.
+void CompleteFits(const Setup& setup, std::vector<ModelWork>& work, ScreenFitResult* result) {
+  if (result->chosen < 0 || static_cast<size_t>(result->chosen) >= work.size()) return;
+  ModelFit& chosen = result->candidates[static_cast<size_t>(result->chosen)];
+  const ModelWork& cw = work[static_cast<size_t>(result->chosen)];
+  if (cw.lin && setup.options->measure_lens_misfit) {
+    MeasureMisfitCorrelation(setup, *cw.lin, LinearizedResiduals(setup, *cw.lin, chosen), chosen.noise_px,
+                             &chosen.budget);
+  }
+  for (size_t i = 0; i < work.size(); ++i) {
+    ModelFit& fit = result->candidates[i];
+    const std::vector<QuantityVariance> vars = CompleteBudget(setup, work[i], chosen, &fit);
+    RadiusFromCurvature(setup, work[i], &fit);
+    FinishBudget(vars, &fit);
+  }
 }
 
 void Deviations(const Setup& setup, const ModelWork& w, ScreenFitResult* result) {
@@ -526,20 +542,24 @@ ScreenFitResult FitScreen(const Monitor& nominal, const CameraModel& camera,
     for (size_t i = 0; i < r.size(); ++i) inlier[i] = r[i].allFinite() && r[i].norm() <= threshold;
   }
 
-  for (size_t i = 0; i < work.size(); ++i) {
+  // Pass 2: each candidate's final fit, budget rows and held-out error, independent of the others: on all cores,
+  // the richest (slowest) first.
+  result.candidates.resize(work.size());
+  ParallelFor(static_cast<int>(work.size()), [&](int k) {
+    const size_t i = work.size() - 1 - static_cast<size_t>(k);
     const Stopwatch watch;
-    ModelFit fit;
+    ModelFit& fit = result.candidates[i];
     fit.model = ScreenModelName(work[i].kind);
     FitFinal(setup, work[i], inlier, &fit);
-    fit.heldout_rms_px = HeldOut(setup, work[i], inlier);
+    fit.heldout_rms_px = HeldOut(setup, work[i], inlier, fit);
     fit.time_ms = time_ms[i] + watch.Ms();
-    result.candidates.push_back(std::move(fit));
-  }
+  });
   result.detection_noise_px = DetectionSigma(options);
   result.detection_noise_assumed = !(options.detection_noise_px > 0);
   result.adequacy_limit_px = AdequacyLimit(options);
   AdjustForLensField(options, camera.width, work, &result);
   Choose(options, &result);
+  CompleteFits(setup, work, &result);
   result.noise_px = result.Chosen().noise_px;
   if (!result.Chosen().adequate) {
     result.status = "inadequate";

@@ -73,8 +73,14 @@ struct FitOptions {
   double outlier_sigmas = 5;
   double outlier_min_px = 0.5;
   // k-fold cross-validation over features (by id, across photos); 0 turns held-out errors off (then the choice
-  // rests on BIC alone). Each fold refits from the full fit's solution.
+  // rests on BIC alone). Each fold is refitted from the full fit's solution (heldout_exact_refit says how).
   int heldout_folds = 5;
+  // How a fold is refitted: false, one Gauss-Newton step from the full fit's solution through its linearization
+  // (the normal matrix and gradient less the fold's rows; a few small t x t solves); true, a Ceres solve per fold
+  // (heldout_folds solves over every residual per candidate: 30% of a ten-photo fit's time). The step is what a
+  // solver started at the full solution takes first; both agree to well within heldout_tolerance (the fit's
+  // tests compare them). The step is used only where the final fit's linearization exists; otherwise the solves.
+  bool heldout_exact_refit = false;
   // A richer model is chosen only if its BIC is lower than every simpler one's by more than bic_margin
   // (10: "very strong" evidence on Kass and Raftery's scale), and its held-out RMS is within
   // heldout_tolerance (relative) of the best held-out RMS. The rule runs among the adequate candidates (see
@@ -219,7 +225,7 @@ struct UncertaintyBudget {
   std::string dominant;  // the component with the largest u(k)
   std::array<std::string, 3> dominant_position;  // per axis (axis frame)
   ResidualPixelLocking pixel_locking;
-  double systematic_bound_px = 0;  // b = max(amplitude + 2 sigma, noise floor), RMS per coordinate of the fields
+  double systematic_bound_px = 0;  // b: the stated smooth bias, RMS per coordinate of the fields
   std::string systematic_bound_reason;
   // The detector-systematic row's two parts, u(k) (1/mm): the smooth fields and the pixel-locking signature.
   double smooth_share_curvature_per_mm = 0, pixel_locking_share_curvature_per_mm = 0;
@@ -242,10 +248,16 @@ struct UncertaintyBudget {
     int pairs = 0;
     double statistic_px2 = 0, noise_share_px2 = 0, field_share_px2 = 0;
   };
+  // The components' families: kGaussian, covariance s^2 exp(-d^2 / 2 L^2) (L = length_px), positive at every lag;
+  // kRing, covariance s^2 J0(2 pi d / P) (P = length_px, the period), a band-pass field whose correlation changes
+  // sign (a beat of the features' spacing against a pixel grid).
+  enum class FieldFamily { kGaussian, kRing };
   struct FieldComponent {
+    FieldFamily family = FieldFamily::kGaussian;
     double length_px = 0, variance_px2 = 0, variance_sd_px2 = 0;
   };
-  std::vector<FieldComponent> misfit_components;  // one or two (short-range, then long-range), each propagated
+  // Up to two Gaussian components (short-range, then long-range) and one ring, each propagated.
+  std::vector<FieldComponent> misfit_components;
   double misfit_length_px = std::numeric_limits<double>::quiet_NaN();
   double misfit_variance_px2 = std::numeric_limits<double>::quiet_NaN();
   double misfit_variance_sd_px2 = std::numeric_limits<double>::quiet_NaN();
@@ -427,6 +439,23 @@ Eigen::MatrixXd LegendreFieldBasis(const std::vector<Eigen::Vector2d>& points_px
 // w_m ~ N(0, I), b_m ~ U(0, 2 pi), seeded; N(0, 1) coefficients give the field.
 Eigen::MatrixXd GaussianFieldBasis(const std::vector<Eigen::Vector2d>& points_px, double length_px, int features,
                                    unsigned seed);
+
+// A stationary random field of unit variance whose spectrum is a ring of radius 2 pi / P (P = period_px): covariance
+// J0(2 pi |d| / P), which changes sign at |d| = 0.38 P. Column m is sqrt(2/features) cos(w_m . p + b_m),
+// w_m = (2 pi / P)(cos t_m, sin t_m) with the directions t_m stratified over [0, pi), b_m ~ U(0, 2 pi), seeded.
+Eigen::MatrixXd RingFieldBasis(const std::vector<Eigen::Vector2d>& points_px, double period_px, int features,
+                               unsigned seed);
+
+// The random-feature basis of one lens-model-misfit component (UncertaintyBudget::FieldComponent) at the points: its
+// family's basis (GaussianFieldBasis at length_px, RingFieldBasis at period length_px) with options.misfit_features
+// features, seeded per family from options.systematic_field_seed as the budget's own measurement and propagation
+// are, so that a propagation elsewhere (calibrate/from_screen_budget.cc) uses the same fields.
+Eigen::MatrixXd MisfitComponentBasis(const std::vector<Eigen::Vector2d>& points_px,
+                                     const UncertaintyBudget::FieldComponent& component, const FitOptions& options);
+
+// The component's covariance per coordinate (px^2) between two points distance_px apart: s^2 exp(-d^2 / 2 L^2)
+// (kGaussian) or s^2 J0(2 pi d / P) (kRing), s^2 = variance_px2.
+double MisfitComponentCovariance(const UncertaintyBudget::FieldComponent& component, double distance_px);
 
 
 // The intrinsics covariance written beside a camera model at calibration time (format

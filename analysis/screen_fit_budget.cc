@@ -120,6 +120,34 @@ Eigen::MatrixXd LegendreFieldBasis(const std::vector<Eigen::Vector2d>& points_px
   return b;
 }
 
+namespace {
+
+// Random Fourier features sqrt(2 / D) cos(w_m . p + b_m) at each point (rows) for each (w_m, b_m) (columns). The
+// arguments are formed and reduced to [-pi, pi] in double, the cosine taken by Eigen's vectorized single-precision
+// cosine (absolute error ~1e-7, immaterial for a random basis): libm's double cosine was a sixth of a 10-photo fit's
+// time (perf), the bases holding up to 13 x 400 features per observation.
+Eigen::MatrixXd CosineFeatures(const std::vector<Eigen::Vector2d>& points_px, const Eigen::MatrixXd& omega,
+                               const Eigen::VectorXd& offset) {
+  constexpr double kTwoPi = 6.283185307179586;
+  const long features = omega.rows();
+  const double scale = std::sqrt(2.0 / static_cast<double>(features));
+  Eigen::MatrixXd b(static_cast<long>(points_px.size()), features);
+  Eigen::ArrayXd arg(features);
+  Eigen::ArrayXf reduced(features);
+  for (size_t r = 0; r < points_px.size(); ++r) {
+    arg = (omega * points_px[r] + offset).array();
+    arg -= kTwoPi * (arg / kTwoPi).round();
+    // The cosine alone in an expression of its own: inside the casts, Eigen evaluated it one scalar at a time
+    // through libm's cosf (a sixth of a ten-photo fit, perf); on a float array it takes its vectorized cosine.
+    reduced = arg.cast<float>();
+    reduced = reduced.cos();
+    b.row(static_cast<long>(r)) = (scale * reduced.cast<double>()).matrix().transpose();
+  }
+  return b;
+}
+
+}  // namespace
+
 Eigen::MatrixXd GaussianFieldBasis(const std::vector<Eigen::Vector2d>& points_px, double length_px, int features,
                                    unsigned seed) {
   if (!(length_px > 0) || features < 1) {
@@ -131,15 +159,41 @@ Eigen::MatrixXd GaussianFieldBasis(const std::vector<Eigen::Vector2d>& points_px
   Eigen::MatrixXd omega(features, 2);
   Eigen::VectorXd offset(features);
   for (int m = 0; m < features; ++m) omega(m, 0) = unit(rng), omega(m, 1) = unit(rng), offset[m] = phase(rng);
-  const double scale = std::sqrt(2.0 / features);
-  Eigen::MatrixXd b(static_cast<long>(points_px.size()), features);
-  for (size_t r = 0; r < points_px.size(); ++r) {
-    for (int m = 0; m < features; ++m) {
-      const double arg = (omega(m, 0) * points_px[r].x() + omega(m, 1) * points_px[r].y()) / length_px + offset[m];
-      b(static_cast<long>(r), m) = scale * std::cos(arg);
-    }
+  return CosineFeatures(points_px, omega / length_px, offset);
+}
+
+Eigen::MatrixXd RingFieldBasis(const std::vector<Eigen::Vector2d>& points_px, double period_px, int features,
+                               unsigned seed) {
+  if (!(period_px > 0) || features < 1) {
+    throw Error("ring field basis", fmt::format("period {} px, {} features", period_px, features), "");
   }
-  return b;
+  std::mt19937_64 rng(seed);
+  std::uniform_real_distribution<double> unit(0, 1);
+  const double k = 6.283185307179586 / period_px;
+  Eigen::MatrixXd omega(features, 2);
+  Eigen::VectorXd offset(features);
+  for (int m = 0; m < features; ++m) {
+    const double t = 3.141592653589793 * (m + unit(rng)) / features;
+    omega(m, 0) = k * std::cos(t), omega(m, 1) = k * std::sin(t), offset[m] = 6.283185307179586 * unit(rng);
+  }
+  return CosineFeatures(points_px, omega, offset);
+}
+
+Eigen::MatrixXd MisfitComponentBasis(const std::vector<Eigen::Vector2d>& points_px,
+                                     const UncertaintyBudget::FieldComponent& component, const FitOptions& options) {
+  return component.family == UncertaintyBudget::FieldFamily::kRing
+             ? RingFieldBasis(points_px, component.length_px, options.misfit_features,
+                              options.systematic_field_seed + 3)
+             : GaussianFieldBasis(points_px, component.length_px, options.misfit_features,
+                                  options.systematic_field_seed + 2);
+}
+
+double MisfitComponentCovariance(const UncertaintyBudget::FieldComponent& component, double distance_px) {
+  if (component.family == UncertaintyBudget::FieldFamily::kRing) {
+    return component.variance_px2 * std::cyl_bessel_j(0.0, 6.283185307179586 * distance_px / component.length_px);
+  }
+  const double z = distance_px / component.length_px;
+  return component.variance_px2 * std::exp(-0.5 * z * z);
 }
 
 std::filesystem::path IntrinsicsCovariancePathFor(const std::filesystem::path& camera_path) {
@@ -221,7 +275,8 @@ std::optional<Linearization> Linearize(const Setup& setup, const ModelWork& w, B
   if (!st.dev.empty()) eo.parameter_blocks.push_back(st.dev.data()), t += static_cast<int>(st.dev.size());
   if (!st.intr.empty()) eo.parameter_blocks.push_back(st.intr.data()), t += static_cast<int>(st.intr.size());
   ceres::CRSMatrix crs;
-  if (!b.problem->Evaluate(eo, nullptr, nullptr, nullptr, &crs)) {
+  std::vector<double> gradient;
+  if (!b.problem->Evaluate(eo, nullptr, nullptr, &gradient, &crs)) {
     *note += "the Jacobian could not be evaluated; ";
     return std::nullopt;
   }
@@ -253,7 +308,8 @@ std::optional<Linearization> Linearize(const Setup& setup, const ModelWork& w, B
   Eigen::VectorXd scale = j.colwise().norm().transpose();
   for (long c = 0; c < scale.size(); ++c) scale[c] = scale[c] > 0 ? 1 / scale[c] : 0;
   const Eigen::MatrixXd js = j * scale.asDiagonal();
-  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(js.transpose() * js);
+  const Eigen::MatrixXd normal_scaled = js.transpose() * js;
+  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(normal_scaled);
   const Eigen::VectorXd ev = eig.eigenvalues();
   const double cut = 1e-12 * std::max(ev.maxCoeff(), 1e-300);
   Eigen::VectorXd inv = Eigen::VectorXd::Zero(ev.size());
@@ -267,6 +323,11 @@ std::optional<Linearization> Linearize(const Setup& setup, const ModelWork& w, B
   lin.obs = b.obs_index;
   lin.j_obs = j.topRows(static_cast<long>(2 * n_obs));
   lin.normal_pinv = vs * inv.asDiagonal() * vs.transpose();
+  // J^T J back from the scaled one (a zero column has scale 0 and a zero row and column in J^T J).
+  Eigen::VectorXd unscale = Eigen::VectorXd::Zero(scale.size());
+  for (long c = 0; c < scale.size(); ++c) unscale[c] = scale[c] > 0 ? 1 / scale[c] : 0;
+  lin.normal = unscale.asDiagonal() * normal_scaled * unscale.asDiagonal();
+  lin.gradient = Eigen::Map<const Eigen::VectorXd>(gradient.data(), static_cast<long>(gradient.size()));
   return lin;
 }
 
@@ -298,24 +359,19 @@ QuantityVariance SystematicVariance(const Setup& setup, const Linearization& lin
 }
 
 // Pixel-locking itself, propagated in its own shape: per coordinate c a bias A_c sin(2 pi phi_i + psi) with phi_i
-// the detection's subpixel phase, A_c the bound (estimate + 2 sigma) and the phase offset psi unknown (uniform):
+// the detection's subpixel phase, A_c^2 its expectation given the estimate (estimate^2 + sigma^2: a standard
+// uncertainty, not the 95% bound estimate + 2 sigma, which stated as one inflated the row 1.3-2x in variance)
+// and the phase offset psi unknown (uniform):
 // dq = A_c (G s_c cos psi + G c_c sin psi), s_c = sin 2 pi phi, c_c = cos 2 pi phi, whose covariance over psi is
 // A_c^2 / 2 (G s_c s_c^T G^T + G c_c c_c^T G^T). On a regular board the phases beat across the image, so this
 // field is correlated in a way that low-order smooth fields do not represent.
 QuantityVariance PixelLockingVariance(const Setup& setup, const Linearization& lin, const Eigen::Vector2d& bound_px) {
-  constexpr double kTwoPi = 6.283185307179586;
-  const int n = static_cast<int>(lin.obs.size()), nq = static_cast<int>(lin.g.rows());
+  const int nq = static_cast<int>(lin.g.rows());
+  const Eigen::MatrixXd shapes = PixelLockingShapes(setup, lin);
   Eigen::MatrixXd cov = Eigen::MatrixXd::Zero(nq, nq);
   for (int c = 0; c < 2; ++c) {
     if (!std::isfinite(bound_px[c]) || !(bound_px[c] > 0)) continue;
-    Eigen::VectorXd sv = Eigen::VectorXd::Zero(2 * n), cv = Eigen::VectorXd::Zero(2 * n);
-    for (int i = 0; i < n; ++i) {
-      const double q = setup.obs[lin.obs[static_cast<size_t>(i)]].detected[c];
-      const double phase = kTwoPi * (q - std::floor(q));
-      sv[2 * i + c] = std::sin(phase);
-      cv[2 * i + c] = std::cos(phase);
-    }
-    const Eigen::VectorXd gs = lin.g * sv, gc = lin.g * cv;
+    const Eigen::VectorXd gs = lin.g * shapes.col(2 * c), gc = lin.g * shapes.col(2 * c + 1);
     cov += 0.5 * bound_px[c] * bound_px[c] * (gs * gs.transpose() + gc * gc.transpose());
   }
   return QuantityVariance::FromCovariance(cov, setup.photos);
@@ -355,6 +411,23 @@ std::string Percent(double relative) { return fmt::format("{:.3g}%", 100 * relat
 
 }  // namespace
 
+// The pixel-locking signature's shapes at the active observations (2n x 4, rows interleaved x, y): columns 2c and
+// 2c + 1 hold sin and cos of 2 pi x the subpixel phase of coordinate c on that coordinate's rows, zero elsewhere.
+Eigen::MatrixXd PixelLockingShapes(const Setup& setup, const Linearization& lin) {
+  constexpr double kTwoPi = 6.283185307179586;
+  const int n = static_cast<int>(lin.obs.size());
+  Eigen::MatrixXd shapes = Eigen::MatrixXd::Zero(2 * n, 4);
+  for (int i = 0; i < n; ++i) {
+    const Eigen::Vector2d q = setup.obs[lin.obs[static_cast<size_t>(i)]].detected;
+    for (int c = 0; c < 2; ++c) {
+      const double phase = kTwoPi * (q[c] - std::floor(q[c]));
+      shapes(2 * i + c, 2 * c) = std::sin(phase);
+      shapes(2 * i + c, 2 * c + 1) = std::cos(phase);
+    }
+  }
+  return shapes;
+}
+
 // The active observations' detected positions, in Linearization order.
 std::vector<Eigen::Vector2d> DetectedPoints(const Setup& setup, const Linearization& lin) {
   std::vector<Eigen::Vector2d> points;
@@ -363,15 +436,23 @@ std::vector<Eigen::Vector2d> DetectedPoints(const Setup& setup, const Linearizat
 }
 
 
-// Builds the budget of one candidate at its final solution and replaces its sigmas by the combined ones (the
-// curvature's, the cameras' centre-frame positions and their covariance with k). Returns the components'
-// variances for FinishBudget, which fills the radius and axis-frame columns once the radius is known.
-std::vector<QuantityVariance> Budget(const Setup& setup, ModelWork& w, BuiltProblem& b, int n_residuals,
-                                     ModelFit* fit) {
+std::vector<Eigen::Vector2d> LinearizedResiduals(const Setup& setup, const Linearization& lin, const ModelFit& fit) {
+  std::vector<Eigen::Vector2d> res;
+  res.reserve(lin.obs.size());
+  for (size_t i : lin.obs) {
+    res.push_back(fit.residual_px[static_cast<size_t>(setup.obs[i].photo)][static_cast<size_t>(setup.obs[i].index)]);
+  }
+  return res;
+}
+
+// Builds the rows of one candidate's budget at its final solution (ModelWork::budget_vars, ::lin), all but the
+// lens-model-misfit row's variance, which CompleteBudget adds once the model is chosen.
+void Budget(const Setup& setup, ModelWork& w, BuiltProblem& b, int n_residuals, ModelFit* fit) {
   const FitOptions& o = *setup.options;
   UncertaintyBudget& bud = fit->budget;
   bud.coverage_probability = o.coverage_probability;
-  std::vector<QuantityVariance> vars;
+  std::vector<QuantityVariance>& vars = w.budget_vars;
+  vars.clear();
   // 1. Detection noise: the covariance scaled by the residual noise (Covariances).
   QuantityVariance noise(setup.photos);
   noise.var_k = fit->curvature_sigma_per_mm * fit->curvature_sigma_per_mm;
@@ -392,26 +473,23 @@ std::vector<QuantityVariance> Budget(const Setup& setup, ModelWork& w, BuiltProb
   bud.components.push_back(c_noise);
   vars.push_back(noise);
 
-  const std::optional<Linearization> lin = Linearize(setup, w, b, &bud.note);
+  w.lin = Linearize(setup, w, b, &bud.note);
+  const std::optional<Linearization>& lin = w.lin;
   // 2. Detector systematic (pixel-locking and other detector bias).
   {
-    std::vector<Eigen::Vector2d> det, res;
-    if (lin) {
-      for (size_t i : lin->obs) {
-        det.push_back(setup.obs[i].detected);
-        res.push_back(fit->residual_px[static_cast<size_t>(setup.obs[i].photo)][static_cast<size_t>(setup.obs[i].index)]);
-      }
-    }
+    const std::vector<Eigen::Vector2d> det = lin ? DetectedPoints(setup, *lin) : std::vector<Eigen::Vector2d>();
+    const std::vector<Eigen::Vector2d> res =
+        lin ? LinearizedResiduals(setup, *lin, *fit) : std::vector<Eigen::Vector2d>();
     bud.pixel_locking = EstimatePixelLocking(det, res);
     const ResidualPixelLocking& pl = bud.pixel_locking;
     double upper = 0;
     for (int c = 0; c < 2; ++c) {
-      if (std::isfinite(pl.amplitude_px[c])) upper = std::max(upper, pl.amplitude_px[c] + 2 * pl.sigma_px[c]);
+      if (std::isfinite(pl.amplitude_px[c])) upper = std::max(upper, std::hypot(pl.amplitude_px[c], pl.sigma_px[c]));
     }
     bud.systematic_bound_px = o.smooth_bias_px;
     bud.systematic_bound_reason = fmt::format(
         "the stated smooth detector bias FitOptions::smooth_bias_px (type B, not measured); the pixel-locking "
-        "signature's amplitude is its estimate plus 2 sigma, {:.4f} px (x {:.4f} +- {:.4f}, y {:.4f} +- {:.4f} px)",
+        "signature's RMS amplitude sqrt(estimate^2 + sigma^2), at most {:.4f} px (x {:.4f} +- {:.4f}, y {:.4f} +- {:.4f} px)",
         upper, pl.amplitude_px.x(), pl.sigma_px.x(), pl.amplitude_px.y(), pl.sigma_px.y());
     BudgetComponent c;
     c.name = "detector systematic";
@@ -425,14 +503,15 @@ std::vector<QuantityVariance> Budget(const Setup& setup, ModelWork& w, BuiltProb
         "scaled to RMS b ({} seeded draws); its standard uncertainty is the RMS effect. Correlated across features, "
         "unlike the noise row (independent per-feature errors are in that row already); plus, in quadrature, the "
         "pixel-locking signature in its own shape: A sin(2 pi phase + psi) per coordinate at each detection's "
-        "subpixel phase, A = the estimate + 2 sigma, psi uniform (on a regular board the phases beat across the "
+        "subpixel phase, A^2 = estimate^2 + sigma^2 (its expectation), psi uniform (on a regular board the phases beat across the "
         "image: a correlated field that smooth fields do not represent)",
         o.systematic_field_degree, o.systematic_field_draws);
     bud.components.push_back(c);
     QuantityVariance v(setup.photos);
     if (lin && (bud.systematic_bound_px > 0 || upper > 0)) {
       // Two parts in quadrature: smooth bias fields of RMS b, and the pixel-locking signature in its own shape.
-      Eigen::Vector2d pl_bound = pl.amplitude_px + 2 * pl.sigma_px;
+      Eigen::Vector2d pl_bound(std::hypot(pl.amplitude_px.x(), pl.sigma_px.x()),
+                               std::hypot(pl.amplitude_px.y(), pl.sigma_px.y()));
       const QuantityVariance smooth = SystematicVariance(
           setup, *lin, bud.systematic_bound_px,
           LegendreFieldBasis(DetectedPoints(setup, *lin), setup.camera->width, setup.camera->height,
@@ -476,64 +555,18 @@ std::vector<QuantityVariance> Budget(const Setup& setup, ModelWork& w, BuiltProb
     }
     bud.components.push_back(c);
   }
-  // 4. Lens model misfit, measured from the residuals' correlation between neighbours.
+  // 4. Lens model misfit: the neighbour statistic and the projection on the misfit family here (the model choice
+  // uses it); the field's correlation, and so the row's variance, in CompleteBudget.
   {
     BudgetComponent c;
     c.name = "lens model misfit";
     c.type = "A";
-    QuantityVariance v(setup.photos);
     if (lin && o.measure_lens_misfit) {
-      std::vector<Eigen::Vector2d> res;
-      for (size_t i : lin->obs) {
-        res.push_back(fit->residual_px[static_cast<size_t>(setup.obs[i].photo)][static_cast<size_t>(setup.obs[i].index)]);
-      }
-      EstimateMisfit(setup, *lin, res, fit->noise_px, &bud, &w.lens_field);
+      EstimateMisfit(setup, *lin, LinearizedResiduals(setup, *lin, *fit), fit->noise_px, &bud, &w.lens_field);
     }
-    if (!bud.misfit_components.empty()) {
-      std::string lags, parts;
-      for (const UncertaintyBudget::Lag& l : bud.misfit_lags) {
-        lags += fmt::format("{}{:.1f}: {:.3g} (noise {:.3g}, field {:.3g})", lags.empty() ? "" : "; ", l.lag_spacings,
-                            l.statistic_px2, l.noise_share_px2, l.field_share_px2);
-      }
-      double var_sum = 0, dof_denominator = 0;
-      for (const UncertaintyBudget::FieldComponent& f : bud.misfit_components) {
-        parts += fmt::format("{}RMS {:.4f} px per coordinate (variance {:.3g} +- {:.3g} px^2) at a correlation "
-                             "length of {:.0f} px",
-                             parts.empty() ? "" : ", plus ", std::sqrt(f.variance_px2), f.variance_px2,
-                             f.variance_sd_px2, f.length_px);
-        if (!(f.variance_px2 > 0)) continue;
-        const QuantityVariance part = GaussianFieldVariance(setup, *lin, f.variance_px2, f.length_px);
-        v.var_k += part.var_k;
-        for (int p = 0; p < setup.photos; ++p) {
-          v.var_pos[static_cast<size_t>(p)] += part.var_pos[static_cast<size_t>(p)];
-          v.cov_pos_k[static_cast<size_t>(p)] += part.cov_pos_k[static_cast<size_t>(p)];
-        }
-        var_sum += part.var_k;
-        const double ratio = f.variance_sd_px2 > 0 ? f.variance_px2 / f.variance_sd_px2 : kInf;
-        if (std::isfinite(ratio)) dof_denominator += part.var_k * part.var_k / (2 * ratio * ratio);
-      }
-      if (dof_denominator > 0) c.dof = var_sum * var_sum / dof_denominator;
-      c.source = fmt::format(
-          "the residuals' correlation at several lags (in feature spacings of {:.1f} px: mean r_a . r_b / 2 in px^2, "
-          "{}), fitted by Gaussian fields: {}; propagated through the fit's linearization",
-          bud.misfit_spacing_px, lags, parts);
-    } else if (!o.measure_lens_misfit) {
-      c.source = "none: not measured (FitOptions::measure_lens_misfit off; the lens taken as exact beyond its "
-                 "calibration)";
-    } else {
-      c.source = "not measurable here (too few features or pairs)";
-    }
-    c.assumption = fmt::format(
-        "the true lens departs from its model by a stationary Gaussian field over the image (covariance s^2 "
-        "exp(-d^2 / 2 L^2), {} random Fourier features), independent per coordinate and common to every photo; "
-        "s and L are those that reproduce the residuals' correlation at 1 to 24 feature spacings after the fit "
-        "(the part the fit absorbs into the poses and the screen is inferred from the part it leaves, in the same "
-        "family). Any other error correlated between features (detector bias that varies with the image position, "
-        "moire) is measured here too, so it may be counted twice with the detector row: conservative. Degrees of "
-        "freedom 2 (s^2 / u(s^2))^2",
-        o.misfit_features);
+    static_assert(kMisfitRow == 3, "the lens model misfit is the budget's fourth row");
     bud.components.push_back(c);
-    vars.push_back(v);
+    vars.push_back(QuantityVariance(setup.photos));
   }
   // 5. Pixel pitch: the scene scales with the pitch (R and every position proportional to it, k inversely).
   {
@@ -557,6 +590,81 @@ std::vector<QuantityVariance> Budget(const Setup& setup, ModelWork& w, BuiltProb
     bud.components.push_back(c);
     vars.push_back(v);
   }
+}
+
+// The lens-model-misfit row's variance and the combined budget of one candidate (after Budget), replacing its
+// sigmas by the combined ones (the curvature's, the cameras' centre-frame positions and their covariance with k).
+// The misfit field is a property of the lens and the detector, common to every candidate: it is measured once, on
+// the residuals of `reference` (the chosen model; its budget holds the components), and propagated through each
+// candidate's own linearization. Returns the rows' variances, the combined last, for FinishBudget.
+std::vector<QuantityVariance> CompleteBudget(const Setup& setup, ModelWork& w, const ModelFit& reference,
+                                             ModelFit* fit) {
+  const FitOptions& o = *setup.options;
+  UncertaintyBudget& bud = fit->budget;
+  std::vector<QuantityVariance> vars = w.budget_vars;
+  if (vars.empty()) return vars;
+  const UncertaintyBudget& ref = reference.budget;
+  if (&reference != fit) {
+    bud.misfit_components = ref.misfit_components;
+    bud.misfit_lags = ref.misfit_lags;
+    bud.misfit_length_px = ref.misfit_length_px;
+    bud.misfit_variance_px2 = ref.misfit_variance_px2;
+    bud.misfit_variance_sd_px2 = ref.misfit_variance_sd_px2;
+    bud.misfit_spacing_px = ref.misfit_spacing_px;
+    bud.misfit_fit_chi2 = ref.misfit_fit_chi2;
+  }
+  const std::optional<Linearization>& lin = w.lin;
+  BudgetComponent& c = bud.components[kMisfitRow];
+  QuantityVariance& misfit = vars[kMisfitRow];
+  if (!bud.misfit_components.empty() && lin) {
+    std::string lags, parts;
+    for (const UncertaintyBudget::Lag& l : bud.misfit_lags) {
+      lags += fmt::format("{}{:.1f}: {:.3g} (noise {:.3g}, field {:.3g})", lags.empty() ? "" : "; ", l.lag_spacings,
+                          l.statistic_px2, l.noise_share_px2, l.field_share_px2);
+    }
+    double var_sum = 0, dof_denominator = 0;
+    for (const UncertaintyBudget::FieldComponent& f : bud.misfit_components) {
+      const bool ring = f.family == UncertaintyBudget::FieldFamily::kRing;
+      parts += fmt::format("{}{} field of RMS {:.4f} px per coordinate (variance {:.3g} +- {:.3g} px^2) at a {} of "
+                           "{:.0f} px",
+                           parts.empty() ? "" : ", plus a ", ring ? "ring (band-pass)" : "Gaussian",
+                           std::sqrt(f.variance_px2), f.variance_px2, f.variance_sd_px2,
+                           ring ? "period" : "correlation length", f.length_px);
+      if (!(f.variance_px2 > 0)) continue;
+      const QuantityVariance part = FieldVariance(setup, *lin, f);
+      misfit.var_k += part.var_k;
+      for (int p = 0; p < setup.photos; ++p) {
+        misfit.var_pos[static_cast<size_t>(p)] += part.var_pos[static_cast<size_t>(p)];
+        misfit.cov_pos_k[static_cast<size_t>(p)] += part.cov_pos_k[static_cast<size_t>(p)];
+      }
+      var_sum += part.var_k;
+      const double ratio = f.variance_sd_px2 > 0 ? f.variance_px2 / f.variance_sd_px2 : kInf;
+      if (std::isfinite(ratio)) dof_denominator += part.var_k * part.var_k / (2 * ratio * ratio);
+    }
+    if (dof_denominator > 0) c.dof = var_sum * var_sum / dof_denominator;
+    c.source = fmt::format(
+        "the residuals' correlation at several lags (in feature spacings of {:.1f} px: mean r_a . r_b / 2 in px^2, "
+        "{}{}), fitted by stationary fields: a {}; propagated through {} linearization",
+        bud.misfit_spacing_px, lags,
+        &reference == fit ? "" : fmt::format("; measured on the residuals of the chosen model, {}", reference.model),
+        parts, &reference == fit ? "the fit's" : "this model's");
+  } else if (!o.measure_lens_misfit) {
+    c.source = "none: not measured (FitOptions::measure_lens_misfit off; the lens taken as exact beyond its "
+               "calibration)";
+  } else {
+    c.source = "not measurable here (too few features or pairs)";
+  }
+  c.assumption = fmt::format(
+      "the true lens departs from its model by stationary fields over the image, independent per coordinate and "
+      "common to every photo (and so to every screen model: measured once, on the chosen model's residuals): up to "
+      "two Gaussian fields (covariance s^2 exp(-d^2 / 2 L^2)) and one ring field (band-pass, covariance "
+      "s^2 J0(2 pi d / P): a beat whose correlation changes sign), each as {} random Fourier features; the "
+      "variances, lengths and period are those that reproduce the residuals' correlation at 1 to 28 feature "
+      "spacings after the fit (the part the fit absorbs into the poses and the screen is inferred from the part it "
+      "leaves, in the same family), the combination chosen by AIC. Any other error correlated between features "
+      "(detector bias that varies with the image position, moire) is measured here too, so it may be counted twice "
+      "with the detector row: conservative. Degrees of freedom 2 (s^2 / u(s^2))^2",
+      o.misfit_features);
   // Combined, fully in quadrature (the sources are independent; within a source the correlation of k with the
   // positions is kept).
   QuantityVariance total(setup.photos);

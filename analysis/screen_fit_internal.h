@@ -13,6 +13,7 @@
 #include <Eigen/Core>
 #include <array>
 #include <limits>
+#include <map>
 #include <memory>
 #include <optional>
 #include <string>
@@ -58,6 +59,16 @@ struct Setup {
   std::vector<Obs> obs;
   std::vector<std::string> feature_ids;
   double half_width_mm = 0;
+  // The lens-model-misfit row's random-feature bases at every observation's detected point, by family and
+  // length (screen_fit_misfit.cc: the same fields for every candidate, so built once per fit; a candidate takes
+  // the rows of its active observations), and the feature spacing its candidate lengths are counted in. A cache,
+  // filled on first use, shared by copies of the setup (same observations); written only on the
+  // calling thread (PrepareComponentBases in screen_fit_misfit.cc), read by the parallel candidates after.
+  struct MisfitCache {
+    std::map<std::pair<int, double>, Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>> bases;
+    double spacing_px = 0;
+  };
+  std::shared_ptr<MisfitCache> misfit_cache = std::make_shared<MisfitCache>();
 };
 
 // The problem of one model over the active observations. Owns what Ceres does not.
@@ -80,22 +91,6 @@ struct LensFieldProjection {
   Eigen::VectorXd projected;
   double rss = 0, basis_trace = 0;
   int observations = 0;
-};
-
-// Everything about one model's fit that the selection and the deviations need beyond ModelFit.
-struct ModelWork {
-  ScreenModelKind kind;
-  State state;
-  std::unique_ptr<DeviationBasis> basis;
-  double basis_curvature_per_mm = 0;  // what `basis` was built around
-  std::vector<Eigen::Vector2d> robust_residuals;
-  Eigen::MatrixXd dev_covariance;  // of the deviation coefficients, scaled by the noise
-  // Per photo: the covariance of the camera position (centre frame) with the curvature k (the mean curvature for
-  // varying curvature), scaled by the noise; NaN where it could not be computed.
-  std::vector<Eigen::Vector3d> position_curvature_cov;
-  bool robust_ok = false;
-  int robust_iterations = 0;
-  LensFieldProjection lens_field;
 };
 
 // ---- The uncertainty budget (metrology.md section 1; UncertaintyBudget in screen_fit.h). ----
@@ -135,6 +130,28 @@ struct Linearization {
   std::vector<size_t> obs;       // Setup::obs index of each column pair
   Eigen::MatrixXd j_obs;         // (2 n_obs) x t: the observations' rows of J (tangent space)
   Eigen::MatrixXd normal_pinv;   // (J^T J)^+, t x t
+  Eigen::MatrixXd normal;        // J^T J over every row (deviation prior included), t x t
+  Eigen::VectorXd gradient;      // J^T e at the solution (e: Ceres's residuals, all rows), t
+};
+
+// Everything about one model's fit that the selection and the deviations need beyond ModelFit.
+struct ModelWork {
+  ScreenModelKind kind;
+  State state;
+  std::unique_ptr<DeviationBasis> basis;
+  double basis_curvature_per_mm = 0;  // what `basis` was built around
+  std::vector<Eigen::Vector2d> robust_residuals;
+  Eigen::MatrixXd dev_covariance;  // of the deviation coefficients, scaled by the noise
+  // Per photo: the covariance of the camera position (centre frame) with the curvature k (the mean curvature for
+  // varying curvature), scaled by the noise; NaN where it could not be computed.
+  std::vector<Eigen::Vector3d> position_curvature_cov;
+  bool robust_ok = false;
+  int robust_iterations = 0;
+  LensFieldProjection lens_field;
+  // The final fit's linearization and its budget's rows (Budget), the lens-model-misfit row's variance added and
+  // the rows combined by CompleteBudget once the model is chosen.
+  std::optional<Linearization> lin;
+  std::vector<QuantityVariance> budget_vars;
 };
 
 // screen_fit_problem.cc: one candidate's Ceres problem.
@@ -152,17 +169,24 @@ void Covariances(const Setup& setup, ModelWork& w, BuiltProblem& b, ModelFit* fi
 
 // screen_fit_budget.cc: the uncertainty budget.
 std::vector<Eigen::Vector2d> DetectedPoints(const Setup& setup, const Linearization& lin);
-std::vector<QuantityVariance> Budget(const Setup& setup, ModelWork& w, BuiltProblem& b, int n_residuals,
-                                     ModelFit* fit);
+Eigen::MatrixXd PixelLockingShapes(const Setup& setup, const Linearization& lin);
+inline constexpr size_t kMisfitRow = 3;  // the lens-model-misfit row's index in UncertaintyBudget::components
+std::vector<Eigen::Vector2d> LinearizedResiduals(const Setup& setup, const Linearization& lin, const ModelFit& fit);
+void Budget(const Setup& setup, ModelWork& w, BuiltProblem& b, int n_residuals, ModelFit* fit);
+std::vector<QuantityVariance> CompleteBudget(const Setup& setup, ModelWork& w, const ModelFit& reference,
+                                             ModelFit* fit);
 void FinishBudget(const std::vector<QuantityVariance>& vars, ModelFit* fit);
 
 // screen_fit_misfit.cc: the lens-model-misfit row.
-QuantityVariance GaussianFieldVariance(const Setup& setup, const Linearization& lin, double s2, double length_px);
+QuantityVariance FieldVariance(const Setup& setup, const Linearization& lin,
+                               const UncertaintyBudget::FieldComponent& component);
 void EstimateMisfit(const Setup& setup, const Linearization& lin, const std::vector<Eigen::Vector2d>& residual,
                     double sigma_px, UncertaintyBudget* bud, LensFieldProjection* projection);
+void MeasureMisfitCorrelation(const Setup& setup, const Linearization& lin,
+                              const std::vector<Eigen::Vector2d>& residual, double sigma_px, UncertaintyBudget* bud);
 
 // screen_fit_select.cc: model selection.
-double HeldOut(const Setup& setup, const ModelWork& w, const std::vector<bool>& inlier);
+double HeldOut(const Setup& setup, const ModelWork& w, const std::vector<bool>& inlier, const ModelFit& fit);
 void AdjustForLensField(const FitOptions& o, int width_px, const std::vector<ModelWork>& work,
                         ScreenFitResult* result);
 void Choose(const FitOptions& options, ScreenFitResult* result);

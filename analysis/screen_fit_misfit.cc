@@ -7,203 +7,114 @@
 #include <random>
 
 #include "analysis/screen_fit_internal.h"
+#include "core/parallel.h"
 
 namespace curvecheck::screen_fit_internal {
 namespace {
 
-// The misfit field's RMS s and correlation length L, from the residuals' correlation at several lags
-// (UncertaintyBudget::misfit_length_px, misfit_lags). The neighbour statistic alone cannot tell a field smooth over
-// the whole image (which moves the radius) from errors correlated over a few features only (the detector's
-// pixel-locking beat, demosaicing, moire: they average out over the board): propagated as a smooth field, the
-// latter gave radius sigmas 1.4-3x the scatter of seeded trials (bench validity, realistic camera). Per lag bin j
-// (pairs in the same photo at a distance of [0, 1.5), [1.5, 3), [3, 6), [6, 12), [12, 24) feature spacings),
-// S_j = mean of r_a . r_b / 2 has E[S_j] = s^2 kappa_j(L) + sigma^2 nu_j: kappa_j the same mean of the stationary
-// Gaussian field of unit variance and covariance exp(-d^2 / 2 L^2) after the linearized refit, exactly from its
-// random-feature basis Phi (E[e_a . e_b] = (R R^T)_ab, R = (I - J (J^T J)^+ J^T) Phi), nu_j the refit's share
-// -(J (J^T J)^+ J^T)_ab. For each L of a grid (1 to 32 feature spacings, at most the image width) s^2 >= 0 is
-// fitted by weighted least squares (weights pairs_j / sigma^4: S_j's variance under noise); the L of the smallest
-// weighted misfit is kept, with s^2's standard error. Pairs beyond kMaxPairsPerLag per bin are thinned evenly.
-void EstimateMisfitCorrelation(const Setup& setup, const Linearization& lin,
-                               const std::vector<Eigen::Vector2d>& residual, double sigma_px,
-                               const std::vector<std::pair<int, int>>& neighbours, UncertaintyBudget* bud) {
-  const FitOptions& o = *setup.options;
-  constexpr size_t kMaxPairsPerLag = 6000;
-  constexpr std::array<double, 6> kLagEdges = {0, 1.5, 3, 6, 12, 24};
-  const int n = static_cast<int>(lin.obs.size());
-  const std::vector<Eigen::Vector2d> points = DetectedPoints(setup, lin);
-  std::vector<double> nn;
-  for (const auto& [a, b] : neighbours) nn.push_back((points[static_cast<size_t>(a)] - points[static_cast<size_t>(b)]).norm());
-  if (nn.size() < 8 || !(sigma_px > 0)) return;
-  std::nth_element(nn.begin(), nn.begin() + static_cast<long>(nn.size() / 2), nn.end());
-  const double spacing = nn[nn.size() / 2];
-  if (!(spacing > 0)) return;
-  const size_t bins = kLagEdges.size() - 1;
-  std::vector<std::vector<std::pair<int, int>>> lag(bins);
-  for (int a = 0; a < n; ++a) {
-    for (int b = a + 1; b < n; ++b) {
-      if (setup.obs[lin.obs[static_cast<size_t>(a)]].photo != setup.obs[lin.obs[static_cast<size_t>(b)]].photo) continue;
-      const double d = (points[static_cast<size_t>(a)] - points[static_cast<size_t>(b)]).norm() / spacing;
-      for (size_t j = 0; j < bins; ++j) {
-        if (d >= kLagEdges[j] && d < kLagEdges[j + 1]) lag[j].emplace_back(a, b);
-      }
+using RowMajor = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+
+// One photo's rows of the observations' Jacobian (2n x t, coordinates interleaved), dense over the columns that any
+// of them touches (its pose's and the shared ones: the shape, the deviation field, free intrinsics): rows (indices
+// into lin.obs, ascending), cols (ascending) and J_x, J_y on them (rows 2i and 2i + 1 of j_obs).
+struct PhotoBlock {
+  std::vector<int> rows;
+  std::vector<long> cols;
+  std::array<RowMajor, 2> j;
+};
+
+std::vector<PhotoBlock> PhotoBlocks(const Setup& setup, const Linearization& lin) {
+  std::vector<PhotoBlock> blocks(static_cast<size_t>(setup.photos));
+  for (size_t r = 0; r < lin.obs.size(); ++r) {
+    blocks[static_cast<size_t>(setup.obs[lin.obs[r]].photo)].rows.push_back(static_cast<int>(r));
+  }
+  std::vector<PhotoBlock> out;
+  for (PhotoBlock& block : blocks) {
+    if (block.rows.empty()) continue;
+    for (long c = 0; c < lin.j_obs.cols(); ++c) {
+      const bool used = std::any_of(block.rows.begin(), block.rows.end(), [&](int r) {
+        return lin.j_obs(2L * r, c) != 0 || lin.j_obs(2L * r + 1, c) != 0;
+      });
+      if (used) block.cols.push_back(c);
     }
-  }
-  for (auto& l : lag) {
-    if (l.size() <= kMaxPairsPerLag) continue;
-    std::vector<std::pair<int, int>> thin;
-    const double step = static_cast<double>(l.size()) / kMaxPairsPerLag;
-    for (size_t i = 0; i < kMaxPairsPerLag; ++i) thin.push_back(l[static_cast<size_t>(i * step)]);
-    l.swap(thin);
-  }
-  const Eigen::MatrixXd jp = lin.j_obs * lin.normal_pinv;  // 2n x t
-  const double s4 = std::pow(sigma_px, 4);
-  struct Bin { double lag = 0, stat = 0, nu = 0, weight = 0; int pairs = 0; };
-  std::vector<Bin> stats;
-  std::vector<size_t> used_bins;
-  for (size_t j = 0; j < bins; ++j) {
-    if (lag[j].size() < 8) continue;
-    Bin bin;
-    bin.pairs = static_cast<int>(lag[j].size());
-    for (const auto& [a, b] : lag[j]) {
-      bin.lag += (points[static_cast<size_t>(a)] - points[static_cast<size_t>(b)]).norm() / spacing;
-      bin.stat += 0.5 * residual[static_cast<size_t>(a)].dot(residual[static_cast<size_t>(b)]);
-      for (int c = 0; c < 2; ++c) bin.nu -= 0.5 * jp.row(2 * a + c).dot(lin.j_obs.row(2 * b + c));
-    }
-    bin.lag /= bin.pairs, bin.stat /= bin.pairs, bin.nu /= bin.pairs;
-    bin.weight = bin.pairs / s4;
-    stats.push_back(bin);
-    used_bins.push_back(j);
-  }
-  if (stats.size() < 2) return;
-  // kappa_j(L) for each length of the grid.
-  std::vector<double> lengths;
-  std::vector<Eigen::VectorXd> kappas;
-  for (double factor : {1.0, 2.0, 4.0, 8.0, 16.0, 32.0}) {
-    const double length = std::min(factor * spacing, static_cast<double>(setup.camera->width));
-    if (!lengths.empty() && length <= lengths.back()) continue;
-    const Eigen::MatrixXd phi = GaussianFieldBasis(points, length, o.misfit_features, o.systematic_field_seed + 2);
-    const long d = phi.cols();
-    Eigen::MatrixXd dx = Eigen::MatrixXd::Zero(2 * n, d), dy = Eigen::MatrixXd::Zero(2 * n, d);
-    for (int i = 0; i < n; ++i) dx.row(2 * i) = phi.row(i), dy.row(2 * i + 1) = phi.row(i);
-    // Row-major: the pair sums below read whole rows (400 features each); column-major rows are strided by 2n and
-    // made this loop half of analyze's time on one photo (perf).
-    using RowMajor = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
-    const RowMajor rx = dx - jp * (lin.j_obs.transpose() * dx);
-    const RowMajor ry = dy - jp * (lin.j_obs.transpose() * dy);
-    const double variance = phi.squaredNorm() / n;  // the field's mean variance at the points (1 but for sampling)
-    Eigen::VectorXd kappa(static_cast<long>(stats.size()));
-    for (size_t k = 0; k < stats.size(); ++k) {
-      double sum = 0;
-      for (const auto& [a, b] : lag[used_bins[k]]) {
-        for (int c = 0; c < 2; ++c) {
-          sum += 0.5 * (rx.row(2 * a + c).dot(rx.row(2 * b + c)) + ry.row(2 * a + c).dot(ry.row(2 * b + c)));
+    for (long f = 0; f < 2; ++f) {
+      RowMajor& j = block.j[static_cast<size_t>(f)];
+      j.resize(static_cast<long>(block.rows.size()), static_cast<long>(block.cols.size()));
+      for (size_t r = 0; r < block.rows.size(); ++r) {
+        for (size_t c = 0; c < block.cols.size(); ++c) {
+          j(static_cast<long>(r), static_cast<long>(c)) = lin.j_obs(2L * block.rows[r] + f, block.cols[c]);
         }
       }
-      kappa[static_cast<long>(k)] = sum / stats[k].pairs / variance;
     }
-    lengths.push_back(length);
-    kappas.push_back(kappa);
+    out.push_back(std::move(block));
   }
-  // The statistics beyond the noise's share, and their weights: a pair's product has a variance of about
-  // (sigma^2 + s^2)^2 / 2 (s^2 from the nearest lag); pairs overlap, so the weights are relative and the standard
-  // errors are scaled by the fit's own scatter (Birge ratio) when it exceeds them.
-  const long m = static_cast<long>(stats.size());
-  Eigen::VectorXd y(m), w(m);
-  for (long k = 0; k < m; ++k) y[k] = stats[static_cast<size_t>(k)].stat - sigma_px * sigma_px * stats[static_cast<size_t>(k)].nu;
-  const double total = sigma_px * sigma_px + std::max(0.0, y[0]);
-  for (long k = 0; k < m; ++k) w[k] = stats[static_cast<size_t>(k)].pairs / (total * total);
-  // Non-negative weighted least squares of y on one or two of the kappa vectors (a short- and a long-range
-  // component: detector errors correlated over a few features, and the lens's smooth field); the best fit wins,
-  // a second component only when it lowers chi^2 by more than 2 (one parameter more, AIC).
-  struct Choice {
-    double cost = kInf;
-    std::vector<std::pair<size_t, double>> parts;  // (length index, variance)
-    Eigen::MatrixXd covariance;
-  };
-  Choice best;
-  const auto consider = [&](const std::vector<size_t>& idx) {
-    const long p = static_cast<long>(idx.size());
-    Eigen::MatrixXd a(m, p);
-    for (long c = 0; c < p; ++c) a.col(c) = kappas[idx[static_cast<size_t>(c)]];
-    const Eigen::MatrixXd normal = a.transpose() * w.asDiagonal() * a;
-    if (normal.determinant() <= 1e-300 * std::pow(normal.norm(), static_cast<double>(p))) return;
-    const Eigen::VectorXd x = normal.ldlt().solve(a.transpose() * w.asDiagonal() * y);
-    if ((x.array() < 0).any()) return;  // the one-component fits cover the boundary
-    const Eigen::VectorXd e = y - a * x;
-    const double cost = e.dot(w.asDiagonal() * e) + 2.0 * p;
-    if (cost >= best.cost) return;
-    best.cost = cost;
-    best.parts.clear();
-    for (long c = 0; c < p; ++c) best.parts.emplace_back(idx[static_cast<size_t>(c)], x[c]);
-    const double birge = m > p ? std::max(1.0, (cost - 2.0 * p) / static_cast<double>(m - p)) : 1.0;
-    best.covariance = birge * normal.inverse();
-  };
-  for (size_t i = 0; i < lengths.size(); ++i) {
-    consider({i});
-    for (size_t j = i + 1; j < lengths.size() && m > 2; ++j) consider({i, j});
-  }
-  if (best.parts.empty()) {  // every one-component fit was negative: no correlated error seen
-    best.parts = {{lengths.size() - 1, 0.0}};
-    const double kw = kappas.back().dot(w.asDiagonal() * kappas.back());
-    best.covariance = Eigen::MatrixXd::Constant(1, 1, kw > 0 ? 1 / kw : kInf);
-    const Eigen::VectorXd e = y;
-    best.cost = e.dot(w.asDiagonal() * e) + 2.0;
-  }
-  bud->misfit_components.clear();
-  Eigen::VectorXd model = Eigen::VectorXd::Zero(m);
-  for (size_t c = 0; c < best.parts.size(); ++c) {
-    const auto& [li, v] = best.parts[c];
-    bud->misfit_components.push_back(
-        {lengths[li], v, std::sqrt(std::max(0.0, best.covariance(static_cast<long>(c), static_cast<long>(c))))});
-    model += v * kappas[li];
-  }
-  // The long-range component is the one that moves the radius; the summary fields name it.
-  const UncertaintyBudget::FieldComponent& longest = bud->misfit_components.back();
-  bud->misfit_length_px = longest.length_px;
-  bud->misfit_variance_px2 = longest.variance_px2;
-  bud->misfit_variance_sd_px2 = longest.variance_sd_px2;
-  bud->misfit_lags.clear();
-  for (long k = 0; k < m; ++k) {
-    const size_t kk = static_cast<size_t>(k);
-    bud->misfit_lags.push_back({stats[kk].lag, stats[kk].pairs, stats[kk].stat, sigma_px * sigma_px * stats[kk].nu, model[k]});
-  }
-  const double best_cost = best.cost;
-  bud->misfit_spacing_px = spacing;
-  bud->misfit_fit_chi2 = best_cost;
+  return out;
 }
 
-
-}  // namespace
-
-// A stationary Gaussian field of variance s2 px^2 per coordinate and correlation length length_px over the image,
-// common to every photo, propagated through G exactly from its random-feature basis: cov(q) = s2 / v (G_x Phi
-// Phi^T G_x^T + G_y Phi Phi^T G_y^T), v the basis's mean variance at the points.
-QuantityVariance GaussianFieldVariance(const Setup& setup, const Linearization& lin, double s2, double length_px) {
-  const FitOptions& o = *setup.options;
-  const int n = static_cast<int>(lin.obs.size()), nq = static_cast<int>(lin.g.rows());
-  const Eigen::MatrixXd phi =
-      GaussianFieldBasis(DetectedPoints(setup, lin), length_px, o.misfit_features, o.systematic_field_seed + 2);
-  Eigen::MatrixXd gx(nq, n), gy(nq, n);
-  for (int i = 0; i < n; ++i) gx.col(i) = lin.g.col(2 * i), gy.col(i) = lin.g.col(2 * i + 1);
-  const Eigen::MatrixXd mx = gx * phi, my = gy * phi;
-  const double variance = phi.squaredNorm() / n;
-  return QuantityVariance::FromCovariance(s2 / variance * (mx * mx.transpose() + my * my.transpose()), setup.photos);
+// The median distance from each observation to its nearest neighbour in the same photo, over all observations
+// (Setup::misfit_cache, computed once per fit): the unit of the lags and of the candidates' lengths.
+double FeatureSpacing(const Setup& setup) {
+  if (setup.misfit_cache->spacing_px > 0) return setup.misfit_cache->spacing_px;
+  std::vector<std::vector<size_t>> in_photo(static_cast<size_t>(setup.photos));
+  for (size_t i = 0; i < setup.obs.size(); ++i) in_photo[static_cast<size_t>(setup.obs[i].photo)].push_back(i);
+  std::vector<double> nn;
+  for (const std::vector<size_t>& photo : in_photo) {
+    for (const size_t a : photo) {
+      double best = kInf;
+      for (const size_t b : photo) {
+        if (b != a) best = std::min(best, (setup.obs[b].detected - setup.obs[a].detected).squaredNorm());
+      }
+      if (std::isfinite(best)) nn.push_back(std::sqrt(best));
+    }
+  }
+  if (nn.size() < 8) return 0;
+  std::nth_element(nn.begin(), nn.begin() + static_cast<long>(nn.size() / 2), nn.end());
+  setup.misfit_cache->spacing_px = nn[nn.size() / 2];
+  return setup.misfit_cache->spacing_px;
 }
 
-// The lens model misfit's RMS, measured from the residuals (UncertaintyBudget::misfit_*). Each detection is paired
-// with its nearest neighbour in the same photo; the statistic S is the mean of r_i . r_j / 2 over the pairs. A
-// field smooth on the scale of the feature spacing is nearly equal at both, independent noise is not, so
-// E[S] = s^2 kappa + sigma^2 nu: kappa is the mean of S over unit-RMS fields of the assumed family after the
-// linearized refit, r = (I - J (J^T J)^+ J^T) dr (seeded draws), and nu the noise's own share, the mean over the
-// pairs of -(J (J^T J)^+ J^T)_ij (the refit correlates the residuals slightly). Under noise alone S has a standard
-// deviation of about sigma^2 / sqrt(pairs) (products of independent Gaussians, pairs counted once); the bound
-// is (S - sigma^2 nu + 2 sd) / kappa.
-void EstimateMisfit(const Setup& setup, const Linearization& lin, const std::vector<Eigen::Vector2d>& residual,
-                    double sigma_px, UncertaintyBudget* bud, LensFieldProjection* projection) {
-  const FitOptions& o = *setup.options;
+// The cache key of a component's basis (Setup::misfit_cache): family and length.
+std::pair<int, double> BasisKey(const UncertaintyBudget::FieldComponent& c) {
+  return {c.family == UncertaintyBudget::FieldFamily::kRing ? 1 : 0, c.length_px};
+}
+
+// Builds the bases of `components` at every observation that the cache does not hold yet, on all cores; the
+// cache is written here only, on the calling thread, so that ComponentBasis may then read it from any thread.
+void PrepareComponentBases(const Setup& setup, const std::vector<UncertaintyBudget::FieldComponent>& components) {
+  std::vector<size_t> missing;
+  for (size_t i = 0; i < components.size(); ++i) {
+    const auto key = BasisKey(components[i]);
+    const bool queued = std::any_of(missing.begin(), missing.end(),
+                                    [&](size_t m) { return BasisKey(components[m]) == key; });
+    if (!queued && !setup.misfit_cache->bases.count(key)) missing.push_back(i);
+  }
+  if (missing.empty()) return;
+  std::vector<Eigen::Vector2d> all;
+  for (const Obs& ob : setup.obs) all.push_back(ob.detected);
+  std::vector<RowMajor> built(missing.size());
+  ParallelFor(static_cast<int>(missing.size()), [&](int k) {
+    built[static_cast<size_t>(k)] = MisfitComponentBasis(all, components[missing[static_cast<size_t>(k)]], *setup.options);
+  });
+  for (size_t k = 0; k < missing.size(); ++k) {
+    setup.misfit_cache->bases.emplace(BasisKey(components[missing[k]]), std::move(built[k]));
+  }
+}
+
+// The basis of one component's family at the active observations (lin.obs), seeded per family so that the
+// measurement and the propagation use the same fields; built once per fit at every observation (Setup::
+// misfit_cache, PrepareComponentBases) and gathered.
+RowMajor ComponentBasis(const Setup& setup, const Linearization& lin, const UncertaintyBudget::FieldComponent& c) {
+  PrepareComponentBases(setup, {c});
+  const RowMajor& basis = setup.misfit_cache->bases.at(BasisKey(c));
+  RowMajor phi(static_cast<long>(lin.obs.size()), basis.cols());
+  for (size_t r = 0; r < lin.obs.size(); ++r) phi.row(static_cast<long>(r)) = basis.row(static_cast<long>(lin.obs[r]));
+  return phi;
+}
+
+// Each active observation paired with its nearest neighbour in the same photo (indices into lin.obs); candidates
+// in ascending order, so the first of equally near neighbours wins.
+std::vector<std::pair<int, int>> NeighbourPairs(const Setup& setup, const Linearization& lin) {
   const int n = static_cast<int>(lin.obs.size());
-  if (n < 8 || static_cast<int>(residual.size()) != n) return;
-  // Candidates per photo (in ascending order, so the first of equally near neighbours wins, as in one pass over all).
   std::vector<std::vector<int>> in_photo(static_cast<size_t>(setup.photos));
   for (int a = 0; a < n; ++a) in_photo[static_cast<size_t>(setup.obs[lin.obs[static_cast<size_t>(a)]].photo)].push_back(a);
   std::vector<std::pair<int, int>> pairs;
@@ -218,6 +129,410 @@ void EstimateMisfit(const Setup& setup, const Linearization& lin, const std::vec
     }
     if (best >= 0) pairs.emplace_back(a, best);
   }
+  return pairs;
+}
+
+// The residuals without the detector's pixel-locking signature, which the detector systematic row propagates: per
+// coordinate c the bias a_c sin 2 pi phi + b_c cos 2 pi phi (phi the detection's subpixel phase in c) reaches the
+// residuals through the refit as P s_c, P c_c (P = I - J (J^T J)^+ J^T), so the coefficients are fitted to the
+// residuals on those four projected shapes and the fitted part is removed. Left in, the signature (a beat across
+// a regular board) is measured again as a correlated field here: counted twice. Subtracting the unprojected shape
+// instead would put back the part the refit absorbed, a smooth field with the wrong sign (it was tried: the row
+// grew).
+std::vector<Eigen::Vector2d> WithoutPixelLocking(const Setup& setup, const Linearization& lin,
+                                                 const std::vector<Eigen::Vector2d>& residual) {
+  const int n = static_cast<int>(lin.obs.size());
+  const Eigen::MatrixXd shapes = PixelLockingShapes(setup, lin);
+  Eigen::VectorXd r(2 * n);
+  for (int i = 0; i < n; ++i) r.segment<2>(2 * i) = residual[static_cast<size_t>(i)];
+  const Eigen::MatrixXd projected = shapes - lin.j_obs * (lin.normal_pinv * (lin.j_obs.transpose() * shapes));
+  const Eigen::MatrixXd normal = projected.transpose() * projected;
+  if (!r.allFinite() || !(normal.diagonal().minCoeff() > 1e-9 * n)) return residual;
+  const Eigen::VectorXd fitted = projected * normal.ldlt().solve(projected.transpose() * r);
+  std::vector<Eigen::Vector2d> out(residual.size());
+  for (int i = 0; i < n; ++i) out[static_cast<size_t>(i)] = residual[static_cast<size_t>(i)] - fitted.segment<2>(2 * i);
+  return out;
+}
+
+// The covariance of the lag statistics S_j = mean over bin j's pairs of r_a . r_b / 2, for Gaussian residuals of
+// covariance C per coordinate (independent coordinates): by Isserlis' theorem cov(x_a x_b, x_c x_d) = C_ac C_bd +
+// C_ad C_bc, so cov(S_j, S_k) = sum over the pairs (a, b) of j and (c, d) of k of (C_ac C_bd + C_ad C_bc) /
+// (2 N_j N_k). C between two residuals: `var0` for the same one; else the residuals' correlation at their distance
+// (`by_lag`, per lag bin: the fitted field's share, common to every photo, plus within a photo the refit's share
+// `noise_by_lag`), 0 beyond the last bin. The double sum is estimated on at most kSub evenly spread pairs per bin,
+// the pair-with-itself terms (N_j of them) apart from the others.
+Eigen::MatrixXd StatisticsCovariance(const Setup& setup, const Linearization& lin,
+                                     const std::vector<Eigen::Vector2d>& points, double spacing,
+                                     const std::array<double, 10>& edges, const std::vector<double>& by_lag,
+                                     const std::vector<double>& noise_by_lag, double var0,
+                                     const std::vector<std::vector<std::pair<int, int>>>& bin_pairs) {
+  constexpr size_t kSub = 100;
+  const size_t m = bin_pairs.size();
+  std::array<double, 10> edge2{};
+  for (size_t e = 0; e < edges.size(); ++e) edge2[e] = edges[e] * edges[e] * spacing * spacing;
+  const auto photo = [&](int a) { return setup.obs[lin.obs[static_cast<size_t>(a)]].photo; };
+  const auto cov = [&](int a, int b) {
+    if (a == b) return var0;
+    const double d2 = (points[static_cast<size_t>(a)] - points[static_cast<size_t>(b)]).squaredNorm();
+    size_t j = 0;
+    while (j + 1 < edge2.size() && d2 >= edge2[j + 1]) ++j;
+    if (j + 1 >= edge2.size()) return 0.0;
+    return by_lag[j] + (photo(a) == photo(b) ? noise_by_lag[j] : 0.0);
+  };
+  std::vector<std::vector<std::pair<int, int>>> sub(m);
+  for (size_t j = 0; j < m; ++j) {
+    const auto& all = bin_pairs[j];
+    const size_t take = std::min(all.size(), kSub);
+    for (size_t i = 0; i < take; ++i) sub[j].push_back(all[i * all.size() / take]);
+  }
+  Eigen::MatrixXd out = Eigen::MatrixXd::Zero(static_cast<long>(m), static_cast<long>(m));
+  for (size_t j = 0; j < m; ++j) {
+    const double nj = static_cast<double>(bin_pairs[j].size());
+    for (size_t k = j; k < m; ++k) {
+      const double nk = static_cast<double>(bin_pairs[k].size());
+      double off = 0, self = 0;
+      for (size_t p = 0; p < sub[j].size(); ++p) {
+        const auto [a, b] = sub[j][p];
+        for (size_t q = 0; q < sub[k].size(); ++q) {
+          const auto [c, d] = sub[k][q];
+          const double t = cov(a, c) * cov(b, d) + cov(a, d) * cov(b, c);
+          if (j == k && p == q) self += t;
+          else off += t;
+        }
+      }
+      const double ms = static_cast<double>(sub[j].size()), mk = static_cast<double>(sub[k].size());
+      double sum = off / (ms * mk - (j == k ? ms : 0.0)) * (nj * nk - (j == k ? nj : 0.0));
+      if (j == k) sum += self / ms * nj;
+      out(static_cast<long>(j), static_cast<long>(k)) = out(static_cast<long>(k), static_cast<long>(j)) =
+          sum / (2.0 * nj * nk);
+    }
+  }
+  return out;
+}
+
+// The correlated error's components (UncertaintyBudget::misfit_components, misfit_lags), from the residuals'
+// correlation at several lags. The neighbour statistic alone cannot tell a field smooth over the whole image (which
+// moves the radius) from errors correlated over a few features only (the detector's pixel-locking beat,
+// demosaicing, moire: they average out over the board): propagated as a smooth field, the latter gave radius
+// sigmas 1.4-3x the scatter of seeded trials (bench validity, realistic camera). Per lag bin j (pairs in the same
+// photo at distances between kLagEdges feature spacings), S_j = mean of r_a . r_b / 2 has
+// E[S_j] = sum_c s_c^2 kappa_j(c) + sigma^2 nu_j: kappa_j(c) the same mean for a stationary field of unit variance
+// of component c's family after the linearized refit, exactly from its random-feature basis Phi
+// (E[e_a . e_b] = (R R^T)_ab, R = (I - J (J^T J)^+ J^T) Phi), nu_j the refit's share -(J (J^T J)^+ J^T)_ab.
+// Two families: Gaussian fields (covariance exp(-d^2 / 2 L^2), L of 1 to 32 feature spacings, at most the image
+// width), positive at every lag, and ring fields (covariance J0(2 pi d / P), P of 3 to 24 spacings), band-pass
+// processes whose correlation changes sign, as a beat between the features' spacing and a pixel grid does (the
+// residuals of frontal photos of the realistic camera correlate positively at 1-2 spacings and negatively at ~9:
+// fitted by Gaussians alone, that beat was taken for a long-range field and the radius sigma came out ~2x the
+// scatter on axis). The variances s_c^2 >= 0 of up to two Gaussian components and one ring are fitted by weighted
+// least squares for every combination of the candidate scales; the combination of the smallest weighted misfit
+// plus twice its number of components (AIC) is kept, with the variances' standard errors (scaled by the fit's
+// own scatter when it exceeds them). Pairs beyond kMaxPairsPerLag per bin are thinned evenly.
+void EstimateMisfitCorrelation(const Setup& setup, const Linearization& lin,
+                               const std::vector<Eigen::Vector2d>& residual, double sigma_px,
+                               const std::vector<std::pair<int, int>>& neighbours, UncertaintyBudget* bud) {
+  constexpr size_t kMaxPairsPerLag = 2000;
+  constexpr std::array<double, 10> kLagEdges = {0, 1.5, 2.5, 3.5, 5, 7, 10, 14, 20, 28};
+  const int n = static_cast<int>(lin.obs.size());
+  const std::vector<Eigen::Vector2d> points = DetectedPoints(setup, lin);
+  const double spacing = FeatureSpacing(setup);
+  if (neighbours.size() < 8 || !(sigma_px > 0) || !(spacing > 0)) return;
+  const size_t bins = kLagEdges.size() - 1;
+  std::vector<std::vector<std::pair<int, int>>> lag(bins);
+  std::vector<std::vector<int>> in_photo(static_cast<size_t>(setup.photos));  // ascending: the pairs' order is a, b
+  for (int a = 0; a < n; ++a) in_photo[static_cast<size_t>(setup.obs[lin.obs[static_cast<size_t>(a)]].photo)].push_back(a);
+  for (int a = 0; a < n; ++a) {
+    for (const int b : in_photo[static_cast<size_t>(setup.obs[lin.obs[static_cast<size_t>(a)]].photo)]) {
+      if (b <= a) continue;
+      const double d = (points[static_cast<size_t>(a)] - points[static_cast<size_t>(b)]).norm() / spacing;
+      const auto j = std::upper_bound(kLagEdges.begin(), kLagEdges.end(), d) - kLagEdges.begin() - 1;
+      if (j >= 0 && static_cast<size_t>(j) < bins) lag[static_cast<size_t>(j)].emplace_back(a, b);
+    }
+  }
+  for (auto& l : lag) {
+    if (l.size() <= kMaxPairsPerLag) continue;
+    std::vector<std::pair<int, int>> thin;
+    const double step = static_cast<double>(l.size()) / kMaxPairsPerLag;
+    for (size_t i = 0; i < kMaxPairsPerLag; ++i) thin.push_back(l[static_cast<size_t>(i * step)]);
+    l.swap(thin);
+  }
+  const Eigen::MatrixXd jp = lin.j_obs * lin.normal_pinv;  // 2n x t
+  struct Bin { double lag = 0, stat = 0, nu = 0; int pairs = 0; };
+  std::vector<Bin> stats;
+  std::vector<size_t> used_bins;
+  for (size_t j = 0; j < bins; ++j) {
+    if (lag[j].size() < 8) continue;
+    Bin bin;
+    bin.pairs = static_cast<int>(lag[j].size());
+    for (const auto& [a, b] : lag[j]) {
+      bin.lag += (points[static_cast<size_t>(a)] - points[static_cast<size_t>(b)]).norm() / spacing;
+      bin.stat += 0.5 * residual[static_cast<size_t>(a)].dot(residual[static_cast<size_t>(b)]);
+      for (int c = 0; c < 2; ++c) bin.nu -= 0.5 * jp.row(2 * a + c).dot(lin.j_obs.row(2 * b + c));
+    }
+    bin.lag /= bin.pairs, bin.stat /= bin.pairs, bin.nu /= bin.pairs;
+    stats.push_back(bin);
+    used_bins.push_back(j);
+  }
+  if (stats.size() < 2) return;
+  // kappa_j of each candidate component. A field on coordinate f (phi on the rows of f, zero on the other) leaves,
+  // on the rows of coordinate c, R_fc = delta_fc phi - J_c (J^T J)^+ J_f^T phi after the refit (J_c: the rows of J
+  // of coordinate c, n x t). Own coordinate (f = c): R_ff = phi - J_f U_f, U_f = (J^T J)^+ J_f^T phi (t x D). The
+  // other (f != c): R_fc = -J_c U_f, whose pair products are J_c,a (U_f U_f^T) J_c,b^T: through t x t matrices.
+  // Pairs lie within one photo and a photo's rows of J are non-zero only in its own pose's and the shared columns,
+  // so everything runs photo by photo on dense blocks (PhotoBlock): J_f^T phi summed over the photos, then per
+  // photo R_ff's rows formed and the photo's pairs summed while they are in cache. (Formed for all photos at once,
+  // the n x D matrices and the sparse products over them were memory-bound: ~100 ms per candidate at 10 photos.)
+  const std::vector<PhotoBlock> blocks = PhotoBlocks(setup, lin);
+  const size_t used = stats.size();
+  std::vector<std::vector<std::vector<std::pair<int, int>>>> photo_pairs(
+      blocks.size(), std::vector<std::vector<std::pair<int, int>>>(used));  // [block][used bin]: local rows
+  {
+    std::vector<std::pair<int, int>> local(static_cast<size_t>(n), {-1, -1});  // lin row -> (block, local row)
+    for (size_t bi = 0; bi < blocks.size(); ++bi) {
+      for (size_t r = 0; r < blocks[bi].rows.size(); ++r) {
+        local[static_cast<size_t>(blocks[bi].rows[r])] = {static_cast<int>(bi), static_cast<int>(r)};
+      }
+    }
+    for (size_t k = 0; k < used; ++k) {
+      for (const auto& [a, b] : lag[used_bins[k]]) {
+        const auto [ba, ra] = local[static_cast<size_t>(a)];
+        const auto [bb, rb] = local[static_cast<size_t>(b)];
+        if (ba < 0 || ba != bb) continue;  // not reached: the pairs are within one photo
+        photo_pairs[static_cast<size_t>(ba)][k].emplace_back(ra, rb);
+      }
+    }
+  }
+  std::vector<UncertaintyBudget::FieldComponent> candidates;
+  for (double factor : {1.0, 2.0, 4.0, 8.0, 16.0, 32.0}) {
+    const double length = std::min(factor * spacing, static_cast<double>(setup.camera->width));
+    if (!candidates.empty() && length <= candidates.back().length_px) continue;
+    candidates.push_back({UncertaintyBudget::FieldFamily::kGaussian, length, 0, 0});
+  }
+  const size_t gaussians = candidates.size();
+  for (double factor : {3.0, 4.0, 6.0, 8.0, 12.0, 16.0, 24.0}) {
+    if (factor * spacing > setup.camera->width) break;
+    candidates.push_back({UncertaintyBudget::FieldFamily::kRing, factor * spacing, 0, 0});
+  }
+  // One candidate per core (the bases built first: the cache is then only read).
+  PrepareComponentBases(setup, candidates);
+  const long t = lin.normal_pinv.rows();
+  std::vector<Eigen::VectorXd> kappas(candidates.size());
+  ParallelFor(static_cast<int>(candidates.size()), [&](int ci) {
+    const RowMajor& basis = setup.misfit_cache->bases.at(BasisKey(candidates[static_cast<size_t>(ci)]));
+    const long features = basis.cols();
+    RowMajor phi;  // one photo's rows of the basis
+    const auto gather = [&](const PhotoBlock& block) {
+      phi.resize(static_cast<long>(block.rows.size()), features);
+      for (size_t r = 0; r < block.rows.size(); ++r) {
+        phi.row(static_cast<long>(r)) = basis.row(static_cast<long>(lin.obs[static_cast<size_t>(block.rows[r])]));
+      }
+    };
+    // U_f = (J^T J)^+ J_f^T phi, J_f^T phi summed photo by photo.
+    std::array<RowMajor, 2> jtp = {RowMajor::Zero(t, features), RowMajor::Zero(t, features)};
+    double phi_squared = 0;
+    RowMajor part;
+    for (const PhotoBlock& block : blocks) {
+      gather(block);
+      phi_squared += phi.squaredNorm();
+      for (size_t f = 0; f < 2; ++f) {
+        part.noalias() = block.j[f].transpose() * phi;
+        for (size_t c = 0; c < block.cols.size(); ++c) jtp[f].row(block.cols[c]) += part.row(static_cast<long>(c));
+      }
+    }
+    std::array<RowMajor, 2> u;
+    for (size_t f = 0; f < 2; ++f) u[f].noalias() = lin.normal_pinv * jtp[f];
+    // The x field seen on y's rows (cross_y = U_x U_x^T), and vice versa.
+    RowMajor cross_y(t, t), cross_x(t, t);
+    cross_y.noalias() = u[0] * u[0].transpose();
+    cross_x.noalias() = u[1] * u[1].transpose();
+    Eigen::VectorXd sums = Eigen::VectorXd::Zero(static_cast<long>(used));
+    std::array<RowMajor, 2> own, w;
+    RowMajor u_block;
+    for (size_t bi = 0; bi < blocks.size(); ++bi) {
+      const PhotoBlock& block = blocks[bi];
+      gather(block);
+      const long nc = static_cast<long>(block.cols.size());
+      for (size_t f = 0; f < 2; ++f) {
+        u_block.resize(nc, features);
+        for (long c = 0; c < nc; ++c) u_block.row(c) = u[f].row(block.cols[static_cast<size_t>(c)]);
+        own[f] = phi;
+        own[f].noalias() -= block.j[f] * u_block;
+        // J_c,a (U_f U_f^T) restricted to the block's columns (J_c,a is zero elsewhere): c = f's other coordinate.
+        const RowMajor& cross = f == 0 ? cross_x : cross_y;
+        RowMajor cross_block(nc, nc);
+        for (long a = 0; a < nc; ++a) {
+          for (long b = 0; b < nc; ++b) cross_block(a, b) = cross(block.cols[static_cast<size_t>(a)], block.cols[static_cast<size_t>(b)]);
+        }
+        w[f].noalias() = block.j[f] * cross_block;
+      }
+      for (size_t k = 0; k < used; ++k) {
+        double sum = 0;
+        for (const auto& [a, b] : photo_pairs[bi][k]) {
+          sum += own[0].row(a).dot(own[0].row(b)) + own[1].row(a).dot(own[1].row(b)) +
+                 w[0].row(a).dot(block.j[0].row(b)) + w[1].row(a).dot(block.j[1].row(b));
+        }
+        sums[static_cast<long>(k)] += sum;
+      }
+    }
+    const double variance = phi_squared / n;  // the field's mean variance at the points (1 but for sampling)
+    Eigen::VectorXd kappa(static_cast<long>(used));
+    for (size_t k = 0; k < used; ++k) kappa[static_cast<long>(k)] = 0.5 * sums[static_cast<long>(k)] / stats[k].pairs / variance;
+    kappas[static_cast<size_t>(ci)] = kappa;
+  });
+  // The statistics beyond the noise's share. Their covariance: pairs overlap (a feature is in many pairs) and the
+  // residuals are correlated, so the pair products are not independent; a first selection weights the bins as if
+  // they were (a product's variance about (sigma^2 + s^2)^2 / 2, s^2 from the nearest lag), then the statistics'
+  // covariance is computed from that selection's residual covariance (StatisticsCovariance) and the selection is
+  // repeated by generalized least squares. Under independent weights the long lags' sums looked far more certain
+  // than they are (a long-range Gaussian of variance 0.16 +- 0.012 px^2 in a frontal validity trial, its row 10 mm
+  // against a scatter of ~4 mm).
+  const long m = static_cast<long>(stats.size());
+  Eigen::VectorXd y(m), nu(m);
+  for (long k = 0; k < m; ++k) {
+    nu[k] = sigma_px * sigma_px * stats[static_cast<size_t>(k)].nu;
+    y[k] = stats[static_cast<size_t>(k)].stat - nu[k];
+  }
+  const double total = sigma_px * sigma_px + std::max(0.0, y[0]);
+  Eigen::MatrixXd weight = Eigen::MatrixXd::Zero(m, m);
+  for (long k = 0; k < m; ++k) weight(k, k) = 2.0 * stats[static_cast<size_t>(k)].pairs / (total * total);
+  struct Choice {
+    double cost = kInf;
+    std::vector<std::pair<size_t, double>> parts;  // (candidate index, variance)
+    Eigen::MatrixXd covariance;
+  };
+  const auto select = [&](const Eigen::MatrixXd& wm) {
+    Choice best;
+    const auto consider = [&](const std::vector<size_t>& idx) {
+      const long p = static_cast<long>(idx.size());
+      if (p >= m) return;
+      Eigen::MatrixXd a(m, p);
+      for (long c = 0; c < p; ++c) a.col(c) = kappas[idx[static_cast<size_t>(c)]];
+      const Eigen::MatrixXd normal = a.transpose() * wm * a;
+      if (normal.determinant() <= 1e-300 * std::pow(normal.norm(), static_cast<double>(p))) return;
+      const Eigen::VectorXd x = normal.ldlt().solve(a.transpose() * wm * y);
+      if ((x.array() < 0).any()) return;  // the fits with fewer components cover the boundary
+      const Eigen::VectorXd e = y - a * x;
+      const double cost = e.dot(wm * e) + 2.0 * p;
+      if (cost >= best.cost) return;
+      best.cost = cost;
+      best.parts.clear();
+      for (long c = 0; c < p; ++c) best.parts.emplace_back(idx[static_cast<size_t>(c)], x[c]);
+      const double birge = std::max(1.0, (cost - 2.0 * p) / static_cast<double>(m - p));
+      best.covariance = birge * normal.inverse();
+    };
+    // Up to two Gaussian components (short- and long-range) and one ring.
+    for (size_t ring = gaussians; ring <= candidates.size(); ++ring) {
+      std::vector<size_t> with_ring;
+      if (ring < candidates.size()) with_ring.push_back(ring);
+      if (!with_ring.empty()) consider(with_ring);
+      for (size_t i = 0; i < gaussians; ++i) {
+        std::vector<size_t> one = {i};
+        one.insert(one.end(), with_ring.begin(), with_ring.end());
+        consider(one);
+        for (size_t j = i + 1; j < gaussians; ++j) {
+          std::vector<size_t> two = {i, j};
+          two.insert(two.end(), with_ring.begin(), with_ring.end());
+          consider(two);
+        }
+      }
+    }
+    return best;
+  };
+  Choice best = select(weight);
+  {
+    // The residuals' covariance per coordinate as the first selection reproduces it, per lag bin (field and noise
+    // shares), and at lag 0 the residuals' own variance.
+    Eigen::VectorXd field = Eigen::VectorXd::Zero(m);
+    for (const auto& [ci, v] : best.parts) field += v * kappas[ci];
+    double var0 = 0;
+    for (const Eigen::Vector2d& r : residual) var0 += 0.5 * r.squaredNorm() / n;
+    std::vector<double> by_lag(bins + 1, 0.0), noise_by_lag(bins + 1, 0.0);  // unused bins: their nearest used one
+    for (size_t j = 0; j < bins; ++j) {
+      size_t near = 0;
+      for (size_t k = 1; k < used_bins.size(); ++k) {
+        if (std::abs(static_cast<double>(used_bins[k]) - static_cast<double>(j)) <
+            std::abs(static_cast<double>(used_bins[near]) - static_cast<double>(j))) near = k;
+      }
+      by_lag[j] = field[static_cast<long>(near)];
+      noise_by_lag[j] = nu[static_cast<long>(near)];
+    }
+    std::vector<std::vector<std::pair<int, int>>> sub(static_cast<size_t>(m));
+    for (long k = 0; k < m; ++k) sub[static_cast<size_t>(k)] = lag[used_bins[static_cast<size_t>(k)]];
+    const Eigen::MatrixXd cov_s = StatisticsCovariance(setup, lin, points, spacing, kLagEdges, by_lag, noise_by_lag,
+                                                       var0, sub);
+    const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(cov_s);
+    if (eig.info() == Eigen::Success && eig.eigenvalues().maxCoeff() > 0) {
+      const Eigen::VectorXd ev = eig.eigenvalues().cwiseMax(1e-6 * eig.eigenvalues().maxCoeff());
+      weight = eig.eigenvectors() * ev.cwiseInverse().asDiagonal() * eig.eigenvectors().transpose();
+      best = select(weight);
+    }
+  }
+  if (best.parts.empty()) {  // every fit was negative: no correlated error seen
+    best.parts = {{gaussians - 1, 0.0}};
+    const double kw = kappas[gaussians - 1].dot(weight * kappas[gaussians - 1]);
+    best.covariance = Eigen::MatrixXd::Constant(1, 1, kw > 0 ? 1 / kw : kInf);
+    best.cost = y.dot(weight * y) + 2.0;
+  }
+  bud->misfit_components.clear();
+  Eigen::VectorXd model = Eigen::VectorXd::Zero(m);
+  for (size_t c = 0; c < best.parts.size(); ++c) {
+    const auto& [ci, v] = best.parts[c];
+    UncertaintyBudget::FieldComponent component = candidates[ci];
+    component.variance_px2 = v;
+    component.variance_sd_px2 = std::sqrt(std::max(0.0, best.covariance(static_cast<long>(c), static_cast<long>(c))));
+    bud->misfit_components.push_back(component);
+    model += v * kappas[ci];
+  }
+  // The longest Gaussian component is the one that moves the radius most; the summary fields name it (the ring
+  // when there is none).
+  const UncertaintyBudget::FieldComponent* longest = &bud->misfit_components.back();
+  for (const UncertaintyBudget::FieldComponent& c : bud->misfit_components) {
+    if (c.family == UncertaintyBudget::FieldFamily::kGaussian) longest = &c;
+  }
+  bud->misfit_length_px = longest->length_px;
+  bud->misfit_variance_px2 = longest->variance_px2;
+  bud->misfit_variance_sd_px2 = longest->variance_sd_px2;
+  bud->misfit_lags.clear();
+  for (long k = 0; k < m; ++k) {
+    const size_t kk = static_cast<size_t>(k);
+    bud->misfit_lags.push_back({stats[kk].lag, stats[kk].pairs, stats[kk].stat, sigma_px * sigma_px * stats[kk].nu, model[k]});
+  }
+  bud->misfit_spacing_px = spacing;
+  bud->misfit_fit_chi2 = best.cost;
+}
+
+}  // namespace
+
+// A stationary field of one component's family and variance, common to every photo, propagated through G exactly
+// from its random-feature basis: cov(q) = s2 / v (G_x Phi Phi^T G_x^T + G_y Phi Phi^T G_y^T), v the basis's mean
+// variance at the points.
+QuantityVariance FieldVariance(const Setup& setup, const Linearization& lin,
+                               const UncertaintyBudget::FieldComponent& component) {
+  const int n = static_cast<int>(lin.obs.size()), nq = static_cast<int>(lin.g.rows());
+  const RowMajor phi = ComponentBasis(setup, lin, component);
+  Eigen::MatrixXd gx(nq, n), gy(nq, n);
+  for (int i = 0; i < n; ++i) gx.col(i) = lin.g.col(2 * i), gy.col(i) = lin.g.col(2 * i + 1);
+  const Eigen::MatrixXd mx = gx * phi, my = gy * phi;
+  const double variance = phi.squaredNorm() / n;
+  return QuantityVariance::FromCovariance(
+      component.variance_px2 / variance * (mx * mx.transpose() + my * my.transpose()), setup.photos);
+}
+
+// The lens model misfit's RMS, measured from the residuals (UncertaintyBudget::misfit_*). Each detection is paired
+// with its nearest neighbour in the same photo; the statistic S is the mean of r_i . r_j / 2 over the pairs. A
+// field smooth on the scale of the feature spacing is nearly equal at both, independent noise is not, so
+// E[S] = s^2 kappa + sigma^2 nu: kappa is the mean of S over unit-RMS fields of the assumed family after the
+// linearized refit, r = (I - J (J^T J)^+ J^T) dr (seeded draws), and nu the noise's own share, the mean over the
+// pairs of -(J (J^T J)^+ J^T)_ij (the refit correlates the residuals slightly). Under noise alone S has a standard
+// deviation of about sigma^2 / sqrt(pairs) (products of independent Gaussians, pairs counted once); the bound
+// is (S - sigma^2 nu + 2 sd) / kappa.
+void EstimateMisfit(const Setup& setup, const Linearization& lin, const std::vector<Eigen::Vector2d>& fit_residual,
+                    double sigma_px, UncertaintyBudget* bud, LensFieldProjection* projection) {
+  const FitOptions& o = *setup.options;
+  const int n = static_cast<int>(lin.obs.size());
+  if (n < 8 || static_cast<int>(fit_residual.size()) != n) return;
+  const std::vector<Eigen::Vector2d> residual = WithoutPixelLocking(setup, lin, fit_residual);
+  const std::vector<std::pair<int, int>> pairs = NeighbourPairs(setup, lin);
   if (pairs.size() < 8) return;
   const double np = static_cast<double>(pairs.size());
   double stat = 0, nu = 0;
@@ -285,7 +600,17 @@ void EstimateMisfit(const Setup& setup, const Linearization& lin, const std::vec
   if (!(kappa > 1e-6)) return;  // the family is invisible in the residuals: nothing can be measured
   bud->misfit_estimate_px = std::sqrt(std::max(0.0, stat - noise_share) / kappa);
   bud->misfit_bound_px = std::sqrt(std::max(0.0, stat - noise_share + 2 * sd_stat) / kappa);
-  EstimateMisfitCorrelation(setup, lin, residual, sigma_px, pairs, bud);
+}
+
+// The misfit field's components (EstimateMisfitCorrelation) from one model's residuals, the pixel-locking
+// signature removed and each observation paired with its nearest neighbour as in EstimateMisfit. Called once per
+// fit, on the chosen model (CompleteFits in screen_fit.cc); nothing when EstimateMisfit found the family invisible.
+void MeasureMisfitCorrelation(const Setup& setup, const Linearization& lin,
+                              const std::vector<Eigen::Vector2d>& fit_residual, double sigma_px,
+                              UncertaintyBudget* bud) {
+  if (lin.obs.size() < 8 || fit_residual.size() != lin.obs.size() || !(bud->misfit_kappa > 1e-6)) return;
+  EstimateMisfitCorrelation(setup, lin, WithoutPixelLocking(setup, lin, fit_residual), sigma_px,
+                            NeighbourPairs(setup, lin), bud);
 }
 
 }  // namespace curvecheck::screen_fit_internal

@@ -41,27 +41,97 @@ namespace {
 // keeps every direction that holds a visible share of a field.
 double Absorbed(const Eigen::VectorXd& eigenvalues) { return 1e-4 * std::max(eigenvalues.maxCoeff(), 1e-300); }
 
-}  // namespace
-
-// k-fold over feature ids: refit without each fold (from the full solution), predict the fold.
-double HeldOut(const Setup& setup, const ModelWork& w, const std::vector<bool>& inlier) {
-  const int folds = setup.options->heldout_folds;
-  if (folds < 2) return kNaN;
-  std::vector<int> order(setup.feature_ids.size());
+// The fold of each feature (by its index among the ids): a fixed shuffle, the same folds for every model.
+std::vector<int> FoldOfFeature(size_t features, int folds) {
+  std::vector<int> order(features);
   std::iota(order.begin(), order.end(), 0);
-  std::mt19937 rng(20261122);  // fixed: the same folds for every model
+  std::mt19937 rng(20261122);
   std::shuffle(order.begin(), order.end(), rng);
   std::vector<int> fold_of(order.size());
   for (size_t i = 0; i < order.size(); ++i) fold_of[static_cast<size_t>(order[i])] = static_cast<int>(i) % folds;
+  return fold_of;
+}
+
+// Per photo, the observations a fold's refit keeps (inliers outside the fold). A photo left with fewer than 6 has
+// no determined pose, and its held-out residuals are not counted.
+std::vector<int> KeptPerPhoto(const Setup& setup, const std::vector<bool>& inlier, const std::vector<int>& fold_of,
+                              int fold) {
+  std::vector<int> per_photo(static_cast<size_t>(setup.photos), 0);
+  for (size_t i = 0; i < setup.obs.size(); ++i) {
+    if (inlier[i] && fold_of[static_cast<size_t>(setup.obs[i].feature)] != fold) {
+      ++per_photo[static_cast<size_t>(setup.obs[i].photo)];
+    }
+  }
+  return per_photo;
+}
+
+// The folds refitted by one Gauss-Newton step from the full solution (FitOptions::heldout_exact_refit false).
+// With e the Ceres residuals and J their Jacobian at the full fit (Linearization: N = J^T J and g = J^T e over
+// every row), the fold's rows (J_k, e_k) taken out leave N_k = N - J_k^T J_k and g_k = g - J_k^T e_k; the step is
+// d = -N_k^+ g_k and the fold's predicted residuals e_k + J_k d. N_k's pseudo-inverse is taken on the
+// column-equilibrated matrix (units differ by 1e6), directions below 1e-12 of the largest eigenvalue dropped, as
+// the linearization does.
+double HeldOutLinearized(const Setup& setup, const Linearization& lin, const std::vector<bool>& inlier,
+                         const std::vector<int>& fold_of, const std::vector<Eigen::Vector2d>& residual) {
+  const int folds = setup.options->heldout_folds;
+  const long t = lin.normal.rows();
+  double sum = 0;
+  int count = 0;
+  for (int f = 0; f < folds; ++f) {
+    std::vector<size_t> rows;  // indices into lin.obs
+    for (size_t m = 0; m < lin.obs.size(); ++m) {
+      if (fold_of[static_cast<size_t>(setup.obs[lin.obs[m]].feature)] == f) rows.push_back(m);
+    }
+    if (rows.empty()) continue;
+    const long nk = static_cast<long>(2 * rows.size());
+    Eigen::MatrixXd jk(nk, t);
+    Eigen::VectorXd ek(nk);
+    for (size_t q = 0; q < rows.size(); ++q) {
+      const long row = static_cast<long>(2 * rows[q]), out = static_cast<long>(2 * q);
+      jk.middleRows(out, 2) = lin.j_obs.middleRows(row, 2);
+      ek.segment<2>(out) = -residual[rows[q]];  // residual_px is detected - predicted; Ceres's is the opposite
+    }
+    const Eigen::MatrixXd nk_normal = lin.normal - jk.transpose() * jk;
+    const Eigen::VectorXd gk = lin.gradient - jk.transpose() * ek;
+    Eigen::VectorXd scale = nk_normal.diagonal().cwiseMax(0).cwiseSqrt();
+    for (long c = 0; c < t; ++c) scale[c] = scale[c] > 0 ? 1 / scale[c] : 0;
+    const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(scale.asDiagonal() * nk_normal * scale.asDiagonal());
+    if (eig.info() != Eigen::Success) return kNaN;
+    const Eigen::VectorXd& ev = eig.eigenvalues();
+    const double cut = 1e-12 * std::max(ev.maxCoeff(), 1e-300);
+    Eigen::VectorXd coordinates = eig.eigenvectors().transpose() * (scale.asDiagonal() * gk);
+    for (long c = 0; c < t; ++c) coordinates[c] = ev[c] > cut ? coordinates[c] / ev[c] : 0;
+    const Eigen::VectorXd step = -(scale.asDiagonal() * (eig.eigenvectors() * coordinates));
+    const Eigen::VectorXd predicted = ek + jk * step;
+    const std::vector<int> per_photo = KeptPerPhoto(setup, inlier, fold_of, f);
+    for (size_t q = 0; q < rows.size(); ++q) {
+      const Eigen::Vector2d e = predicted.segment<2>(static_cast<long>(2 * q));
+      if (per_photo[static_cast<size_t>(setup.obs[lin.obs[rows[q]]].photo)] < 6 || !e.allFinite()) continue;
+      sum += e.squaredNorm();
+      ++count;
+    }
+  }
+  return count > 0 ? std::sqrt(sum / count) : kNaN;
+}
+
+}  // namespace
+
+// k-fold over feature ids: refit without each fold (from the full solution), predict the fold.
+double HeldOut(const Setup& setup, const ModelWork& w, const std::vector<bool>& inlier, const ModelFit& fit) {
+  const int folds = setup.options->heldout_folds;
+  if (folds < 2) return kNaN;
+  const std::vector<int> fold_of = FoldOfFeature(setup.feature_ids.size(), folds);
+  if (!setup.options->heldout_exact_refit && w.lin && w.lin->normal.size() > 0 && !fit.residual_px.empty()) {
+    return HeldOutLinearized(setup, *w.lin, inlier, fold_of, LinearizedResiduals(setup, *w.lin, fit));
+  }
   double sum = 0;
   int count = 0;
   for (int f = 0; f < folds; ++f) {
     std::vector<bool> active(setup.obs.size());
-    std::vector<int> per_photo(static_cast<size_t>(setup.photos), 0);
     for (size_t i = 0; i < setup.obs.size(); ++i) {
       active[i] = inlier[i] && fold_of[static_cast<size_t>(setup.obs[i].feature)] != f;
-      if (active[i]) ++per_photo[static_cast<size_t>(setup.obs[i].photo)];
     }
+    const std::vector<int> per_photo = KeptPerPhoto(setup, inlier, fold_of, f);
     State st = w.state;
     BuiltProblem b = Build(setup, w.kind, w.basis.get(), active, false, &st);
     Solve(setup, b, &st);

@@ -321,6 +321,41 @@ TEST(ScreenFitTest, SeveralPhotosAreFittedJointly) {
   }
 }
 
+// The held-out error by one Gauss-Newton step (FitOptions::heldout_exact_refit false, the default) against a
+// Ceres refit per fold, for every candidate: a bulge (all six models, the deviation prior's rows in play), a lean
+// and three photos jointly. The choice's tolerance is 5% of the lowest held-out RMS; the two must agree far
+// closer than that, and choose the same model.
+TEST(ScreenFitTest, HeldOutByOneLinearizedStepAgreesWithRefitsPerFold) {
+  struct Case {
+    std::string scene;
+    int photos;
+  };
+  for (const Case& c : {Case{"bulge-2mm", 1}, Case{"lean-1deg", 1}, Case{"radius-8pct", 3}}) {
+    const SyntheticScene base = LoadScene(Scene(c.scene));
+    std::mt19937_64 rng(41);
+    std::vector<PhotoObservations> photos;
+    const char* views[] = {"default", "off-axis", "close"};
+    for (int p = 0; p < c.photos; ++p) {
+      SyntheticScene s = c.photos == 1 ? base : LoadScene(Scene(views[p]));
+      s.truth = base.truth;
+      photos.push_back(Observe(s, DisplayGrid(s.monitor, 41, 11), kNoisePx, rng, SceneSurface(s), "p"));
+    }
+    FitOptions linear, exact;
+    exact.heldout_exact_refit = true;
+    const ScreenFitResult a = FitScreen(base.monitor, base.camera, photos, linear);
+    const ScreenFitResult b = FitScreen(base.monitor, base.camera, photos, exact);
+    ASSERT_EQ(a.candidates.size(), b.candidates.size());
+    EXPECT_EQ(a.Chosen().model, b.Chosen().model) << Table(a) << Table(b);
+    for (size_t i = 0; i < a.candidates.size(); ++i) {
+      const double la = a.candidates[i].heldout_rms_px, ex = b.candidates[i].heldout_rms_px;
+      std::cout << c.scene << " x" << c.photos << " " << a.candidates[i].model << ": held-out " << la
+                << " px (step) vs " << ex << " px (refits), relative " << (la - ex) / ex << "\n";
+      ASSERT_TRUE(std::isfinite(la) && std::isfinite(ex)) << a.candidates[i].model;
+      EXPECT_NEAR(la, ex, 0.005 * ex) << c.scene << " " << a.candidates[i].model;
+    }
+  }
+}
+
 TEST(ScreenFitTest, SparseBoardSkipsTheDeviationFieldAndSaysWhy) {
   // The renderer's default board: 15 x 4 inner corners, 120 residuals, too few for 73 deviation coefficients.
   const SyntheticScene scene = LoadScene(Scene("default"));

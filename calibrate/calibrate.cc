@@ -106,6 +106,23 @@ CandidateResult ParseCandidate(const nlohmann::json& c) {
     r.intrinsics_covariance_dof = Num(ic.at("dof"));
     r.observed_pixel_uncertainty_px = Num(ic.at("observed_pixel_uncertainty_px"));
   }
+  if (c.contains("misfit")) {
+    const auto& mf = c.at("misfit");
+    if (mf.contains("error")) {
+      r.misfit_note = mf.at("error").get<std::string>();
+    } else {
+      r.misfit_variance_px2 = Num(mf.at("variance_px2"));
+      r.misfit_length_px = Num(mf.at("length_px"));
+      const auto& rows = mf.at("covariance");
+      const long n = static_cast<long>(rows.size());
+      r.intrinsics_covariance_misfit.resize(n, n);
+      for (long i = 0; i < n; ++i) {
+        for (long k = 0; k < n; ++k) {
+          r.intrinsics_covariance_misfit(i, k) = Num(rows[static_cast<size_t>(i)][static_cast<size_t>(k)]);
+        }
+      }
+    }
+  }
   return r;
 }
 
@@ -415,6 +432,17 @@ nlohmann::json CalibrationJson(const CalibrationResult& r) {
                 {"sigma_central_median_px", finite(c.SigmaCentralMedian(r.width, r.height))},
                 {"sigma_observed_median_px", finite(c.SigmaObservedMedian())},
                 {"sigma_observed_max_px", finite(c.SigmaObservedMax())}, {"adequate", c.adequate()}});
+      json misfit_sigma = json::array();
+      for (long k = 0; k < c.intrinsics_covariance_misfit.rows(); ++k) {
+        misfit_sigma.push_back(finite(std::sqrt(std::max(0.0, c.intrinsics_covariance_misfit(k, k)))));
+      }
+      e["misfit"] = {{"rms_px", finite(std::sqrt(std::max(0.0, c.misfit_variance_px2)))},
+                     {"length_px", finite(c.misfit_length_px)},
+                     {"intrinsics_sigma", misfit_sigma},
+                     {"note", c.misfit_note},
+                     {"what", "a smooth field common to every photo measured from the residuals' correlation between "
+                              "photos (mrcal_solve.py misfit_field), and its share of the intrinsics' uncertainty; "
+                              "not in the intrinsics covariance sidecar (mrcal's noise-only covariance)"}};
       if (c.crossval_done) {
         e["crossval"] = {{"rms_diff_px", finite(c.crossval_rms_diff_px)},
                          {"rms_expected_px", finite(c.crossval_rms_expected_px)},

@@ -87,6 +87,15 @@ struct CandidateResult {
   // intrinsics_covariance); dof = 2 x inlier corners - states. Empty when mrcal could not factor J^T J.
   Eigen::MatrixXd intrinsics_covariance;
   double intrinsics_covariance_dof = 0, observed_pixel_uncertainty_px = 0;
+  // The lens-model misfit measured from the residuals' correlation between photos (mrcal_solve.py misfit_field): a
+  // stationary Gaussian field over the image, common to every photo, of variance misfit_variance_px2 per coordinate
+  // and length misfit_length_px, and its share of the intrinsics' covariance (the part of the field the intrinsics
+  // absorb, propagated through the solve's linearization). Not in intrinsics_covariance (mrcal's noise-only one,
+  // which the sidecar holds); a comparison of two calibrations adds it (bench calibrate --flat-vs-board). Empty when
+  // not measured (misfit_note says why).
+  Eigen::MatrixXd intrinsics_covariance_misfit;
+  double misfit_variance_px2 = 0, misfit_length_px = 0;
+  std::string misfit_note;
 
   bool adequate() const { return error.empty() && no_structure && (!crossval_done || crossval_pass); }
   // Uncertainty summaries (px): median over the central half of the imager (where a monitor is framed),

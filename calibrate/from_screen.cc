@@ -367,7 +367,11 @@ FromScreenResult CalibrateFromScreen(const std::vector<PhotoObservations>& photo
   r.radius_mm = m.radius_mm;
   r.radius_sigma_mm = m.radius_sigma_mm;
   r.radius_ci95_mm = m.radius_ci95_mm;
-  ProjectionMap(photos, m.intrinsics_covariance, options.max_projection_sigma_px, &r);
+  // The stated covariance: every row of the intrinsics budget (the noise row alone if it could not be computed,
+  // and the note says so).
+  r.intrinsics_budget = IntrinsicsBudgetFromScreen(photos, monitor, r.model, m, fo);
+  r.intrinsics_covariance = r.intrinsics_budget.computed ? r.intrinsics_budget.combined : m.intrinsics_covariance;
+  ProjectionMap(photos, r.intrinsics_covariance, options.max_projection_sigma_px, &r);
   r.precise = !(options.max_projection_sigma_px > 0) ||
               r.projection.covered_median_sigma_px <= options.max_projection_sigma_px;
   if (!r.precise) {
@@ -446,10 +450,23 @@ std::string FromScreenSummary(const FromScreenResult& r) {
                      m.radius_lower_bound_mm);
   }
   const FromScreenProjection& p = r.projection;
-  s += fmt::format("projection sigma (the lens's own uncertainty) over the {} cells of {} x {} that hold detections: "
+  s += fmt::format("projection sigma (the lens's stated uncertainty) over the {} cells of {} x {} that hold detections: "
                    "median {:.3f} px, max {:.3f} px; valid (sigma <= {:.3f} px) on {} cells{}\n",
                    p.covered_cells, p.grid_x, p.grid_y, p.covered_median_sigma_px, p.covered_max_sigma_px, p.limit_px,
                    p.valid_cells, r.precise ? "" : " (NOT precise enough: add the suggested positions)");
+  const FromScreenIntrinsicsBudget& ib = r.intrinsics_budget;
+  if (ib.computed) {
+    s += "intrinsics uncertainty by source (sigma of fx; the stated covariance is the sum of the rows):";
+    for (const FromScreenIntrinsicsBudget::Row& row : ib.rows) {
+      s += fmt::format(" {} fx {:.3g} px;", row.name, std::sqrt(std::max(0.0, row.covariance(0, 0))));
+    }
+    s += fmt::format(" combined fx {:.3g} px; the lens's departure from any {} (not followed by the intrinsics) "
+                     "{:.4f} px RMS\n",
+                     std::sqrt(std::max(0.0, r.intrinsics_covariance(0, 0))), r.model.lensmodel,
+                     std::sqrt(ib.unmodelled_variance_px2));
+  } else {
+    s += "warning: the intrinsics covariance holds the detection noise only: " + ib.note + "\n";
+  }
   for (const std::string& w : r.Chosen().fit.warnings) s += "warning: " + w + "\n";
   return s;
 }
@@ -487,7 +504,44 @@ nlohmann::json FromScreenJson(const FromScreenResult& r) {
   j["lensmodel"] = r.model.lensmodel;
   j["intrinsics"] = r.model.intrinsics;
   j["intrinsics_names"] = r.observability.names;
-  j["intrinsics_covariance"] = MatrixJson(m.intrinsics_covariance);
+  j["intrinsics_covariance"] = MatrixJson(r.intrinsics_covariance);
+  const FromScreenIntrinsicsBudget& ib = r.intrinsics_budget;
+  nlohmann::json rows = nlohmann::json::array();
+  for (const FromScreenIntrinsicsBudget::Row& row : ib.rows) {
+    nlohmann::json sd = nlohmann::json::array();
+    for (long i = 0; i < row.covariance.rows(); ++i) sd.push_back(Num(std::sqrt(std::max(0.0, row.covariance(i, i)))));
+    rows.push_back({{"name", row.name},
+                    {"type", row.type},
+                    {"source", row.source},
+                    {"dof", Num(row.dof)},
+                    {"sigma", sd},
+                    {"covariance", MatrixJson(row.covariance)}});
+  }
+  j["intrinsics_budget"] = {
+      {"computed", ib.computed},
+      {"note", ib.note},
+      {"rows", rows},
+      {"dof", Num(ib.dof)},
+      {"observations", ib.observations},
+      {"residual_check_px", Num(ib.residual_check_px)},
+      {"noise_check_relative", Num(ib.noise_check)},
+      {"unmodelled_rms_px", Num(std::sqrt(ib.unmodelled_variance_px2))},
+      {"unmodelled_components", [&] {
+         nlohmann::json a = nlohmann::json::array();
+         for (const UncertaintyBudget::FieldComponent& c : ib.unmodelled) {
+           const bool ring = c.family == UncertaintyBudget::FieldFamily::kRing;
+           a.push_back({{"family", ring ? "ring" : "gaussian"},
+                        {ring ? "period_px" : "length_px", Num(c.length_px)},
+                        {"rms_px", Num(std::sqrt(c.variance_px2))}});
+         }
+         return a;
+       }()},
+      {"stated", ib.computed ? "intrinsics_covariance is the sum of the rows (independent sources)"
+                             : "intrinsics_covariance is the detection noise row alone (see note)"},
+      {"unmodelled_meaning",
+       "the lens's departure from its model that no intrinsics of this lens model follow (the misfit fields' "
+       "combined RMS per coordinate; its components: Gaussian fields by correlation length, ring fields by period): "
+       "a comparison with the true lens, not with another calibration of it, adds it per point"}};
   const FromScreenObservability& o = r.observability;
   nlohmann::json sig = nlohmann::json::array();
   for (double v : o.sigma) sig.push_back(Num(v));
@@ -569,7 +623,8 @@ nlohmann::json FromScreenJson(const FromScreenResult& r) {
 
 nlohmann::json FromScreenCovarianceJson(const FromScreenResult& r, const std::string& model_file) {
   const ModelFit& m = r.Chosen().fit.Chosen();
-  if (m.intrinsics_covariance.size() == 0 || !m.intrinsics_covariance.allFinite()) {
+  const FromScreenIntrinsicsBudget& ib = r.intrinsics_budget;
+  if (r.intrinsics_covariance.size() == 0 || !r.intrinsics_covariance.allFinite()) {
     throw Error(model_file, "the calibration from the screen has no intrinsics covariance",
                 "add photos from more positions");
   }
@@ -577,11 +632,18 @@ nlohmann::json FromScreenCovarianceJson(const FromScreenResult& r, const std::st
           {"model", model_file},
           {"lensmodel", r.model.lensmodel},
           {"intrinsics", r.model.intrinsics},
-          {"covariance", MatrixJson(m.intrinsics_covariance)},
-          {"dof", m.dof},
+          {"covariance", MatrixJson(r.intrinsics_covariance)},
+          {"dof", ib.computed ? ib.dof : static_cast<double>(m.dof)},
           {"observed_pixel_uncertainty_px", m.noise_px},
-          {"method", "calibrate --from-screen: noise_px^2 times the intrinsics block of the joint (J^T J)^-1 of the "
-                     "screen fit with free intrinsics (marginal over the poses and the curvature)"}};
+          {"method", ib.computed
+                         ? "calibrate --from-screen: the sum of the intrinsics budget's rows (calibration.json "
+                           "intrinsics_budget): detection noise (noise_px^2 times the intrinsics block of the joint "
+                           "(J^T J)^-1 of the screen fit with free intrinsics, marginal over the poses and the "
+                           "curvature), detector systematic and lens model misfit (the screen fit's rows propagated "
+                           "to the intrinsics through its linearized refit); dof by Welch-Satterthwaite"
+                         : "calibrate --from-screen: noise_px^2 times the intrinsics block of the joint (J^T J)^-1 "
+                           "of the screen fit with free intrinsics (marginal over the poses and the curvature); the "
+                           "systematic rows could not be propagated: " + ib.note}};
 }
 
 std::vector<double> LensDifferencePx(const CameraModel& truth, const CameraModel& estimate, int gridn_width,

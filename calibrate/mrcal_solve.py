@@ -135,6 +135,105 @@ def intrinsics_covariance(oi, lensmodel):
     return full.tolist(), 2 * inliers - nstate, s
 
 
+def misfit_field(oi, lensmodel, seed):
+    """The lens-model misfit of this calibration, measured from its own residuals' correlation (mrcal's diagnosis of
+    a model that does not fit: residuals correlated across the imager; the same family as the screen fit's
+    lens-model-misfit row, analysis/screen_fit_misfit.cc): the true lens departs from the model by a stationary
+    Gaussian field delta(q) over the image, common to every photo, independent per coordinate, covariance
+    s^2 exp(-d^2 / 2 L^2). For two inlier corners a, b of DIFFERENT photos (independent noise) at image distance d,
+    E[r_a . r_b / 2] = s^2 kappa_ab(L), kappa from the field's residual after the fit's projection,
+    (I - J (J^T J)^-1 J^T) Phi (the part of the field that the intrinsics and poses absorb leaves no residual);
+    Phi: 200 random Fourier features of the unit field (Rahimi-Recht). Pairs are binned by distance (up to 24
+    corner spacings); for each L of a grid (3 to 60% of the image width) s^2 is the weighted least-squares scale
+    (weights: the bins' pair counts), and the L of the lowest chi-square is kept. The intrinsics' covariance from the
+    field: s^2 A Phi2 Phi2^T A^T, A the intrinsics rows of (J^T J)^-1 J^T in mrcal's unpacked units. Returns a dict
+    (variance_px2 = 0 when the residuals show no positive correlation)."""
+    _, x, jpacked, _ = mrcal.optimizer_callback(**oi)
+    nobs = mrcal.num_measurements_boards(**oi)
+    obs = oi['observations_board']
+    nframes = obs.shape[0]
+    per = obs.shape[1] * obs.shape[2]
+    q = obs[..., :2].reshape(-1, 2)
+    inl = obs[..., 2].reshape(-1) > 0
+    frame = np.repeat(np.arange(nframes), per)
+    idx = np.nonzero(inl)[0]
+    rows = np.stack([2 * idx, 2 * idx + 1], axis=1).reshape(-1)
+    jd = jpacked[:nobs].toarray()[rows]
+    r = np.asarray(x[:nobs]).reshape(-1, 2)[idx]
+    p, f = q[idx], frame[idx]
+    n = len(idx)
+    sigma2 = float(np.mean(r * r))
+    m = np.linalg.pinv(jd.T @ jd, rcond=1e-12)
+    nint = int(mrcal.lensmodel_num_params(lensmodel))
+    istate = mrcal.state_index_intrinsics(0, **oi)
+    d = np.ones(jd.shape[1])
+    mrcal.unpack_state(d, **oi)
+    a = (m[istate:istate + nint] @ jd.T) * d[istate:istate + nint, None]  # unpacked, nint x 2n
+    # The pair statistics on at most 2000 corners (a seeded subset: the pair matrices are n x n).
+    sub = np.arange(n)
+    if n > 2000:
+        sub = np.sort(np.random.default_rng(seed + 11).choice(n, 2000, replace=False))
+    p_all, r = p, r[sub]
+    p, f = p[sub], f[sub]
+    ns = len(sub)
+    dist = np.sqrt(np.sum((p[:, None, :] - p[None, :, :]) ** 2, axis=-1))
+    same = f[:, None] == f[None, :]
+    near = np.where(same & ~np.eye(ns, dtype=bool), dist, np.inf)
+    spacing = float(np.median(np.min(near, axis=1)))
+    upper = np.triu(np.ones((ns, ns), dtype=bool), 1) & ~same
+    edges = spacing * np.array([0, 0.5, 1.5, 3, 6, 12, 24])
+    masks, counts, stats = [], [], []
+    rr = r @ r.T
+    for lo, hi in zip(edges[:-1], edges[1:]):
+        mk = upper & (dist >= lo) & (dist < hi)
+        c = int(np.sum(mk))
+        if c < 50:
+            continue
+        masks.append(mk)
+        counts.append(c)
+        stats.append(float(np.mean(rr[mk])) / 2)
+    out = dict(variance_px2=0.0, variance_sd_px2=0.0, length_px=0.0, spacing_px=spacing, sigma_px=np.sqrt(sigma2),
+               lags=[dict(pairs=c, statistic_px2=s) for c, s in zip(counts, stats)],
+               covariance=np.zeros((nint, nint)).tolist())
+    if len(stats) < 2:
+        return out
+    stats = np.array(stats)
+    weights = np.array(counts, dtype=float)
+    rng = np.random.default_rng(seed + 7)
+    nf = 200
+    omega = rng.standard_normal((nf, 2))
+    phase = rng.uniform(0, 2 * np.pi, nf)
+    width = float(oi['imagersizes'][0][0])
+    best = None
+    for frac in (0.03, 0.08, 0.15, 0.3, 0.6):
+        length = frac * width
+        phi = np.sqrt(2.0 / nf) * np.cos(p_all @ omega.T / length + phase)
+        phi2 = np.zeros((2 * n, 2 * nf))
+        phi2[0::2, :nf] = phi
+        phi2[1::2, nf:] = phi
+        res = phi2 - jd @ (m @ (jd.T @ phi2))
+        rx, ry = res[0::2][sub], res[1::2][sub]
+        g = rx @ rx.T + ry @ ry.T
+        e = np.array([float(np.mean(g[mk])) / 2 for mk in masks])
+        den = float(np.sum(weights * e * e))
+        if den <= 0:
+            continue
+        s2 = float(np.sum(weights * e * stats)) / den
+        chi2 = float(np.sum(weights * (stats - s2 * e) ** 2))
+        if best is None or chi2 < best[0]:
+            best = (chi2, s2, length, phi2, e, den)
+    if best is None or best[1] <= 0:
+        return out
+    _, s2, length, phi2, e, den = best
+    ap = a @ phi2
+    out.update(variance_px2=s2, length_px=length,
+               # under noise alone each bin's statistic has a standard error of about sigma^2 / sqrt(2 pairs)
+               # (pairs taken as independent: optimistic)
+               variance_sd_px2=float(np.sqrt(np.sum(weights ** 2 * e ** 2 * sigma2 ** 2 / (2 * weights)))) / den,
+               expected_per_unit=e.tolist(), covariance=(s2 * ap @ ap.T).tolist())
+    return out
+
+
 def observed_mask(q, observations, inp):
     """Grid points near observed corners: the region where the calibration has data."""
     pts = observations[..., :2][observations[..., 2] > 0]
@@ -206,6 +305,10 @@ def candidate(inp, observations, lensmodel, index):
                                 observed=mask.reshape(-1).tolist()))
     cov, dof, s = intrinsics_covariance(oi, lensmodel)
     out['intrinsics_covariance'] = dict(covariance=cov, dof=dof, observed_pixel_uncertainty_px=s)
+    try:
+        out['misfit'] = misfit_field(oi, lensmodel, inp['seed'])
+    except Exception as e:  # reported, not fatal: the noise covariance stands alone
+        out['misfit'] = dict(error=f"{type(e).__name__}: {e}")
     path = f"{inp['out_dir']}/candidate-{index}.cameramodel"
     model.write(path, note=f"curvecheck calibrate: candidate {lensmodel}")
     out['model_path'] = path

@@ -3,12 +3,8 @@
 #include <fmt/format.h>
 
 #include <algorithm>
-#include <atomic>
-#include <thread>
 
 #include "core/error.h"
-#include "core/file_io.h"
-#include "core/stopwatch.h"
 #include "detect/detect.h"
 
 namespace curvecheck {
@@ -31,44 +27,13 @@ std::vector<std::string> CalibrationPhotos::DuplicateNotes() const {
 
 CalibrationPhotos DetectCalibrationPhotos(const std::vector<std::filesystem::path>& photos, const BoardSpec& board,
                                           const ChessboardOptions& options) {
-  DetectChessboards({}, board, options);  // its checks of the options, before any photo is read
   CalibrationPhotos out;
-  out.detections.resize(photos.size());
   out.content.resize(photos.size());
   out.duplicate_of.assign(photos.size(), -1);
-  std::atomic<size_t> next{0};
-  auto worker = [&] {
-    for (size_t i = next++; i < photos.size(); i = next++) {
-      const Stopwatch watch;
-      ChessboardDetection& d = out.detections[i];
-      try {
-        // Core's one decoder with its header checks (format, size cap, cut-off files), as gray.
-        cv::Mat gray;
-        try {
-          gray = DecodePhotoGray(ReadFileToString(photos[i]), photos[i].string());
-        } catch (const Error& e) {
-          d.problem = e.problem();
-        }
-        if (d.problem.empty()) {
-          out.content[i] = HashImageContent(gray);  // as decoded (16 bits stay 16 bits)
-          if (gray.depth() == CV_16U) gray.convertTo(gray, CV_8U, 1.0 / 257.0);
-          d = DetectChessboard(gray, board, options);
-        }
-      } catch (const std::exception& e) {  // no exception may leave a worker thread
-        d = ChessboardDetection();
-        d.problem = fmt::format("detection failed: {}", e.what());
-      }
-      d.photo = photos[i];
-      d.ms = watch.Ms();
-    }
-  };
-  const unsigned cores = std::max(1u, std::thread::hardware_concurrency());
-  const size_t n =
-      std::min(photos.size(), static_cast<size_t>(options.threads > 0 ? unsigned(options.threads) : cores));
-  std::vector<std::thread> pool;
-  for (size_t t = 1; t < n; ++t) pool.emplace_back(worker);
-  worker();
-  for (auto& t : pool) t.join();
+  // The content hash of the image each detection reads (as decoded: 16 bits stay 16 bits).
+  out.detections = DetectChessboards(photos, board, options, [&](size_t i, const cv::Mat& decoded) {
+    out.content[i] = HashImageContent(decoded);
+  });
 
   // The first photo of each content keeps it; later ones are its duplicates (input order, not finishing order).
   for (size_t i = 0; i < photos.size(); ++i) {

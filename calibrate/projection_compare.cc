@@ -16,12 +16,23 @@ namespace {
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
 // The differences at every grid point (2 per point, stacked) for intrinsics ia, ib; the fitted rotation's angle.
-Eigen::VectorXd Differences(CameraModel a, CameraModel b, const std::vector<double>& ia, const std::vector<double>& ib,
-                            const std::vector<Eigen::Vector2d>& grid, const std::vector<bool>& region,
-                            double* angle_rad = nullptr) {
-  a.intrinsics = ia;
+// The rays of the pixels q through lens m with intrinsics i (through its misfit field when it has one).
+std::vector<Eigen::Vector3d> Rays(const LensWithCovariance& m, const std::vector<double>& i,
+                                  const std::vector<Eigen::Vector2d>& q) {
+  CameraModel c = m.model;
+  c.intrinsics = i;
+  if (!m.model_pixel_of) return UnprojectPixels(c, q);
+  std::vector<Eigen::Vector2d> model_px;
+  for (const Eigen::Vector2d& p : q) model_px.push_back(m.model_pixel_of(p));
+  return UnprojectPixels(c, model_px);
+}
+
+Eigen::VectorXd Differences(const LensWithCovariance& la, const LensWithCovariance& lb, const std::vector<double>& ia,
+                            const std::vector<double>& ib, const std::vector<Eigen::Vector2d>& grid,
+                            const std::vector<bool>& region, double* angle_rad = nullptr) {
+  CameraModel b = lb.model;
   b.intrinsics = ib;
-  const std::vector<Eigen::Vector3d> va = UnprojectPixels(a, grid), vb = UnprojectPixels(b, grid);
+  const std::vector<Eigen::Vector3d> va = Rays(la, ia, grid), vb = Rays(lb, ib, grid);
   Eigen::Matrix3d h = Eigen::Matrix3d::Zero();
   for (size_t k = 0; k < grid.size(); ++k) {
     if (region[k] && va[k].allFinite() && vb[k].allFinite()) h += vb[k].normalized() * va[k].normalized().transpose();
@@ -34,7 +45,10 @@ Eigen::VectorXd Differences(CameraModel a, CameraModel b, const std::vector<doub
   if (angle_rad) *angle_rad = Eigen::AngleAxisd(rot).angle();
   std::vector<Eigen::Vector3d> points;
   for (const Eigen::Vector3d& v : va) points.push_back(rot * v.normalized());
-  const std::vector<Eigen::Vector2d> qb = ProjectPoints(b, points);
+  std::vector<Eigen::Vector2d> qb = ProjectPoints(b, points);
+  if (lb.true_image_of) {
+    for (Eigen::Vector2d& q : qb) q = lb.true_image_of(q);
+  }
   Eigen::VectorXd out(2 * static_cast<long>(grid.size()));
   for (size_t k = 0; k < grid.size(); ++k) out.segment<2>(2 * static_cast<long>(k)) = qb[k] - grid[k];
   return out;
@@ -52,10 +66,10 @@ Eigen::MatrixXd DifferenceJacobian(const LensWithCovariance& a, const LensWithCo
     std::vector<double> plus = m.model.intrinsics, minus = m.model.intrinsics;
     plus[static_cast<size_t>(i)] += step;
     minus[static_cast<size_t>(i)] -= step;
-    const Eigen::VectorXd dp = which == 0 ? Differences(a.model, b.model, plus, b.model.intrinsics, grid, region)
-                                          : Differences(a.model, b.model, a.model.intrinsics, plus, grid, region);
-    const Eigen::VectorXd dm = which == 0 ? Differences(a.model, b.model, minus, b.model.intrinsics, grid, region)
-                                          : Differences(a.model, b.model, a.model.intrinsics, minus, grid, region);
+    const Eigen::VectorXd dp = which == 0 ? Differences(a, b, plus, b.model.intrinsics, grid, region)
+                                          : Differences(a, b, a.model.intrinsics, plus, grid, region);
+    const Eigen::VectorXd dm = which == 0 ? Differences(a, b, minus, b.model.intrinsics, grid, region)
+                                          : Differences(a, b, a.model.intrinsics, minus, grid, region);
     g.col(i) = (dp - dm) / (2 * step);
   }
   return g;
@@ -64,6 +78,12 @@ Eigen::MatrixXd DifferenceJacobian(const LensWithCovariance& a, const LensWithCo
 bool HasCovariance(const LensWithCovariance& m) {
   const long n = static_cast<long>(m.model.intrinsics.size());
   return m.covariance.rows() == n && m.covariance.cols() == n && n > 0;
+}
+
+bool HasUnmodelledField(const LensWithCovariance& m) {
+  return std::any_of(m.unmodelled.begin(), m.unmodelled.end(), [](const UncertaintyBudget::FieldComponent& c) {
+    return c.variance_px2 > 0 && c.length_px > 0;
+  });
 }
 
 }  // namespace
@@ -111,8 +131,7 @@ ProjectionComparison CompareProjections(const LensWithCovariance& a, const LensW
                 "give a larger region (more photos toward the image's edges)");
   }
   double angle = 0;
-  const Eigen::VectorXd d =
-      Differences(a.model, b.model, a.model.intrinsics, b.model.intrinsics, grid, r.in_region, &angle);
+  const Eigen::VectorXd d = Differences(a, b, a.model.intrinsics, b.model.intrinsics, grid, r.in_region, &angle);
   r.rotation_deg = angle * 180 / M_PI;
   const long rows = d.size();
   Eigen::MatrixXd l(rows, 0);  // Cov(d) = L L^T
@@ -126,6 +145,38 @@ ProjectionComparison CompareProjections(const LensWithCovariance& a, const LensW
     Eigen::MatrixXd joined(rows, l.cols() + half.cols());
     joined << l, g * half;
     l = joined;
+    const LensWithCovariance& other = which == 0 ? b : a;
+    if (!HasCovariance(other) && HasUnmodelledField(m)) {
+      // The unmodelled field over the grid: K = sum over the components of their covariance at the distance,
+      // per coordinate, factored K = U S U^T (modes below 1e-9 of the largest dropped).
+      const long n = static_cast<long>(grid.size());
+      Eigen::MatrixXd k = Eigen::MatrixXd::Zero(n, n);
+      for (const UncertaintyBudget::FieldComponent& c : m.unmodelled) {
+        if (!(c.variance_px2 > 0) || !(c.length_px > 0)) continue;
+        for (long i = 0; i < n; ++i) {
+          for (long j = 0; j < n; ++j) {
+            k(i, j) += MisfitComponentCovariance(
+                c, (grid[static_cast<size_t>(i)] - grid[static_cast<size_t>(j)]).norm());
+          }
+        }
+      }
+      const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> ke(k);
+      const double top = ke.eigenvalues().maxCoeff();
+      std::vector<long> keep;
+      for (long i = 0; i < n; ++i) {
+        if (ke.eigenvalues()[i] > 1e-9 * top) keep.push_back(i);
+      }
+      const long nk = static_cast<long>(keep.size());
+      Eigen::MatrixXd field = Eigen::MatrixXd::Zero(rows, 2 * nk);
+      for (long c = 0; c < nk; ++c) {
+        const Eigen::VectorXd col = ke.eigenvectors().col(keep[static_cast<size_t>(c)]) *
+                                    std::sqrt(ke.eigenvalues()[keep[static_cast<size_t>(c)]]);
+        for (long i = 0; i < n; ++i) field(2 * i, 2 * c) = field(2 * i + 1, 2 * c + 1) = col[i];
+      }
+      Eigen::MatrixXd with(rows, l.cols() + field.cols());
+      with << l, field;
+      l = with;
+    }
   }
   std::vector<double> dist, sig, maha;
   std::vector<long> region_rows;
@@ -153,7 +204,7 @@ ProjectionComparison CompareProjections(const LensWithCovariance& a, const LensW
   if (l.cols() > 0) {
     Eigen::MatrixXd lr(static_cast<long>(region_rows.size()), l.cols());
     for (size_t i = 0; i < region_rows.size(); ++i) lr.row(static_cast<long>(i)) = l.row(region_rows[i]);
-    const Eigen::JacobiSVD<Eigen::MatrixXd> svd(lr);
+    const Eigen::BDCSVD<Eigen::MatrixXd> svd(lr);
     const Eigen::VectorXd sv = svd.singularValues();
     for (long i = 0; i < sv.size(); ++i) r.rank += sv[i] > 1e-6 * sv[0] ? 1 : 0;
   }

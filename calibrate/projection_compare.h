@@ -17,15 +17,31 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <functional>
+#include <utility>
 #include <vector>
 
+#include "analysis/screen_fit.h"
 #include "core/camera_model.h"
 
 namespace curvecheck {
 
 struct LensWithCovariance {
+  LensWithCovariance(CameraModel m, Eigen::MatrixXd c = {}) : model(std::move(m)), covariance(std::move(c)) {}
   CameraModel model;
   Eigen::MatrixXd covariance;  // intrinsics, mrcal's order; empty = exact (no uncertainty)
+  // A lens that departs from its model by a field delta (a synthetic truth: synth/lens_misfit.h): true_image_of(q)
+  // = q + delta(q) maps the model's projection q to the true image, model_pixel_of inverts it. Both empty: the
+  // model is the lens. Set both or neither.
+  std::function<Eigen::Vector2d(const Eigen::Vector2d&)> true_image_of, model_pixel_of;
+  // The lens's departure from this model that no intrinsics of the model follow (a calibration's measured lens
+  // model misfit): stationary fields, independent per coordinate, one per component (Gaussian: variance s^2 per
+  // coordinate and correlation length; ring: variance and period; analysis/screen_fit.h UncertaintyBudget::
+  // FieldComponent). Added to the difference's covariance (cell to cell, MisfitComponentCovariance summed over the
+  // components) only when the other model is exact (a truth): two calibrations of one lens see the same departure,
+  // which cancels in their difference. Conservative: the part of the field the intrinsics absorbed is counted in
+  // both terms.
+  std::vector<UncertaintyBudget::FieldComponent> unmodelled;
 };
 
 struct ProjectionComparison {

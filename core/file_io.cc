@@ -111,7 +111,29 @@ TempFolder::TempFolder(const std::string& prefix, const std::string& purpose) {
                 "make the temporary folder writable (or set TMPDIR)");
   }
   path_ = pattern;
+  purpose_ = purpose;
   cleanup_ = CleanupOnInterrupt(path_, CleanupKind::kTree);
+}
+
+fs::path TempFolder::Subfolder(const fs::path& relative) const {
+  const fs::path rel = relative.lexically_normal();
+  if (rel.empty() || rel == ".") return path_;
+  if (rel.is_absolute() || *rel.begin() == "..") {
+    throw Error(relative.string(), "is not a folder inside the temporary folder for " + purpose_, "this is a bug");
+  }
+  fs::path sub = path_;
+  const InterruptHold hold;  // an interruption that removed path_ keeps this lock: we wait here until the exit
+  // One mkdir per level, never create_directories: if path_ itself is gone it must not come back.
+  for (const fs::path& part : rel) {
+    if (part.empty() || part == ".") continue;
+    sub /= part;
+    if (::mkdir(sub.c_str(), 0700) != 0 && errno != EEXIST) {
+      const int err = errno;
+      throw Error(sub.string(), "cannot create a temporary folder for " + purpose_ + ": " + std::strerror(err),
+                  "make the temporary folder writable (or set TMPDIR)");
+    }
+  }
+  return sub;
 }
 
 TempFolder::~TempFolder() {

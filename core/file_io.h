@@ -91,9 +91,14 @@ class TempFolder {
   TempFolder(const TempFolder&) = delete;
   TempFolder& operator=(const TempFolder&) = delete;
   const std::filesystem::path& path() const { return path_; }
+  // Creates (or finds) the folder `relative` inside (each level of it), with interruptions held off: once an
+  // interruption has removed this folder nothing recreates it (a plain create_directories on another thread could,
+  // racing the clean-up, and leave it behind). Throws Error if it cannot be created or leaves the folder.
+  std::filesystem::path Subfolder(const std::filesystem::path& relative) const;
 
  private:
   std::filesystem::path path_;
+  std::string purpose_;
   CleanupOnInterrupt cleanup_;
 };
 

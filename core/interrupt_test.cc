@@ -12,6 +12,7 @@
 #include <fstream>
 #include <thread>
 
+#include "core/file_io.h"
 #include "core/subprocess.h"
 
 namespace curvecheck {
@@ -115,6 +116,34 @@ TEST_F(Interrupt, ASignalDuringAHoldWaitsForItsEnd) {
   EXPECT_GT(ms, 150);                   // it waited for the hold (300 ms from before the signal)
   EXPECT_TRUE(fs::exists(published));
   EXPECT_FALSE(fs::exists(staged));
+}
+
+TEST_F(Interrupt, ATemporaryFolderStaysRemovedWhileAnotherThreadKeepsFillingIt) {
+  // The report draws its charts into sub-folders of one temporary folder while the signal thread removes it: a
+  // sub-folder made after the removal must not bring the folder back (it did, once in a CI run, with
+  // create_directories). Several runs, each interrupted at a different point of the filling loop.
+  for (int run = 0; run < 24; ++run) {
+    const pid_t pid = ::fork();
+    ASSERT_GE(pid, 0);
+    if (pid == 0) {
+      ::setenv("TMPDIR", dir_.c_str(), 1);
+      InstallInterruptHandling();
+      const TempFolder folder("curvecheck_chart", "the test's charts");
+      Tell(0);
+      for (long i = 0;; ++i) {
+        const fs::path sub = folder.Subfolder(fs::path("chart-" + std::to_string(i % 7)) / "data");
+        if (i % 64 == 0) WriteFileAtomic(sub / "points.dat", "1 2\n");  // mostly folders: the race is there
+      }
+    }
+    ASSERT_EQ(Hear(), 0);
+    std::this_thread::sleep_for(std::chrono::microseconds(100 * run));
+    ASSERT_EQ(::kill(pid, SIGINT), 0);
+    int status = 0;
+    ASSERT_EQ(::waitpid(pid, &status, 0), pid);
+    ASSERT_TRUE(WIFSIGNALED(status)) << status;
+    EXPECT_EQ(WTERMSIG(status), SIGINT);
+    ASSERT_TRUE(fs::is_empty(dir_)) << "run " << run << ": " << fs::directory_iterator(dir_)->path();
+  }
 }
 
 TEST_F(Interrupt, ASignalIgnoredAtStartStaysIgnored) {

@@ -3,14 +3,13 @@
 #include <fmt/format.h>
 
 #include <algorithm>
-#include <atomic>
 #include <cmath>
 #include <opencv2/core.hpp>
 #include <optional>
-#include <thread>
 
 #include "core/error.h"
 #include "core/file_io.h"
+#include "core/parallel.h"
 #include "core/stopwatch.h"
 #include "detect/detect.h"
 #include "detect/detect_board.h"
@@ -143,8 +142,9 @@ ChessboardDetection DetectChessboard(const cv::Mat& gray8, const BoardSpec& boar
   return d;
 }
 
-std::vector<ChessboardDetection> DetectChessboards(const std::vector<std::filesystem::path>& photos, const BoardSpec& board,
-                                         const ChessboardOptions& options) {
+std::vector<ChessboardDetection> DetectChessboards(
+    const std::vector<std::filesystem::path>& photos, const BoardSpec& board, const ChessboardOptions& options,
+    const std::function<void(size_t index, const cv::Mat& decoded)>& on_decoded) {
   options.Check();
   if (options.detector == ChessboardDetector::kMrgingham && board.corners_x != board.corners_y) {
     throw Error("--detector", fmt::format("mrgingham finds square NxN boards only, not {}x{}", board.corners_x,
@@ -152,36 +152,30 @@ std::vector<ChessboardDetection> DetectChessboards(const std::vector<std::filesy
                 "use --detector opencv (or auto)");
   }
   std::vector<ChessboardDetection> out(photos.size());
-  std::atomic<size_t> next{0};
-  auto worker = [&] {
-    for (size_t i = next++; i < photos.size(); i = next++) {
-      const Stopwatch watch;
+  // One photo per core (at most options.threads); a photo's failure is kept in its detection.
+  ParallelFor(static_cast<int>(photos.size()), [&](int k) {
+    const size_t i = static_cast<size_t>(k);
+    const Stopwatch watch;
+    try {
+      // Core's one decoder with its header checks (format, size cap, cut-off files), as gray, in 8 bits.
+      cv::Mat gray;
       try {
-        // Core's one decoder with its header checks (format, size cap, cut-off files), as gray, in 8 bits.
-        cv::Mat gray;
-        try {
-          gray = DecodePhotoGray(ReadFileToString(photos[i]), photos[i].string());
-          if (gray.depth() == CV_16U) gray.convertTo(gray, CV_8U, 1.0 / 257.0);
-        } catch (const Error& e) {
-          out[i].problem = e.problem();
-        }
-        if (out[i].problem.empty()) {
-          out[i] = DetectChessboard(gray, board, options);
-        }
-      } catch (const std::exception& e) {  // no exception may leave a worker thread
-        out[i] = ChessboardDetection();
-        out[i].problem = fmt::format("detection failed: {}", e.what());
+        gray = DecodePhotoGray(ReadFileToString(photos[i]), photos[i].string());
+      } catch (const Error& e) {
+        out[i].problem = e.problem();
       }
-      out[i].photo = photos[i];
-      out[i].ms = watch.Ms();
+      if (out[i].problem.empty()) {
+        if (on_decoded) on_decoded(i, gray);
+        if (gray.depth() == CV_16U) gray.convertTo(gray, CV_8U, 1.0 / 257.0);
+        out[i] = DetectChessboard(gray, board, options);
+      }
+    } catch (const std::exception& e) {  // the failure stays with its photo, the others go on
+      out[i] = ChessboardDetection();
+      out[i].problem = fmt::format("detection failed: {}", e.what());
     }
-  };
-  const unsigned cores = std::max(1u, std::thread::hardware_concurrency());
-  const size_t n = std::min(photos.size(), static_cast<size_t>(options.threads > 0 ? unsigned(options.threads) : cores));
-  std::vector<std::thread> pool;
-  for (size_t t = 1; t < n; ++t) pool.emplace_back(worker);
-  worker();
-  for (auto& t : pool) t.join();
+    out[i].photo = photos[i];
+    out[i].ms = watch.Ms();
+  }, 1, options.threads);
   return out;
 }
 

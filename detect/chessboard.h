@@ -31,6 +31,7 @@
 
 #include <Eigen/Core>
 #include <filesystem>
+#include <functional>
 #include <opencv2/core.hpp>
 #include <string>
 #include <vector>
@@ -73,8 +74,11 @@ struct ChessboardDetection {
 ChessboardDetection DetectChessboard(const cv::Mat& gray8, const BoardSpec& board, const ChessboardOptions& options);
 
 // Reads and detects every photo, options.threads at a time. Photos that cannot be read or hold no complete
-// board come back with found = false and the reason; only an unreadable photo list throws.
-std::vector<ChessboardDetection> DetectChessboards(const std::vector<std::filesystem::path>& photos, const BoardSpec& board,
-                                         const ChessboardOptions& options);
+// board come back with found = false and the reason; only an unreadable photo list throws. on_decoded (optional)
+// is called with each readable photo's index and its image as decoded (gray, 8 or 16 bits) before the detection,
+// from the thread that reads it (one call per index: it may write to a slot of its own without a lock).
+std::vector<ChessboardDetection> DetectChessboards(
+    const std::vector<std::filesystem::path>& photos, const BoardSpec& board, const ChessboardOptions& options,
+    const std::function<void(size_t index, const cv::Mat& decoded)>& on_decoded = {});
 
 }  // namespace curvecheck

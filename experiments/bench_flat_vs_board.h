@@ -21,13 +21,30 @@
 // calibration's intrinsics covariance propagated through the difference). Decision rule per trial: the two agree
 // when the largest per-cell Mahalanobis distance m = sqrt(d^T Cov^-1 d) is at most sqrt(chi2_2 quantile at
 // 0.05 / r), r the rank of the combined covariance over the region (its independent error modes: a Bonferroni
-// bound over them, 95% family-wise). Each calibration is also compared with the true lens (same grid and region).
+// bound over them, 95% family-wise). Each calibration is also compared with the true lens (same grid and region):
+// the camera model plus its misfit field (synth/lens_misfit.h), the lens both sets were photographed through.
+//
+// Each calibration's stated covariance is compared: the from-screen one as calibrate --from-screen states it (the
+// sum of its intrinsics budget's rows: FromScreenIntrinsicsBudget), the board's as mrcal's (detection noise) plus
+// the share of its misfit measured from its residuals (CandidateResult::intrinsics_covariance_misfit); each with the
+// misfit field it measured as the lens's unmodelled departure when compared with the truth
+// (LensWithCovariance::unmodelled). For the record, both detection-noise covariances alone (what was stated
+// before the budgets; the "noise" columns). Diagnostics per
+// trial: the detectors' errors against the true image positions (RMS, mean, and the RMS of their smooth part: a
+// Legendre field of degree 3 fitted to them), for the screen's features and the board's corners; where the largest
+// Mahalanobis distance of each comparison lies.
+//
+// The observations (screen features and board corners with their true positions) are cached in
+// DIR/cache/seed-N.json and read back when present: the rendering and detection (most of a trial's time) are done
+// once per seed; delete the folder to render again.
 #pragma once
 
 #include <cstdint>
 #include <filesystem>
 #include <ostream>
 #include <string>
+
+#include <Eigen/Core>
 
 #include "calibrate/projection_compare.h"
 
@@ -45,22 +62,45 @@ struct BenchFlatVsBoardOptions {
   void Check() const;  // throws Error naming the option
 };
 
+// Errors of detections against the true image positions, px.
+struct DetectionErrors {
+  int points = 0;
+  double rms_px = 0;                        // per coordinate
+  Eigen::Vector2d mean_px = Eigen::Vector2d::Zero();
+  double smooth_rms_px = 0;                 // per coordinate: the Legendre degree-3 field fitted to the errors
+  double per_photo_smooth_rms_px = 0;       // per coordinate: a Legendre degree-2 field fitted per photo
+};
+
 struct FlatVsBoardTrial {
   int photos = 0;
   std::string screen_lensmodel, board_lensmodel, error;  // error: refused or failed (message)
   int cells = 0;  // grid cells compared
+  // With the screen calibration's stated covariance (its budget), and with its noise row alone.
   ProjectionComparison screen_vs_board, screen_vs_truth, board_vs_truth;
-  double threshold_mahalanobis = 0;
-  bool agree = false;
-  double fx_screen = 0, fx_screen_sigma = 0, fx_board = 0, fx_board_sigma = 0;
+  // Both calibrations' detection-noise covariances alone (as stated before the budgets): screen vs board, each vs
+  // the truth.
+  ProjectionComparison screen_vs_board_noise, screen_vs_truth_noise, board_vs_truth_noise;
+  double threshold_mahalanobis = 0, threshold_noise = 0;
+  bool agree = false, agree_noise = false;
+  double fx_screen = 0, fx_screen_sigma = 0, fx_screen_sigma_noise = 0, fx_board = 0, fx_board_sigma = 0;
+  std::string screen_budget_note;  // non-empty: the budget could not be computed (why)
+  double screen_unmodelled_px = 0;  // the misfit RMS the screen fit measured (px per coordinate)
+  double true_misfit_px = 0;        // the synthetic lens's misfit RMS (px per coordinate)
+  double board_misfit_px = 0;       // the misfit RMS the board calibration measured (mrcal_solve.py misfit_field)
+  DetectionErrors screen_detection, board_detection;
+  std::string screen_summary;  // FromScreenSummary of the calibration from the screen, and the board's misfit
+  bool from_cache = false;
   double seconds = 0;
 };
 
-// One trial (seed: positions, noise, lens misfit field, board poses).
-FlatVsBoardTrial RunFlatVsBoardTrial(const BenchFlatVsBoardOptions& options, uint64_t seed);
+// One trial (seed: positions, noise, lens misfit field, board poses). cache_dir: where the observations are cached
+// (empty: none).
+FlatVsBoardTrial RunFlatVsBoardTrial(const BenchFlatVsBoardOptions& options, uint64_t seed,
+                                     const std::filesystem::path& cache_dir = {});
 
 // Runs the bench, prints a row per trial and the summary (agreement with its Wilson 95% interval) to `log`, and
-// writes flat_vs_board_trials.csv into `dir` (an existing folder).
+// writes flat_vs_board_trials.csv and, per trial, trial-K.txt (the screen calibration's summary with its
+// uncertainty rows, the board's measured misfit) into `dir` (an existing folder).
 void RunBenchFlatVsBoard(const BenchFlatVsBoardOptions& options, const std::filesystem::path& dir, std::ostream& log);
 
 }  // namespace curvecheck::experiments

@@ -6,7 +6,8 @@
 // 12 photos (drawn) from positions drawn in x in [-450, 450], y in [-120, 120], z in [400, 650] mm (screen frame,
 // so 1.4-1.65 m from the screen centre), each looking at the screen centre with 1 deg of aim jitter, through the
 // scene's realistic imaging chain at `scale` (sensor noise and lens misfit seeded per trial); the focal seed is
-// the truth times (1 + 0.1 N(0, 1)). Per trial: the lens against the truth (LensDifferencePx at 1.5 m: the median
+// the truth times (1 + 0.1 N(0, 1)); the panel's true pixel pitch is the datasheet's times 1 + d, d uniform in
+// +-pitch_tolerance (the tolerance the calibration's budget states: its pixel-pitch row is exercised). Per trial: the lens against the truth (LensDifferencePx at 1.5 m: the median
 // over the imager and over the grid points inside the detections' bounding box), whether the true radius lies in
 // the reported 95% interval and within 2 sigma, and the time.
 #pragma once
@@ -30,6 +31,9 @@ struct BenchSelfCalibrateOptions {
   int min_photos = 8, max_photos = 12;
   double radius_spread = 0.05;     // relative, uniform
   double focal_seed_error = 0.1;   // relative sigma of the focal seed
+  // Relative half-width of the true pitch's uniform draw: the screen fit's stated default (FitOptions), 0 for the
+  // datasheet's pitch exactly.
+  double pitch_tolerance = 0.001;
   // When the calibration's precision check fails (FromScreenResult::precise), add the suggested photos and
   // calibrate again, as a user told by the refusal would.
   bool follow_advice = true;

@@ -59,8 +59,8 @@ SyntheticScene LoadSceneWithOverrides(const std::string& name_or_path,
   const std::string model = ConfigMap::Parse(text, "embedded " + scene_file).Map("camera").String("model");
   const std::string camera_file = (fs::path("scenes") / model).lexically_normal().generic_string();
   const TempFolder folder("curvecheck_validity_scene", "the scene with overrides");
-  fs::create_directories((folder.path() / scene_file).parent_path());
-  fs::create_directories((folder.path() / camera_file).parent_path());
+  folder.Subfolder(fs::path(scene_file).parent_path());
+  folder.Subfolder(fs::path(camera_file).parent_path());
   WriteFileAtomic(folder.path() / scene_file, text);
   WriteFileAtomic(folder.path() / camera_file, DatasetFileText(camera_file));
   return LoadScene(folder.path() / scene_file, overrides);

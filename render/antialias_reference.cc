@@ -5,13 +5,12 @@
 #include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <array>
-#include <atomic>
 #include <cmath>
 #include <limits>
-#include <thread>
 
 #include "core/correction.h"
 #include "core/error.h"
+#include "core/parallel.h"
 
 namespace curvecheck {
 namespace {
@@ -67,19 +66,6 @@ double SurroundLinear(const RenderOptions& o) { return std::pow(o.surround_code 
 // The crop whose centre pixel is nearest the feature.
 int CropStart(double feature_px, int crop_px) {
   return static_cast<int>(std::lround(feature_px - 0.5 * (crop_px - 1)));
-}
-
-template <typename Body>
-void ParallelFor(int count, const Body& body) {
-  const int threads = std::max(1, std::min(count, static_cast<int>(std::thread::hardware_concurrency())));
-  std::atomic<int> next{0};
-  std::vector<std::thread> pool;
-  for (int t = 0; t < threads; ++t) {
-    pool.emplace_back([&] {
-      for (int i = next++; i < count; i = next++) body(i);
-    });
-  }
-  for (auto& th : pool) th.join();
 }
 
 }  // namespace

@@ -4,10 +4,10 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
-#include <thread>
 
 #include "core/correction.h"
 #include "core/error.h"
+#include "core/parallel.h"
 
 namespace curvecheck {
 
@@ -20,17 +20,7 @@ MappingError MeasureMappingError(const Monitor& m, const Eigen::Vector3d& viewpo
   const float nan = std::numeric_limits<float>::quiet_NaN();
   // Exact plane coordinates of every pixel centre, and one extra column and row for forward differences.
   std::vector<Eigen::Vector2d> exact(static_cast<size_t>(w + 1) * (h + 1));
-  const unsigned threads = std::max(1u, std::thread::hardware_concurrency());
-  auto parallel_rows = [&](int rows, const auto& body) {
-    std::vector<std::thread> pool;
-    for (unsigned t = 0; t < threads; ++t) {
-      pool.emplace_back([&, t] {
-        for (int y = static_cast<int>(t); y < rows; y += static_cast<int>(threads)) body(y);
-      });
-    }
-    for (auto& th : pool) th.join();
-  };
-  parallel_rows(h + 1, [&](int y) {
+  ParallelFor(h + 1, [&](int y) {
     for (int x = 0; x <= w; ++x) {
       const auto ab = PatternFromDisplayPx(m, viewpoint, pattern.plane, {x, y});
       exact[static_cast<size_t>(y) * (w + 1) + x] = ab ? *ab : Eigen::Vector2d(nan, nan);
@@ -43,7 +33,7 @@ MappingError MeasureMappingError(const Monitor& m, const Eigen::Vector3d& viewpo
   MappingError out;
   out.map_px.assign(static_cast<size_t>(w) * h, nan);
   std::vector<int64_t> counted(static_cast<size_t>(h), 0), missing(static_cast<size_t>(h), 0);
-  parallel_rows(h, [&](int y) {
+  ParallelFor(h, [&](int y) {
     for (int x = 0; x < w; ++x) {
       const Eigen::Vector2d& e = exact[static_cast<size_t>(y) * (w + 1) + x];
       if (!(e.x() >= a_lo && e.x() <= a_hi && e.y() >= b_lo && e.y() <= b_hi)) continue;

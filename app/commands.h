@@ -2,10 +2,18 @@
 // curvecheck::Error for failures that main() reports as one line.
 #pragma once
 
+#include <functional>
 #include <optional>
 #include <string>
 
+namespace CLI {
+class App;
+}
+
 namespace curvecheck::app {
+
+// Every subcommand of `curvecheck` (app/all_commands.cc): the Program::add_commands of app/main.cc.
+void AddAllCommands(CLI::App& app, std::function<int()>& run);
 
 struct InfoOptions {
   std::string monitor = "default";  // preset name, "default", or YAML/JSON file
@@ -21,5 +29,8 @@ struct DemoOptions {
   std::string output_dir = "curvecheck-demo";  // where the demo writes its outputs
 };
 int RunDemo(const DemoOptions& options);
+// Registers `demo` on the app; sets `run` when it is chosen. Alone, it is the demo-only program's one
+// subcommand (app/demo_main.cc).
+void AddDemoCommand(CLI::App& app, std::function<int()>& run);
 
 }  // namespace curvecheck::app

@@ -1,6 +1,7 @@
 #include <string_view>
 
 #include "app/cli.h"
+#include "app/commands.h"
 #include "core/interrupt.h"
 
 namespace {
@@ -23,5 +24,8 @@ bool RunsThePresenter(int argc, char** argv) {
 int main(int argc, char** argv) {
   // Before any thread starts: Ctrl-C or `kill` removes every temporary and ends with status 130 / 143.
   if (!RunsThePresenter(argc, argv)) curvecheck::InstallInterruptHandling();
-  return curvecheck::app::Main(argc, argv);
+  return curvecheck::app::Main(
+      argc, argv,
+      {"curvecheck", "curvecheck: photogrammetric validation of curved (and flat) monitors",
+       curvecheck::app::AddAllCommands});
 }

@@ -139,9 +139,32 @@ TEST_F(Cli, SweepWithoutAFactorFailsNamingTheOption) {
   EXPECT_THAT(r.out, Not(HasSubstr("wrote")));
 }
 
+// The demo-only program (app/demo_main.cc, what `./bootstrap demo` builds and runs): the one subcommand, the same
+// error rule as curvecheck under its own name.
+TEST_F(Cli, DemoProgramOffersTheDemoAloneUnderItsOwnName) {
+  const CliRun help = curvecheck::testing::RunBinary(CURVECHECK_DEMO_BINARY, {"--help"}, dir_);
+  EXPECT_EQ(help.code, 0);
+  EXPECT_THAT(help.out, AllOf(HasSubstr("demo"), Not(HasSubstr("analyze")), Not(HasSubstr("calibrate"))));
+  EXPECT_THAT(curvecheck::testing::RunBinary(CURVECHECK_DEMO_BINARY, {"demo", "--help"}, dir_).out,
+              HasSubstr("--output"));
+  const CliRun version = curvecheck::testing::RunBinary(CURVECHECK_DEMO_BINARY, {"--version"}, dir_);
+  EXPECT_EQ(version.code, 0);
+  EXPECT_THAT(version.out, HasSubstr("curvecheck-demo "));
+  const CliRun other = curvecheck::testing::RunBinary(CURVECHECK_DEMO_BINARY, {"analyze", "x.png"}, dir_);
+  EXPECT_EQ(other.code, 1);
+  EXPECT_THAT(other.err,
+              HasSubstr("curvecheck-demo: error: analyze: is not a subcommand; see 'curvecheck-demo --help'"));
+  const CliRun option = curvecheck::testing::RunBinary(CURVECHECK_DEMO_BINARY, {"demo", "--frobnicate"}, dir_);
+  EXPECT_EQ(option.code, 1);
+  EXPECT_THAT(option.err, HasSubstr("see 'curvecheck-demo demo --help'"));
+}
+
 TEST_F(Cli, DemoRunsEndToEndAndFindsTheTrueRadius) {
-  // render -> synthetic capture (24 MP) -> analyze on the default scene, whose true monitor is the nominal 1000R.
-  const CliRun r = Curvecheck({"demo", "-o", (dir_ / "demo").string()});
+  // render -> synthetic capture (24 MP) -> analyze on the default scene, whose true monitor is the nominal 1000R;
+  // run by the demo-only program, as `./bootstrap demo` does (`curvecheck demo` registers the same subcommand,
+  // app/demo_command.cc).
+  const CliRun r = curvecheck::testing::RunBinary(CURVECHECK_DEMO_BINARY, {"demo", "-o", (dir_ / "demo").string()},
+                                                  dir_);
   ASSERT_EQ(r.code, 0) << r.err << r.out;
   EXPECT_THAT(r.out, AllOf(HasSubstr("verification: PASS"), HasSubstr("inside its 95% interval"),
                            HasSubstr("model cylinder")));

@@ -1,9 +1,6 @@
 // The full `curvecheck` command line: every subcommand (app/main.cc). The demo-only program registers just
 // `demo` (app/demo_main.cc).
-#include <CLI/CLI.hpp>
-
 #include <functional>
-#include <memory>
 
 #include "app/analyze_command.h"
 #include "app/bench_command.h"
@@ -15,7 +12,6 @@
 #include "app/plan_command.h"
 #include "app/present_command.h"
 #include "app/render_command.h"
-#include "app/render_options.h"
 #include "app/report_command.h"
 #include "app/sweep_command.h"
 #include "app/thirdparty_commands.h"
@@ -23,20 +19,8 @@
 namespace curvecheck::app {
 
 void AddAllCommands(CLI::App& app, std::function<int()>& run) {
-  auto info = std::make_shared<InfoOptions>();
-  CLI::App* info_cmd = app.add_subcommand(
-      "info", "Print a monitor's derived geometry and, from a viewpoint, its fields of view and pixel density");
-  info_cmd->add_option("--monitor,-m", info->monitor, "Monitor preset name, 'default', or a YAML/JSON spec file")
-      ->capture_default_str();
-  CLI::Option* info_viewpoint = info_cmd->add_option(
-      "--viewpoint,-v", info->viewpoint,
-      "Viewpoint x,y,z in mm in the screen frame (origin on the cylinder axis; the screen centre is at 0,0,-R; for a "
-      "flat monitor the screen is z = 0; or give --distance-mm)");
-  AddDistanceOptions(*info_cmd, info_viewpoint, info->distance_mm, info->offset_mm);
-  info_cmd->add_flag("--json", info->json, "Print JSON instead of text");
-  info_cmd->add_flag("--list-presets", info->list_presets, "List the monitor presets and exit");
-  info_cmd->callback([&run, info] { run = [info] { return RunInfo(*info); }; });
-
+  // `info`: app/info_command.cc.
+  AddInfoCommand(app, run);
   AddDemoCommand(app, run);
   AddRenderCommand(app, run);
   // `analyze` (issue 6): app/analyze_command.cc.

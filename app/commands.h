@@ -24,6 +24,8 @@ struct InfoOptions {
   bool list_presets = false;
 };
 int RunInfo(const InfoOptions& options);
+// Registers `info` on the app; sets `run` when it is chosen (app/info_command.cc).
+void AddInfoCommand(CLI::App& app, std::function<int()>& run);
 
 struct DemoOptions {
   std::string output_dir = "curvecheck-demo";  // where the demo writes its outputs

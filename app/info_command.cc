@@ -1,9 +1,12 @@
 // `curvecheck info`: a monitor's derived geometry and its viewing from a viewpoint (core/viewing.h).
+#include <CLI/CLI.hpp>
 #include <fmt/format.h>
 
 #include <iostream>
+#include <memory>
 
 #include "app/commands.h"
+#include "app/render_options.h"
 #include "core/viewing.h"
 #include "datasets/monitor_presets.h"
 
@@ -26,6 +29,22 @@ int RunInfo(const InfoOptions& o) {
     std::cout << MonitorInfoText(m, viewpoint);
   }
   return 0;
+}
+
+void AddInfoCommand(CLI::App& app, std::function<int()>& run) {
+  auto info = std::make_shared<InfoOptions>();
+  CLI::App* info_cmd = app.add_subcommand(
+      "info", "Print a monitor's derived geometry and, from a viewpoint, its fields of view and pixel density");
+  info_cmd->add_option("--monitor,-m", info->monitor, "Monitor preset name, 'default', or a YAML/JSON spec file")
+      ->capture_default_str();
+  CLI::Option* info_viewpoint = info_cmd->add_option(
+      "--viewpoint,-v", info->viewpoint,
+      "Viewpoint x,y,z in mm in the screen frame (origin on the cylinder axis; the screen centre is at 0,0,-R; for a "
+      "flat monitor the screen is z = 0; or give --distance-mm)");
+  AddDistanceOptions(*info_cmd, info_viewpoint, info->distance_mm, info->offset_mm);
+  info_cmd->add_flag("--json", info->json, "Print JSON instead of text");
+  info_cmd->add_flag("--list-presets", info->list_presets, "List the monitor presets and exit");
+  info_cmd->callback([&run, info] { run = [info] { return RunInfo(*info); }; });
 }
 
 }  // namespace curvecheck::app

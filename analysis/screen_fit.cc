@@ -116,8 +116,9 @@ void FitFinal(const Setup& setup, ModelWork& w, const std::vector<bool>& inlier,
   fit->shape = w.state.core;
   fit->shape.insert(fit->shape.end(), w.state.dev.begin(), w.state.dev.end());
   fit->deviation_basis_curvature_per_mm = w.basis ? w.basis_curvature_per_mm : 0;
-  Covariances(setup, w, b, fit);
-  if (fit->cameras.size() == static_cast<size_t>(setup.photos)) Budget(setup, w, b, n, fit);
+  w.lin = Linearize(setup, w, b, &fit->budget.note);
+  Covariances(setup, w, fit);
+  if (fit->cameras.size() == static_cast<size_t>(setup.photos)) Budget(setup, w, n, fit);
   Adequacy(*setup.options, rss, n, fit);
 }
 
@@ -131,12 +132,16 @@ void CompleteFits(const Setup& setup, std::vector<ModelWork>& work, ScreenFitRes
     MeasureMisfitCorrelation(setup, *cw.lin, LinearizedResiduals(setup, *cw.lin, chosen), chosen.noise_px,
                              &chosen.budget);
   }
-  for (size_t i = 0; i < work.size(); ++i) {
+  // On all cores: each candidate writes only its own fit; the chosen one's misfit fields, which the others copy,
+  // are not written here, and the cache of field bases is filled before (then only read).
+  PrepareComponentBases(setup, chosen.budget.misfit_components);
+  ParallelFor(static_cast<int>(work.size()), [&](int k) {
+    const size_t i = static_cast<size_t>(k);
     ModelFit& fit = result->candidates[i];
     const std::vector<QuantityVariance> vars = CompleteBudget(setup, work[i], chosen, &fit);
     RadiusFromCurvature(setup, work[i], &fit);
     FinishBudget(vars, &fit);
-  }
+  });
 }
 
 void Deviations(const Setup& setup, const ModelWork& w, ScreenFitResult* result) {
@@ -487,13 +492,11 @@ ScreenFitResult FitScreen(const Monitor& nominal, const CameraModel& camera,
   State initial;
   for (int p = 0; p < setup.photos; ++p) initial.poses.push_back(InitialPose(setup, p));
 
-  // Pass 1: robust fits, in order of complexity; richer models start from the cylinder's solution.
-  std::vector<ModelWork> work;
-  std::vector<double> time_ms;
-  const std::vector<bool> all(setup.obs.size(), true);
-  work.reserve(kinds.size());
-  int cylinder = -1;  // index into work
+  // Pass 1: robust fits, in order of complexity; richer models start from the cylinder's solution. The models up
+  // to the cylinder start from the PnP poses and are fitted together, then the richer ones together (on all cores).
   ScreenFitResult result;
+  std::vector<ModelWork> work;
+  const std::vector<bool> all(setup.obs.size(), true);
   for (ScreenModelKind kind : kinds) {
     // A model needs at least 3 residuals per parameter (shape and poses) to be worth fitting and comparing.
     const int shape_parameters =
@@ -508,25 +511,36 @@ ScreenFitResult FitScreen(const Monitor& nominal, const CameraModel& camera,
           ScreenModelName(kind), setup.obs.size(), 2 * setup.obs.size(), parameters));
       continue;
     }
+    work.emplace_back().kind = kind;
+  }
+  std::vector<double> time_ms(work.size(), 0.0);
+  const auto robust = [&](size_t i, const State* from) {
     const Stopwatch watch;
-    ModelWork w;
-    w.kind = kind;
-    const State* from = cylinder >= 0 ? &work[static_cast<size_t>(cylinder)].state : nullptr;
+    ModelWork& w = work[i];
     w.state.poses = from ? from->poses : initial.poses;
     if (options.fit_intrinsics) w.state.intr = from ? from->intr : camera.intrinsics;
     const double k0 = from ? from->core[0] : nominal.curvature_per_mm;
-    w.state.core.assign(static_cast<size_t>(CoreParameterCount(kind)), 0.0);
+    w.state.core.assign(static_cast<size_t>(CoreParameterCount(w.kind)), 0.0);
     if (!w.state.core.empty()) w.state.core[0] = k0;
-    if (kind == ScreenModelKind::kCylinderDeviation) {
+    if (w.kind == ScreenModelKind::kCylinderDeviation) {
       w.basis = std::make_unique<DeviationBasis>(nominal, k0, options.deviation_nu, options.deviation_nv);
       w.basis_curvature_per_mm = k0;
       w.state.dev.assign(static_cast<size_t>(w.basis->size()), 0.0);
     }
     FitRobust(setup, w, all);
-    time_ms.push_back(watch.Ms());
-    work.push_back(std::move(w));
-    if (kind == ScreenModelKind::kCylinder && work.back().robust_ok) cylinder = static_cast<int>(work.size()) - 1;
+    time_ms[i] = watch.Ms();
+  };
+  size_t first_rich = 0;  // the models after the cylinder
+  while (first_rich < work.size() && work[first_rich].kind <= ScreenModelKind::kCylinder) ++first_rich;
+  ParallelFor(static_cast<int>(first_rich), [&](int i) { robust(static_cast<size_t>(i), nullptr); });
+  int cylinder = -1;  // index into work
+  for (size_t i = 0; i < first_rich; ++i) {
+    if (work[i].kind == ScreenModelKind::kCylinder && work[i].robust_ok) cylinder = static_cast<int>(i);
   }
+  const State* from = cylinder >= 0 ? &work[static_cast<size_t>(cylinder)].state : nullptr;
+  // The richest (slowest) first.
+  const int rich = static_cast<int>(work.size() - first_rich);
+  ParallelFor(rich, [&](int k) { robust(work.size() - 1 - static_cast<size_t>(k), from); });
 
   // Common outliers: observations that even the best-fitting model (lowest robust noise) does not explain.
   int best = -1;

@@ -434,23 +434,27 @@ double StudentTCoverageFactor(double p, double dof);
 // P_i(x') P_j(y'), i + j <= degree, x' = 2 x/(width - 1) - 1 (likewise y'), evaluated at the points.
 Eigen::MatrixXd LegendreFieldBasis(const std::vector<Eigen::Vector2d>& points_px, int width, int height, int degree);
 
+// A random-feature basis: one row per point, one column per feature (rows contiguous: the fit gathers them photo
+// by photo).
+using FieldBasis = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+
 // A stationary Gaussian random field of unit variance and covariance exp(-|d|^2 / (2 L^2)) (L = length_px),
 // as `features` random Fourier features (Rahimi & Recht 2007): column m is sqrt(2/features) cos(w_m . p / L + b_m),
 // w_m ~ N(0, I), b_m ~ U(0, 2 pi), seeded; N(0, 1) coefficients give the field.
-Eigen::MatrixXd GaussianFieldBasis(const std::vector<Eigen::Vector2d>& points_px, double length_px, int features,
+FieldBasis GaussianFieldBasis(const std::vector<Eigen::Vector2d>& points_px, double length_px, int features,
                                    unsigned seed);
 
 // A stationary random field of unit variance whose spectrum is a ring of radius 2 pi / P (P = period_px): covariance
 // J0(2 pi |d| / P), which changes sign at |d| = 0.38 P. Column m is sqrt(2/features) cos(w_m . p + b_m),
 // w_m = (2 pi / P)(cos t_m, sin t_m) with the directions t_m stratified over [0, pi), b_m ~ U(0, 2 pi), seeded.
-Eigen::MatrixXd RingFieldBasis(const std::vector<Eigen::Vector2d>& points_px, double period_px, int features,
+FieldBasis RingFieldBasis(const std::vector<Eigen::Vector2d>& points_px, double period_px, int features,
                                unsigned seed);
 
 // The random-feature basis of one lens-model-misfit component (UncertaintyBudget::FieldComponent) at the points: its
 // family's basis (GaussianFieldBasis at length_px, RingFieldBasis at period length_px) with options.misfit_features
 // features, seeded per family from options.systematic_field_seed as the budget's own measurement and propagation
 // are, so that a propagation elsewhere (calibrate/from_screen_budget.cc) uses the same fields.
-Eigen::MatrixXd MisfitComponentBasis(const std::vector<Eigen::Vector2d>& points_px,
+FieldBasis MisfitComponentBasis(const std::vector<Eigen::Vector2d>& points_px,
                                      const UncertaintyBudget::FieldComponent& component, const FitOptions& options);
 
 // The component's covariance per coordinate (px^2) between two points distance_px apart: s^2 exp(-d^2 / 2 L^2)

@@ -125,18 +125,22 @@ namespace {
 // Random Fourier features sqrt(2 / D) cos(w_m . p + b_m) at each point (rows) for each (w_m, b_m) (columns). The
 // arguments are formed and reduced to [-pi, pi] in double, the cosine taken by Eigen's vectorized single-precision
 // cosine (absolute error ~1e-7, immaterial for a random basis): libm's double cosine was a sixth of a 10-photo fit's
-// time (perf), the bases holding up to 13 x 400 features per observation.
-Eigen::MatrixXd CosineFeatures(const std::vector<Eigen::Vector2d>& points_px, const Eigen::MatrixXd& omega,
-                               const Eigen::VectorXd& offset) {
-  constexpr double kTwoPi = 6.283185307179586;
+// time (perf), the bases holding up to 13 x 400 features per observation. The reduction rounds by adding and
+// subtracting 1.5 x 2^52 (exact for |t| < 2^51; the arguments here are below 1e5), which vectorizes where
+// std::round is a libm call per element; the rows are written contiguously (FieldBasis is row-major).
+FieldBasis CosineFeatures(const std::vector<Eigen::Vector2d>& points_px, const Eigen::MatrixXd& omega,
+                          const Eigen::VectorXd& offset) {
+  constexpr double kTwoPi = 6.283185307179586, kRound = 6755399441055744.0;
   const long features = omega.rows();
   const double scale = std::sqrt(2.0 / static_cast<double>(features));
-  Eigen::MatrixXd b(static_cast<long>(points_px.size()), features);
-  Eigen::ArrayXd arg(features);
+  FieldBasis b(static_cast<long>(points_px.size()), features);
+  const Eigen::ArrayXd wx = omega.col(0).array(), wy = omega.col(1).array(), off = offset.array();
+  Eigen::ArrayXd arg(features), turns(features);
   Eigen::ArrayXf reduced(features);
   for (size_t r = 0; r < points_px.size(); ++r) {
-    arg = (omega * points_px[r] + offset).array();
-    arg -= kTwoPi * (arg / kTwoPi).round();
+    arg = wx * points_px[r].x() + wy * points_px[r].y() + off;
+    turns = (arg * (1 / kTwoPi) + kRound) - kRound;
+    arg -= kTwoPi * turns;
     // The cosine alone in an expression of its own: inside the casts, Eigen evaluated it one scalar at a time
     // through libm's cosf (a sixth of a ten-photo fit, perf); on a float array it takes its vectorized cosine.
     reduced = arg.cast<float>();
@@ -148,7 +152,7 @@ Eigen::MatrixXd CosineFeatures(const std::vector<Eigen::Vector2d>& points_px, co
 
 }  // namespace
 
-Eigen::MatrixXd GaussianFieldBasis(const std::vector<Eigen::Vector2d>& points_px, double length_px, int features,
+FieldBasis GaussianFieldBasis(const std::vector<Eigen::Vector2d>& points_px, double length_px, int features,
                                    unsigned seed) {
   if (!(length_px > 0) || features < 1) {
     throw Error("Gaussian field basis", fmt::format("length {} px, {} features", length_px, features), "");
@@ -162,7 +166,7 @@ Eigen::MatrixXd GaussianFieldBasis(const std::vector<Eigen::Vector2d>& points_px
   return CosineFeatures(points_px, omega / length_px, offset);
 }
 
-Eigen::MatrixXd RingFieldBasis(const std::vector<Eigen::Vector2d>& points_px, double period_px, int features,
+FieldBasis RingFieldBasis(const std::vector<Eigen::Vector2d>& points_px, double period_px, int features,
                                unsigned seed) {
   if (!(period_px > 0) || features < 1) {
     throw Error("ring field basis", fmt::format("period {} px, {} features", period_px, features), "");
@@ -179,7 +183,7 @@ Eigen::MatrixXd RingFieldBasis(const std::vector<Eigen::Vector2d>& points_px, do
   return CosineFeatures(points_px, omega, offset);
 }
 
-Eigen::MatrixXd MisfitComponentBasis(const std::vector<Eigen::Vector2d>& points_px,
+FieldBasis MisfitComponentBasis(const std::vector<Eigen::Vector2d>& points_px,
                                      const UncertaintyBudget::FieldComponent& component, const FitOptions& options) {
   return component.family == UncertaintyBudget::FieldFamily::kRing
              ? RingFieldBasis(points_px, component.length_px, options.misfit_features,
@@ -254,8 +258,10 @@ IntrinsicsCovariance ReadIntrinsicsCovariance(const std::filesystem::path& path,
 
 
 namespace curvecheck::screen_fit_internal {
-namespace {
 
+// The final fit's Jacobian at the solution, dense, in the parameters' tangent space (every residual block: the
+// active observations, then the deviation prior), its equilibrated pseudo-inverse (J^T J)^+ (the covariance's
+// unscaled form: Covariances reads its blocks) and G = sel (J^T J)^+ J^T for the budget's rows.
 std::optional<Linearization> Linearize(const Setup& setup, const ModelWork& w, BuiltProblem& b, std::string* note) {
   State& st = const_cast<State&>(w.state);  // Ceres wants non-const blocks; Evaluate does not change them
   ceres::Problem::EvaluateOptions eo;
@@ -272,7 +278,9 @@ std::optional<Linearization> Linearize(const Setup& setup, const ModelWork& w, B
   }
   const int core_offset = t;
   if (!st.core.empty()) eo.parameter_blocks.push_back(st.core.data()), t += static_cast<int>(st.core.size());
+  const int dev_offset = t;
   if (!st.dev.empty()) eo.parameter_blocks.push_back(st.dev.data()), t += static_cast<int>(st.dev.size());
+  const int intr_offset = t;
   if (!st.intr.empty()) eo.parameter_blocks.push_back(st.intr.data()), t += static_cast<int>(st.intr.size());
   ceres::CRSMatrix crs;
   std::vector<double> gradient;
@@ -285,6 +293,36 @@ std::optional<Linearization> Linearize(const Setup& setup, const ModelWork& w, B
     for (int i = crs.rows[static_cast<size_t>(r)]; i < crs.rows[static_cast<size_t>(r) + 1]; ++i) {
       j(r, crs.cols[static_cast<size_t>(i)]) = crs.values[static_cast<size_t>(i)];
     }
+  }
+  Linearization lin;
+  const size_t n_obs = b.obs_index.size();
+  lin.j_obs = j.topRows(static_cast<long>(2 * n_obs));
+  lin.shared_col = core_offset;  // the poses' columns come first
+  for (size_t i = 0; i < n_obs; ++i) {
+    const long pose_col = pose_offset[static_cast<size_t>(setup.obs[b.obs_index[i]].photo)];
+    if (lin.runs.empty() || lin.runs.back().pose_col != pose_col) {
+      lin.runs.push_back({2 * static_cast<long>(i), 0, pose_col});
+    }
+    lin.runs.back().rows += 2;
+  }
+  // J^T J run by run (each run's dense block: its pose's 6 columns and the shared ones), then the rows past the
+  // observations (the deviation prior).
+  Eigen::MatrixXd normal = Eigen::MatrixXd::Zero(t, t);
+  {
+    const long shared = t - lin.shared_col;
+    Eigen::MatrixXd block;
+    for (const Linearization::Run& run : lin.runs) {
+      block.resize(run.rows, 6 + shared);
+      block << lin.j_obs.block(run.row, run.pose_col, run.rows, 6),
+          lin.j_obs.block(run.row, lin.shared_col, run.rows, shared);
+      const Eigen::MatrixXd gram = block.transpose() * block;
+      normal.block(run.pose_col, run.pose_col, 6, 6) += gram.topLeftCorner(6, 6);
+      normal.block(run.pose_col, lin.shared_col, 6, shared) += gram.topRightCorner(6, shared);
+      normal.block(lin.shared_col, run.pose_col, shared, 6) += gram.bottomLeftCorner(shared, 6);
+      normal.bottomRightCorner(shared, shared) += gram.bottomRightCorner(shared, shared);
+    }
+    const long prior = j.rows() - lin.j_obs.rows();
+    if (prior > 0) normal.noalias() += j.bottomRows(prior).transpose() * j.bottomRows(prior);
   }
   // Selection of q from the tangent parameters.
   const int nq = 1 + 3 * setup.photos;
@@ -307,8 +345,7 @@ std::optional<Linearization> Linearize(const Setup& setup, const ModelWork& w, B
   // lateral position (nearly traded against its yaw) got no share of any correlated error.
   Eigen::VectorXd scale = j.colwise().norm().transpose();
   for (long c = 0; c < scale.size(); ++c) scale[c] = scale[c] > 0 ? 1 / scale[c] : 0;
-  const Eigen::MatrixXd js = j * scale.asDiagonal();
-  const Eigen::MatrixXd normal_scaled = js.transpose() * js;
+  const Eigen::MatrixXd normal_scaled = scale.asDiagonal() * normal * scale.asDiagonal();
   const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(normal_scaled);
   const Eigen::VectorXd ev = eig.eigenvalues();
   const double cut = 1e-12 * std::max(ev.maxCoeff(), 1e-300);
@@ -316,20 +353,43 @@ std::optional<Linearization> Linearize(const Setup& setup, const ModelWork& w, B
   for (long i = 0; i < ev.size(); ++i) inv[i] = ev[i] > cut ? 1 / ev[i] : 0;
   const Eigen::MatrixXd vs = scale.asDiagonal() * eig.eigenvectors();
   const Eigen::MatrixXd x = vs * inv.asDiagonal() * (vs.transpose() * sel.transpose());
-  Linearization lin;
-  const Eigen::MatrixXd g_all = x.transpose() * j.transpose();
-  const size_t n_obs = b.obs_index.size();
-  lin.g = g_all.leftCols(static_cast<long>(2 * n_obs));
+  lin.g = JTimes(lin, x).transpose();
+  lin.sel_pinv = x.transpose();
   lin.obs = b.obs_index;
-  lin.j_obs = j.topRows(static_cast<long>(2 * n_obs));
   lin.normal_pinv = vs * inv.asDiagonal() * vs.transpose();
-  // J^T J back from the scaled one (a zero column has scale 0 and a zero row and column in J^T J).
-  Eigen::VectorXd unscale = Eigen::VectorXd::Zero(scale.size());
-  for (long c = 0; c < scale.size(); ++c) unscale[c] = scale[c] > 0 ? 1 / scale[c] : 0;
-  lin.normal = unscale.asDiagonal() * normal_scaled * unscale.asDiagonal();
+  lin.normal = normal;
   lin.gradient = Eigen::Map<const Eigen::VectorXd>(gradient.data(), static_cast<long>(gradient.size()));
+  lin.pose_offset = pose_offset;
+  lin.core_offset = st.core.empty() ? -1 : core_offset;
+  lin.dev_offset = st.dev.empty() ? -1 : dev_offset;
+  lin.intr_offset = st.intr.empty() ? -1 : intr_offset;
+  lin.dropped_directions = static_cast<int>((ev.array() <= cut).count());
   return lin;
 }
+
+Eigen::MatrixXd JTimes(const Linearization& lin, const Eigen::MatrixXd& y) {
+  Eigen::MatrixXd out(lin.j_obs.rows(), y.cols());
+  const long shared = lin.j_obs.cols() - lin.shared_col;
+  for (const Linearization::Run& run : lin.runs) {
+    auto rows = out.middleRows(run.row, run.rows);
+    rows.noalias() = lin.j_obs.block(run.row, run.pose_col, run.rows, 6) * y.middleRows(run.pose_col, 6);
+    rows.noalias() += lin.j_obs.block(run.row, lin.shared_col, run.rows, shared) * y.bottomRows(shared);
+  }
+  return out;
+}
+
+Eigen::MatrixXd JtTimes(const Linearization& lin, const Eigen::MatrixXd& x) {
+  Eigen::MatrixXd out = Eigen::MatrixXd::Zero(lin.j_obs.cols(), x.cols());
+  const long shared = lin.j_obs.cols() - lin.shared_col;
+  for (const Linearization::Run& run : lin.runs) {
+    const auto rows = x.middleRows(run.row, run.rows);
+    out.middleRows(run.pose_col, 6).noalias() += lin.j_obs.block(run.row, run.pose_col, run.rows, 6).transpose() * rows;
+    out.bottomRows(shared).noalias() += lin.j_obs.block(run.row, lin.shared_col, run.rows, shared).transpose() * rows;
+  }
+  return out;
+}
+
+namespace {
 
 // Bias fields over the image of RMS `bound_px` per coordinate (Legendre polynomials of total degree <= `degree`,
 // the same field in every photo), propagated through G; the covariance of q over seeded draws. The detector
@@ -447,7 +507,7 @@ std::vector<Eigen::Vector2d> LinearizedResiduals(const Setup& setup, const Linea
 
 // Builds the rows of one candidate's budget at its final solution (ModelWork::budget_vars, ::lin), all but the
 // lens-model-misfit row's variance, which CompleteBudget adds once the model is chosen.
-void Budget(const Setup& setup, ModelWork& w, BuiltProblem& b, int n_residuals, ModelFit* fit) {
+void Budget(const Setup& setup, ModelWork& w, int n_residuals, ModelFit* fit) {
   const FitOptions& o = *setup.options;
   UncertaintyBudget& bud = fit->budget;
   bud.coverage_probability = o.coverage_probability;
@@ -473,8 +533,7 @@ void Budget(const Setup& setup, ModelWork& w, BuiltProblem& b, int n_residuals, 
   bud.components.push_back(c_noise);
   vars.push_back(noise);
 
-  w.lin = Linearize(setup, w, b, &bud.note);
-  const std::optional<Linearization>& lin = w.lin;
+  const std::optional<Linearization>& lin = w.lin;  // FitFinal's (Linearize)
   // 2. Detector systematic (pixel-locking and other detector bias).
   {
     const std::vector<Eigen::Vector2d> det = lin ? DetectedPoints(setup, *lin) : std::vector<Eigen::Vector2d>();

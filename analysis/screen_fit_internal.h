@@ -129,9 +129,20 @@ struct Linearization {
   Eigen::MatrixXd g;             // (1 + 3 P) x (2 n_obs)
   std::vector<size_t> obs;       // Setup::obs index of each column pair
   Eigen::MatrixXd j_obs;         // (2 n_obs) x t: the observations' rows of J (tangent space)
+  // The structure of j_obs: runs of consecutive rows of one photo, whose non-zeros lie in that photo's pose columns
+  // (6 from `pose_col`) and the shared columns (from `shared_col`: the shape, the deviation field, free intrinsics).
+  // Products with J go run by run on these dense blocks (JTimes, JtTimes): at ten photos J is ~85% zeros.
+  struct Run { long row, rows, pose_col; };
+  std::vector<Run> runs;
+  long shared_col = 0;
   Eigen::MatrixXd normal_pinv;   // (J^T J)^+, t x t
+  Eigen::MatrixXd sel_pinv;      // sel (J^T J)^+, (1 + 3 P) x t: G = sel_pinv J^T
   Eigen::MatrixXd normal;        // J^T J over every row (deviation prior included), t x t
   Eigen::VectorXd gradient;      // J^T e at the solution (e: Ceres's residuals, all rows), t
+  // Where each parameter block's tangent columns start (-1: a pose not in the problem, or a block that is empty).
+  std::vector<int> pose_offset;  // per photo: rotation (3), then the position (3)
+  int core_offset = -1, dev_offset = -1, intr_offset = -1;
+  int dropped_directions = 0;  // directions of the equilibrated J^T J cut from the pseudo-inverse (rank deficiency)
 };
 
 // Everything about one model's fit that the selection and the deviations need beyond ModelFit.
@@ -165,19 +176,23 @@ std::vector<Eigen::Vector2d> Residuals(const Setup& setup, ScreenModelKind kind,
                                        const State& st);
 double MadSigma(const std::vector<Eigen::Vector2d>& r);
 PoseBlock InitialPose(const Setup& setup, int photo);
-void Covariances(const Setup& setup, ModelWork& w, BuiltProblem& b, ModelFit* fit);
+void Covariances(const Setup& setup, ModelWork& w, ModelFit* fit);
 
-// screen_fit_budget.cc: the uncertainty budget.
+// screen_fit_budget.cc: the final fit's linearization and the uncertainty budget.
+std::optional<Linearization> Linearize(const Setup& setup, const ModelWork& w, BuiltProblem& b, std::string* note);
+Eigen::MatrixXd JTimes(const Linearization& lin, const Eigen::MatrixXd& y);   // j_obs y
+Eigen::MatrixXd JtTimes(const Linearization& lin, const Eigen::MatrixXd& x);  // j_obs^T x
 std::vector<Eigen::Vector2d> DetectedPoints(const Setup& setup, const Linearization& lin);
 Eigen::MatrixXd PixelLockingShapes(const Setup& setup, const Linearization& lin);
 inline constexpr size_t kMisfitRow = 3;  // the lens-model-misfit row's index in UncertaintyBudget::components
 std::vector<Eigen::Vector2d> LinearizedResiduals(const Setup& setup, const Linearization& lin, const ModelFit& fit);
-void Budget(const Setup& setup, ModelWork& w, BuiltProblem& b, int n_residuals, ModelFit* fit);
+void Budget(const Setup& setup, ModelWork& w, int n_residuals, ModelFit* fit);
 std::vector<QuantityVariance> CompleteBudget(const Setup& setup, ModelWork& w, const ModelFit& reference,
                                              ModelFit* fit);
 void FinishBudget(const std::vector<QuantityVariance>& vars, ModelFit* fit);
 
 // screen_fit_misfit.cc: the lens-model-misfit row.
+void PrepareComponentBases(const Setup& setup, const std::vector<UncertaintyBudget::FieldComponent>& components);
 QuantityVariance FieldVariance(const Setup& setup, const Linearization& lin,
                                const UncertaintyBudget::FieldComponent& component);
 void EstimateMisfit(const Setup& setup, const Linearization& lin, const std::vector<Eigen::Vector2d>& residual,

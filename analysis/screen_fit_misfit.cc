@@ -51,6 +51,14 @@ std::vector<PhotoBlock> PhotoBlocks(const Setup& setup, const Linearization& lin
   return out;
 }
 
+// One photo's rows of a basis over every observation (Setup::obs order), in the block's row order.
+void GatherRows(const Linearization& lin, const PhotoBlock& block, const RowMajor& basis, RowMajor* phi) {
+  phi->resize(static_cast<long>(block.rows.size()), basis.cols());
+  for (size_t r = 0; r < block.rows.size(); ++r) {
+    phi->row(static_cast<long>(r)) = basis.row(static_cast<long>(lin.obs[static_cast<size_t>(block.rows[r])]));
+  }
+}
+
 // The median distance from each observation to its nearest neighbour in the same photo, over all observations
 // (Setup::misfit_cache, computed once per fit): the unit of the lags and of the candidates' lengths.
 double FeatureSpacing(const Setup& setup) {
@@ -78,37 +86,24 @@ std::pair<int, double> BasisKey(const UncertaintyBudget::FieldComponent& c) {
   return {c.family == UncertaintyBudget::FieldFamily::kRing ? 1 : 0, c.length_px};
 }
 
-// Builds the bases of `components` at every observation that the cache does not hold yet, on all cores; the
-// cache is written here only, on the calling thread, so that ComponentBasis may then read it from any thread.
-void PrepareComponentBases(const Setup& setup, const std::vector<UncertaintyBudget::FieldComponent>& components) {
-  std::vector<size_t> missing;
-  for (size_t i = 0; i < components.size(); ++i) {
-    const auto key = BasisKey(components[i]);
-    const bool queued = std::any_of(missing.begin(), missing.end(),
-                                    [&](size_t m) { return BasisKey(components[m]) == key; });
-    if (!queued && !setup.misfit_cache->bases.count(key)) missing.push_back(i);
-  }
-  if (missing.empty()) return;
-  std::vector<Eigen::Vector2d> all;
-  for (const Obs& ob : setup.obs) all.push_back(ob.detected);
-  std::vector<RowMajor> built(missing.size());
-  ParallelFor(static_cast<int>(missing.size()), [&](int k) {
-    built[static_cast<size_t>(k)] = MisfitComponentBasis(all, components[missing[static_cast<size_t>(k)]], *setup.options);
-  });
-  for (size_t k = 0; k < missing.size(); ++k) {
-    setup.misfit_cache->bases.emplace(BasisKey(components[missing[k]]), std::move(built[k]));
-  }
-}
 
-// The basis of one component's family at the active observations (lin.obs), seeded per family so that the
-// measurement and the propagation use the same fields; built once per fit at every observation (Setup::
-// misfit_cache, PrepareComponentBases) and gathered.
-RowMajor ComponentBasis(const Setup& setup, const Linearization& lin, const UncertaintyBudget::FieldComponent& c) {
-  PrepareComponentBases(setup, {c});
-  const RowMajor& basis = setup.misfit_cache->bases.at(BasisKey(c));
-  RowMajor phi(static_cast<long>(lin.obs.size()), basis.cols());
-  for (size_t r = 0; r < lin.obs.size(); ++r) phi.row(static_cast<long>(r)) = basis.row(static_cast<long>(lin.obs[r]));
-  return phi;
+// J_f^T Phi for both coordinates f (t x D each), Phi = `basis` (a cached component basis, rows: every observation)
+// at the active observations, summed photo by photo over the dense blocks; and the sum of Phi's squares.
+std::array<RowMajor, 2> JacobianTimesBasis(const Linearization& lin, const std::vector<PhotoBlock>& blocks,
+                                           const RowMajor& basis, double* phi_squared) {
+  const long t = lin.j_obs.cols(), features = basis.cols();
+  std::array<RowMajor, 2> jtp = {RowMajor::Zero(t, features), RowMajor::Zero(t, features)};
+  *phi_squared = 0;
+  RowMajor phi, part;
+  for (const PhotoBlock& block : blocks) {
+    GatherRows(lin, block, basis, &phi);
+    *phi_squared += phi.squaredNorm();
+    for (size_t f = 0; f < 2; ++f) {
+      part.noalias() = block.j[f].transpose() * phi;
+      for (size_t c = 0; c < block.cols.size(); ++c) jtp[f].row(block.cols[c]) += part.row(static_cast<long>(c));
+    }
+  }
+  return jtp;
 }
 
 // Each active observation paired with its nearest neighbour in the same photo (indices into lin.obs); candidates
@@ -145,7 +140,7 @@ std::vector<Eigen::Vector2d> WithoutPixelLocking(const Setup& setup, const Linea
   const Eigen::MatrixXd shapes = PixelLockingShapes(setup, lin);
   Eigen::VectorXd r(2 * n);
   for (int i = 0; i < n; ++i) r.segment<2>(2 * i) = residual[static_cast<size_t>(i)];
-  const Eigen::MatrixXd projected = shapes - lin.j_obs * (lin.normal_pinv * (lin.j_obs.transpose() * shapes));
+  const Eigen::MatrixXd projected = shapes - JTimes(lin, lin.normal_pinv * JtTimes(lin, shapes));
   const Eigen::MatrixXd normal = projected.transpose() * projected;
   if (!r.allFinite() || !(normal.diagonal().minCoeff() > 1e-9 * n)) return residual;
   const Eigen::VectorXd fitted = projected * normal.ldlt().solve(projected.transpose() * r);
@@ -256,7 +251,7 @@ void EstimateMisfitCorrelation(const Setup& setup, const Linearization& lin,
     for (size_t i = 0; i < kMaxPairsPerLag; ++i) thin.push_back(l[static_cast<size_t>(i * step)]);
     l.swap(thin);
   }
-  const Eigen::MatrixXd jp = lin.j_obs * lin.normal_pinv;  // 2n x t
+  const Eigen::MatrixXd jp = JTimes(lin, lin.normal_pinv);  // 2n x t
   struct Bin { double lag = 0, stat = 0, nu = 0; int pairs = 0; };
   std::vector<Bin> stats;
   std::vector<size_t> used_bins;
@@ -321,24 +316,9 @@ void EstimateMisfitCorrelation(const Setup& setup, const Linearization& lin,
     const RowMajor& basis = setup.misfit_cache->bases.at(BasisKey(candidates[static_cast<size_t>(ci)]));
     const long features = basis.cols();
     RowMajor phi;  // one photo's rows of the basis
-    const auto gather = [&](const PhotoBlock& block) {
-      phi.resize(static_cast<long>(block.rows.size()), features);
-      for (size_t r = 0; r < block.rows.size(); ++r) {
-        phi.row(static_cast<long>(r)) = basis.row(static_cast<long>(lin.obs[static_cast<size_t>(block.rows[r])]));
-      }
-    };
     // U_f = (J^T J)^+ J_f^T phi, J_f^T phi summed photo by photo.
-    std::array<RowMajor, 2> jtp = {RowMajor::Zero(t, features), RowMajor::Zero(t, features)};
     double phi_squared = 0;
-    RowMajor part;
-    for (const PhotoBlock& block : blocks) {
-      gather(block);
-      phi_squared += phi.squaredNorm();
-      for (size_t f = 0; f < 2; ++f) {
-        part.noalias() = block.j[f].transpose() * phi;
-        for (size_t c = 0; c < block.cols.size(); ++c) jtp[f].row(block.cols[c]) += part.row(static_cast<long>(c));
-      }
-    }
+    const std::array<RowMajor, 2> jtp = JacobianTimesBasis(lin, blocks, basis, &phi_squared);
     std::array<RowMajor, 2> u;
     for (size_t f = 0; f < 2; ++f) u[f].noalias() = lin.normal_pinv * jtp[f];
     // The x field seen on y's rows (cross_y = U_x U_x^T), and vice versa.
@@ -350,7 +330,7 @@ void EstimateMisfitCorrelation(const Setup& setup, const Linearization& lin,
     RowMajor u_block;
     for (size_t bi = 0; bi < blocks.size(); ++bi) {
       const PhotoBlock& block = blocks[bi];
-      gather(block);
+      GatherRows(lin, block, basis, &phi);
       const long nc = static_cast<long>(block.cols.size());
       for (size_t f = 0; f < 2; ++f) {
         u_block.resize(nc, features);
@@ -503,17 +483,44 @@ void EstimateMisfitCorrelation(const Setup& setup, const Linearization& lin,
 
 }  // namespace
 
+// Builds the bases of `components` at every observation that the cache does not hold yet, on all cores; the
+// cache is written here only, on the calling thread, so that FieldVariance and the
+// correlation's candidates may then read it from any thread.
+void PrepareComponentBases(const Setup& setup, const std::vector<UncertaintyBudget::FieldComponent>& components) {
+  std::vector<size_t> missing;
+  for (size_t i = 0; i < components.size(); ++i) {
+    const auto key = BasisKey(components[i]);
+    const bool queued = std::any_of(missing.begin(), missing.end(),
+                                    [&](size_t m) { return BasisKey(components[m]) == key; });
+    if (!queued && !setup.misfit_cache->bases.count(key)) missing.push_back(i);
+  }
+  if (missing.empty()) return;
+  std::vector<Eigen::Vector2d> all;
+  for (const Obs& ob : setup.obs) all.push_back(ob.detected);
+  std::vector<RowMajor> built(missing.size());
+  ParallelFor(static_cast<int>(missing.size()), [&](int k) {
+    const size_t i = missing[static_cast<size_t>(k)];
+    built[static_cast<size_t>(k)] = MisfitComponentBasis(all, components[i], *setup.options);
+  });
+  for (size_t k = 0; k < missing.size(); ++k) {
+    setup.misfit_cache->bases.emplace(BasisKey(components[missing[k]]), std::move(built[k]));
+  }
+}
+
 // A stationary field of one component's family and variance, common to every photo, propagated through G exactly
 // from its random-feature basis: cov(q) = s2 / v (G_x Phi Phi^T G_x^T + G_y Phi Phi^T G_y^T), v the basis's mean
 // variance at the points.
 QuantityVariance FieldVariance(const Setup& setup, const Linearization& lin,
                                const UncertaintyBudget::FieldComponent& component) {
-  const int n = static_cast<int>(lin.obs.size()), nq = static_cast<int>(lin.g.rows());
-  const RowMajor phi = ComponentBasis(setup, lin, component);
-  Eigen::MatrixXd gx(nq, n), gy(nq, n);
-  for (int i = 0; i < n; ++i) gx.col(i) = lin.g.col(2 * i), gy.col(i) = lin.g.col(2 * i + 1);
-  const Eigen::MatrixXd mx = gx * phi, my = gy * phi;
-  const double variance = phi.squaredNorm() / n;
+  const int n = static_cast<int>(lin.obs.size());
+  PrepareComponentBases(setup, {component});
+  const RowMajor& basis = setup.misfit_cache->bases.at(BasisKey(component));
+  // G_f Phi = sel (J^T J)^+ (J_f^T Phi), J_f^T Phi photo by photo (a photo's rows of J touch its pose and the
+  // shared columns only): a quarter of the products of the dense G_f Phi at ten photos.
+  double phi_squared = 0;
+  const std::array<RowMajor, 2> jtp = JacobianTimesBasis(lin, PhotoBlocks(setup, lin), basis, &phi_squared);
+  const Eigen::MatrixXd mx = lin.sel_pinv * jtp[0], my = lin.sel_pinv * jtp[1];
+  const double variance = phi_squared / n;
   return QuantityVariance::FromCovariance(
       component.variance_px2 / variance * (mx * mx.transpose() + my * my.transpose()), setup.photos);
 }
@@ -536,7 +543,7 @@ void EstimateMisfit(const Setup& setup, const Linearization& lin, const std::vec
   if (pairs.size() < 8) return;
   const double np = static_cast<double>(pairs.size());
   double stat = 0, nu = 0;
-  const Eigen::MatrixXd j_pinv = lin.j_obs * lin.normal_pinv;  // one product instead of one per pair
+  const Eigen::MatrixXd j_pinv = JTimes(lin, lin.normal_pinv);  // one product instead of one per pair
   for (const auto& [a, b] : pairs) {
     stat += 0.5 * residual[static_cast<size_t>(a)].dot(residual[static_cast<size_t>(b)]) / np;
     for (int c = 0; c < 2; ++c) nu -= 0.5 * j_pinv.row(2 * a + c).dot(lin.j_obs.row(2 * b + c)) / np;
@@ -547,8 +554,8 @@ void EstimateMisfit(const Setup& setup, const Linearization& lin, const std::vec
   const long terms = basis.cols();
   Eigen::MatrixXd dx = Eigen::MatrixXd::Zero(2 * n, terms), dy = Eigen::MatrixXd::Zero(2 * n, terms);
   for (int i = 0; i < n; ++i) dx.row(2 * i) = basis.row(i), dy.row(2 * i + 1) = basis.row(i);
-  const Eigen::MatrixXd rx = dx - lin.j_obs * (lin.normal_pinv * (lin.j_obs.transpose() * dx));
-  const Eigen::MatrixXd ry = dy - lin.j_obs * (lin.normal_pinv * (lin.j_obs.transpose() * dy));
+  const Eigen::MatrixXd rx = dx - JTimes(lin, lin.normal_pinv * JtTimes(lin, dx));
+  const Eigen::MatrixXd ry = dy - JTimes(lin, lin.normal_pinv * JtTimes(lin, dy));
   const Eigen::MatrixXd gram = basis.transpose() * basis;
   {
     Eigen::MatrixXd projected_basis(2 * n, 2 * terms);

@@ -22,31 +22,26 @@ namespace {
 // The free intrinsics' outcome (FitOptions::fit_intrinsics): their values, their covariance (marginal over the poses
 // and the shape: a block of the joint covariance), their covariance with the curvature k (grad: dk/dcore) and, per
 // photo, the correlation of the focal length fx with the camera's distance from the screen centre |c|.
-void JointIntrinsics(const Setup& setup, const State& st, ceres::Covariance& covariance, double var,
+void JointIntrinsics(const Setup& setup, const State& st, const Linearization& lin, double var,
                      const Eigen::VectorXd& grad, ModelFit* fit) {
   const int ni = static_cast<int>(st.intr.size()), nc = static_cast<int>(st.core.size());
+  const Eigen::MatrixXd& c = lin.normal_pinv;
   fit->intrinsics = st.intr;
-  Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> ci(ni, ni);
-  if (!covariance.GetCovarianceBlock(st.intr.data(), st.intr.data(), ci.data())) return;
+  const Eigen::MatrixXd ci = c.block(lin.intr_offset, lin.intr_offset, ni, ni);
   fit->intrinsics_covariance = var * ci;
   if (nc > 0) {
-    Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> cki(nc, ni);
-    if (covariance.GetCovarianceBlock(st.core.data(), st.intr.data(), cki.data())) {
-      fit->intrinsics_curvature_cov = var * (grad.transpose() * cki).transpose();
-    }
+    const Eigen::MatrixXd cki = c.block(lin.core_offset, lin.intr_offset, nc, ni);
+    fit->intrinsics_curvature_cov = var * (grad.transpose() * cki).transpose();
   }
   fit->focal_distance_correlation.assign(static_cast<size_t>(setup.photos), kNaN);
   for (int p = 0; p < setup.photos; ++p) {
+    const int o = lin.pose_offset[static_cast<size_t>(p)];
+    if (o < 0) continue;
     const PoseBlock& pose = st.poses[static_cast<size_t>(p)];
-    Eigen::Matrix<double, 6, 6, Eigen::RowMajor> c6;
-    Eigen::Matrix<double, 6, Eigen::Dynamic, Eigen::RowMajor> cpi(6, ni);
-    if (!covariance.GetCovarianceBlockInTangentSpace(pose.data(), pose.data(), c6.data()) ||
-        !covariance.GetCovarianceBlockInTangentSpace(pose.data(), st.intr.data(), cpi.data())) {
-      continue;
-    }
-    const Eigen::Vector3d c(pose[4], pose[5], pose[6]);
-    const Eigen::Vector3d u = c.normalized();  // d|c|/dc
-    const double var_d = u.dot(c6.bottomRightCorner<3, 3>() * u), cov_df = u.dot(cpi.bottomRows<3>().col(0));
+    const Eigen::Vector3d centre(pose[4], pose[5], pose[6]);
+    const Eigen::Vector3d u = centre.normalized();  // d|c|/dc
+    const double var_d = u.dot(c.block<3, 3>(o + 3, o + 3) * u);
+    const double cov_df = u.dot(c.block(o + 3, lin.intr_offset, 3, 1).col(0));
     if (var_d > 0 && ci(0, 0) > 0) {
       fit->focal_distance_correlation[static_cast<size_t>(p)] = cov_df / std::sqrt(var_d * ci(0, 0));
     }
@@ -216,42 +211,25 @@ PoseBlock InitialPose(const Setup& setup, int photo) {
   return {q.x(), q.y(), q.z(), q.w(), c.x(), c.y(), c.z()};
 }
 
-void Covariances(const Setup& setup, ModelWork& w, BuiltProblem& b, ModelFit* fit) {
+// The parameters' covariance, scaled by the residual noise, from the final fit's linearization (Linearize: the
+// equilibrated pseudo-inverse of J^T J in the tangent space; the same as Ceres's covariance of the problem where J
+// has full rank, without a sparse QR of the whole Jacobian per candidate). Directions of the equilibrated J^T J
+// below 1e-12 of its largest eigenvalue are dropped and the fit is marked ill-conditioned.
+void Covariances(const Setup& setup, ModelWork& w, ModelFit* fit) {
   State& st = w.state;
-  std::vector<std::pair<const double*, const double*>> pairs;
-  for (PoseBlock& pose : st.poses) {
-    if (!b.problem->HasParameterBlock(pose.data())) continue;
-    pairs.emplace_back(pose.data(), pose.data());
-    // The pose-shape cross block: the screen-frame camera position (z - R) needs cov(position, curvature).
-    if (!st.core.empty()) pairs.emplace_back(pose.data(), st.core.data());
-    if (!st.intr.empty()) pairs.emplace_back(pose.data(), st.intr.data());
-  }
-  if (!st.core.empty()) pairs.emplace_back(st.core.data(), st.core.data());
-  if (!st.dev.empty()) pairs.emplace_back(st.dev.data(), st.dev.data());
-  if (!st.intr.empty()) {
-    pairs.emplace_back(st.intr.data(), st.intr.data());
-    if (!st.core.empty()) pairs.emplace_back(st.core.data(), st.intr.data());
-  }
-  ceres::Covariance::Options co;
-  co.num_threads = 1;
-  co.algorithm_type = ceres::SPARSE_QR;
-  auto covariance = std::make_unique<ceres::Covariance>(co);
-  bool ok = covariance->Compute(pairs, b.problem.get());
-  if (!ok) {
-    // Rank-deficient: report it and fall back to the pseudo-inverse (directions below 1e-12 of the largest
-    // eigenvalue of J^T J dropped).
-    co.algorithm_type = ceres::DENSE_SVD;
-    co.null_space_rank = -1;
-    co.min_reciprocal_condition_number = 1e-12;
-    covariance = std::make_unique<ceres::Covariance>(co);
-    ok = covariance->Compute(pairs, b.problem.get());
+  if (!w.lin) {
     fit->ill_conditioned = true;
-    fit->condition_note += "rank-deficient Jacobian: some parameters are not determined by these photos; "
-                           "sigmas are from the pseudo-inverse. ";
-    if (!ok) {
-      fit->condition_note += "covariance could not be computed. ";
-      return;
-    }
+    fit->condition_note += "covariance could not be computed. ";
+    return;
+  }
+  const Linearization& lin = *w.lin;
+  const Eigen::MatrixXd& c = lin.normal_pinv;
+  if (lin.dropped_directions > 0) {
+    fit->ill_conditioned = true;
+    fit->condition_note += fmt::format(
+        "rank-deficient Jacobian: some parameters are not determined by these photos ({} direction{} of the "
+        "equilibrated J^T J below 1e-12 of its largest eigenvalue); sigmas are from the pseudo-inverse. ",
+        lin.dropped_directions, lin.dropped_directions == 1 ? "" : "s");
   }
   const double var = fit->noise_px * fit->noise_px;
   const int nc = static_cast<int>(st.core.size());
@@ -270,30 +248,19 @@ void Covariances(const Setup& setup, ModelWork& w, BuiltProblem& b, ModelFit* fi
     cam.centre_from_cam = Pose(Eigen::Quaterniond(pose[3], pose[0], pose[1], pose[2]),
                                Eigen::Vector3d(pose[4], pose[5], pose[6]));
     cam.position_in_centre_sigma_mm.setConstant(kNaN);
-    if (!b.problem->HasParameterBlock(pose.data())) continue;
-    Eigen::Matrix<double, 6, 6, Eigen::RowMajor> c6;
-    if (covariance->GetCovarianceBlockInTangentSpace(pose.data(), pose.data(), c6.data())) {
-      cam.position_in_centre_sigma_mm = (var * c6.bottomRightCorner<3, 3>().diagonal()).cwiseSqrt();
-    }
-    if (nc > 0) {
-      // Tangent space of the pose: rotation (3), then the position (3); the core block is Euclidean.
-      Eigen::Matrix<double, 6, Eigen::Dynamic, Eigen::RowMajor> cross(6, nc);
-      if (covariance->GetCovarianceBlockInTangentSpace(pose.data(), st.core.data(), cross.data())) {
-        w.position_curvature_cov[static_cast<size_t>(p)] = var * cross.bottomRows<3>() * grad;
-      }
-    }
+    const int o = lin.pose_offset[static_cast<size_t>(p)];
+    if (o < 0) continue;
+    cam.position_in_centre_sigma_mm = (var * c.block<3, 3>(o + 3, o + 3).diagonal()).cwiseSqrt();
+    // Tangent space of the pose: rotation (3), then the position (3); the core block is Euclidean.
+    if (nc > 0) w.position_curvature_cov[static_cast<size_t>(p)] = var * c.block(o + 3, lin.core_offset, 3, nc) * grad;
   }
-  Eigen::MatrixXd core_cov = Eigen::MatrixXd::Zero(nc, nc);
-  if (nc > 0) {
-    Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> c(nc, nc);
-    if (covariance->GetCovarianceBlock(st.core.data(), st.core.data(), c.data())) core_cov = var * c;
-  }
+  const Eigen::MatrixXd core_cov =
+      nc > 0 ? Eigen::MatrixXd(var * c.block(lin.core_offset, lin.core_offset, nc, nc)) : Eigen::MatrixXd();
   if (!st.dev.empty()) {
     const int nd = static_cast<int>(st.dev.size());
-    Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> c(nd, nd);
-    if (covariance->GetCovarianceBlock(st.dev.data(), st.dev.data(), c.data())) w.dev_covariance = var * c;
+    w.dev_covariance = var * c.block(lin.dev_offset, lin.dev_offset, nd, nd);
   }
-  if (!st.intr.empty()) JointIntrinsics(setup, st, *covariance, var, grad, fit);
+  if (!st.intr.empty()) JointIntrinsics(setup, st, lin, var, grad, fit);
   if (nc > 0) {
     fit->curvature_per_mm = grad.dot(Eigen::Map<const Eigen::VectorXd>(st.core.data(), nc));
     fit->curvature_sigma_per_mm = std::sqrt(std::max(0.0, grad.dot(core_cov * grad)));

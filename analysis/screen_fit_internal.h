@@ -65,7 +65,7 @@ struct Setup {
   // filled on first use, shared by copies of the setup (same observations); written only on the
   // calling thread (PrepareComponentBases in screen_fit_misfit.cc), read by the parallel candidates after.
   struct MisfitCache {
-    std::map<std::pair<int, double>, Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>> bases;
+    std::map<std::pair<int, double>, FieldBasis> bases;
     double spacing_px = 0;
   };
   std::shared_ptr<MisfitCache> misfit_cache = std::make_shared<MisfitCache>();

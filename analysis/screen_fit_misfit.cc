@@ -52,7 +52,7 @@ std::vector<PhotoBlock> PhotoBlocks(const Setup& setup, const Linearization& lin
 }
 
 // One photo's rows of a basis over every observation (Setup::obs order), in the block's row order.
-void GatherRows(const Linearization& lin, const PhotoBlock& block, const RowMajor& basis, RowMajor* phi) {
+void GatherRows(const Linearization& lin, const PhotoBlock& block, const FieldBasis& basis, RowMajor* phi) {
   phi->resize(static_cast<long>(block.rows.size()), basis.cols());
   for (size_t r = 0; r < block.rows.size(); ++r) {
     phi->row(static_cast<long>(r)) = basis.row(static_cast<long>(lin.obs[static_cast<size_t>(block.rows[r])]));
@@ -90,7 +90,7 @@ std::pair<int, double> BasisKey(const UncertaintyBudget::FieldComponent& c) {
 // J_f^T Phi for both coordinates f (t x D each), Phi = `basis` (a cached component basis, rows: every observation)
 // at the active observations, summed photo by photo over the dense blocks; and the sum of Phi's squares.
 std::array<RowMajor, 2> JacobianTimesBasis(const Linearization& lin, const std::vector<PhotoBlock>& blocks,
-                                           const RowMajor& basis, double* phi_squared) {
+                                           const FieldBasis& basis, double* phi_squared) {
   const long t = lin.j_obs.cols(), features = basis.cols();
   std::array<RowMajor, 2> jtp = {RowMajor::Zero(t, features), RowMajor::Zero(t, features)};
   *phi_squared = 0;
@@ -313,7 +313,7 @@ void EstimateMisfitCorrelation(const Setup& setup, const Linearization& lin,
   const long t = lin.normal_pinv.rows();
   std::vector<Eigen::VectorXd> kappas(candidates.size());
   ParallelFor(static_cast<int>(candidates.size()), [&](int ci) {
-    const RowMajor& basis = setup.misfit_cache->bases.at(BasisKey(candidates[static_cast<size_t>(ci)]));
+    const FieldBasis& basis = setup.misfit_cache->bases.at(BasisKey(candidates[static_cast<size_t>(ci)]));
     const long features = basis.cols();
     RowMajor phi;  // one photo's rows of the basis
     // U_f = (J^T J)^+ J_f^T phi, J_f^T phi summed photo by photo.
@@ -497,7 +497,7 @@ void PrepareComponentBases(const Setup& setup, const std::vector<UncertaintyBudg
   if (missing.empty()) return;
   std::vector<Eigen::Vector2d> all;
   for (const Obs& ob : setup.obs) all.push_back(ob.detected);
-  std::vector<RowMajor> built(missing.size());
+  std::vector<FieldBasis> built(missing.size());
   ParallelFor(static_cast<int>(missing.size()), [&](int k) {
     const size_t i = missing[static_cast<size_t>(k)];
     built[static_cast<size_t>(k)] = MisfitComponentBasis(all, components[i], *setup.options);
@@ -514,7 +514,7 @@ QuantityVariance FieldVariance(const Setup& setup, const Linearization& lin,
                                const UncertaintyBudget::FieldComponent& component) {
   const int n = static_cast<int>(lin.obs.size());
   PrepareComponentBases(setup, {component});
-  const RowMajor& basis = setup.misfit_cache->bases.at(BasisKey(component));
+  const FieldBasis& basis = setup.misfit_cache->bases.at(BasisKey(component));
   // G_f Phi = sel (J^T J)^+ (J_f^T Phi), J_f^T Phi photo by photo (a photo's rows of J touch its pose and the
   // shared columns only): a quarter of the products of the dense G_f Phi at ten photos.
   double phi_squared = 0;

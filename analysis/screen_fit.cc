@@ -133,8 +133,7 @@ void CompleteFits(const Setup& setup, std::vector<ModelWork>& work, ScreenFitRes
                              &chosen.budget);
   }
   // On all cores: each candidate writes only its own fit; the chosen one's misfit fields, which the others copy,
-  // are not written here, and the cache of field bases is filled before (then only read).
-  PrepareComponentBases(setup, chosen.budget.misfit_components);
+  // are not written here.
   ParallelFor(static_cast<int>(work.size()), [&](int k) {
     const size_t i = static_cast<size_t>(k);
     ModelFit& fit = result->candidates[i];

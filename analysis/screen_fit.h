@@ -438,24 +438,32 @@ Eigen::MatrixXd LegendreFieldBasis(const std::vector<Eigen::Vector2d>& points_px
 // by photo).
 using FieldBasis = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
 
-// A stationary Gaussian random field of unit variance and covariance exp(-|d|^2 / (2 L^2)) (L = length_px),
-// as `features` random Fourier features (Rahimi & Recht 2007): column m is sqrt(2/features) cos(w_m . p / L + b_m),
-// w_m ~ N(0, I), b_m ~ U(0, 2 pi), seeded; N(0, 1) coefficients give the field.
-FieldBasis GaussianFieldBasis(const std::vector<Eigen::Vector2d>& points_px, double length_px, int features,
-                                   unsigned seed);
+// A stationary random field of unit variance as D random Fourier features (Rahimi & Recht 2007): feature m is
+// sqrt(2/D) cos(w_m . p + b_m), w_m in rad/px (row m of omega), b_m in rad; N(0, 1) coefficients give the field.
+// The basis is evaluated where it is needed (a photo's points at a time): the fit's candidates take 13 fields x 400
+// features at every observation, 210 MB at ten photos if stored at once.
+struct FieldFeatures {
+  Eigen::MatrixXd omega;   // D x 2, rad/px
+  Eigen::VectorXd offset;  // D, rad
+  // The basis at the points: one row per point, one column per feature. Each row depends on its point only (the
+  // same values whichever points are evaluated together). Evaluate reuses *out's storage when its size fits.
+  void Evaluate(const std::vector<Eigen::Vector2d>& points_px, FieldBasis* out) const;
+  FieldBasis At(const std::vector<Eigen::Vector2d>& points_px) const;
+};
 
-// A stationary random field of unit variance whose spectrum is a ring of radius 2 pi / P (P = period_px): covariance
-// J0(2 pi |d| / P), which changes sign at |d| = 0.38 P. Column m is sqrt(2/features) cos(w_m . p + b_m),
-// w_m = (2 pi / P)(cos t_m, sin t_m) with the directions t_m stratified over [0, pi), b_m ~ U(0, 2 pi), seeded.
-FieldBasis RingFieldBasis(const std::vector<Eigen::Vector2d>& points_px, double period_px, int features,
-                               unsigned seed);
+// Covariance exp(-|d|^2 / (2 L^2)) (L = length_px): w_m ~ N(0, I) / L, b_m ~ U(0, 2 pi), seeded.
+FieldFeatures GaussianFieldFeatures(double length_px, int features, unsigned seed);
 
-// The random-feature basis of one lens-model-misfit component (UncertaintyBudget::FieldComponent) at the points: its
-// family's basis (GaussianFieldBasis at length_px, RingFieldBasis at period length_px) with options.misfit_features
+// A spectrum on a ring of radius 2 pi / P (P = period_px): covariance J0(2 pi |d| / P), which changes sign at
+// |d| = 0.38 P; w_m = (2 pi / P)(cos t_m, sin t_m) with the directions t_m stratified over [0, pi), b_m ~ U(0, 2 pi),
+// seeded.
+FieldFeatures RingFieldFeatures(double period_px, int features, unsigned seed);
+
+// The features of one lens-model-misfit component (UncertaintyBudget::FieldComponent): its family's
+// (GaussianFieldFeatures at length_px, RingFieldFeatures at period length_px) with options.misfit_features
 // features, seeded per family from options.systematic_field_seed as the budget's own measurement and propagation
 // are, so that a propagation elsewhere (calibrate/from_screen_budget.cc) uses the same fields.
-FieldBasis MisfitComponentBasis(const std::vector<Eigen::Vector2d>& points_px,
-                                     const UncertaintyBudget::FieldComponent& component, const FitOptions& options);
+FieldFeatures MisfitComponentFeatures(const UncertaintyBudget::FieldComponent& component, const FitOptions& options);
 
 // The component's covariance per coordinate (px^2) between two points distance_px apart: s^2 exp(-d^2 / 2 L^2)
 // (kGaussian) or s^2 J0(2 pi d / P) (kRing), s^2 = variance_px2.

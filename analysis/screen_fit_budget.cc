@@ -120,20 +120,16 @@ Eigen::MatrixXd LegendreFieldBasis(const std::vector<Eigen::Vector2d>& points_px
   return b;
 }
 
-namespace {
-
-// Random Fourier features sqrt(2 / D) cos(w_m . p + b_m) at each point (rows) for each (w_m, b_m) (columns). The
-// arguments are formed and reduced to [-pi, pi] in double, the cosine taken by Eigen's vectorized single-precision
-// cosine (absolute error ~1e-7, immaterial for a random basis): libm's double cosine was a sixth of a 10-photo fit's
-// time (perf), the bases holding up to 13 x 400 features per observation. The reduction rounds by adding and
-// subtracting 1.5 x 2^52 (exact for |t| < 2^51; the arguments here are below 1e5), which vectorizes where
-// std::round is a libm call per element; the rows are written contiguously (FieldBasis is row-major).
-FieldBasis CosineFeatures(const std::vector<Eigen::Vector2d>& points_px, const Eigen::MatrixXd& omega,
-                          const Eigen::VectorXd& offset) {
+// The arguments are formed and reduced to [-pi, pi] in double, the cosine taken by Eigen's vectorized
+// single-precision cosine (absolute error ~1e-7, immaterial for a random basis): libm's double cosine was a sixth
+// of a 10-photo fit's time (perf). The reduction rounds by adding and subtracting 1.5 x 2^52 (exact for |t| < 2^51;
+// the arguments here are below 1e5), which vectorizes where std::round is a libm call per element; the rows are
+// written contiguously (FieldBasis is row-major).
+void FieldFeatures::Evaluate(const std::vector<Eigen::Vector2d>& points_px, FieldBasis* out) const {
   constexpr double kTwoPi = 6.283185307179586, kRound = 6755399441055744.0;
   const long features = omega.rows();
   const double scale = std::sqrt(2.0 / static_cast<double>(features));
-  FieldBasis b(static_cast<long>(points_px.size()), features);
+  out->resize(static_cast<long>(points_px.size()), features);
   const Eigen::ArrayXd wx = omega.col(0).array(), wy = omega.col(1).array(), off = offset.array();
   Eigen::ArrayXd arg(features), turns(features);
   Eigen::ArrayXf reduced(features);
@@ -145,51 +141,48 @@ FieldBasis CosineFeatures(const std::vector<Eigen::Vector2d>& points_px, const E
     // through libm's cosf (a sixth of a ten-photo fit, perf); on a float array it takes its vectorized cosine.
     reduced = arg.cast<float>();
     reduced = reduced.cos();
-    b.row(static_cast<long>(r)) = (scale * reduced.cast<double>()).matrix().transpose();
+    out->row(static_cast<long>(r)) = (scale * reduced.cast<double>()).matrix().transpose();
   }
+}
+
+FieldBasis FieldFeatures::At(const std::vector<Eigen::Vector2d>& points_px) const {
+  FieldBasis b;
+  Evaluate(points_px, &b);
   return b;
 }
 
-}  // namespace
-
-FieldBasis GaussianFieldBasis(const std::vector<Eigen::Vector2d>& points_px, double length_px, int features,
-                                   unsigned seed) {
+FieldFeatures GaussianFieldFeatures(double length_px, int features, unsigned seed) {
   if (!(length_px > 0) || features < 1) {
-    throw Error("Gaussian field basis", fmt::format("length {} px, {} features", length_px, features), "");
+    throw Error("Gaussian field features", fmt::format("length {} px, {} features", length_px, features), "");
   }
   std::mt19937_64 rng(seed);
   std::normal_distribution<double> unit(0, 1);
   std::uniform_real_distribution<double> phase(0, 6.283185307179586);
-  Eigen::MatrixXd omega(features, 2);
-  Eigen::VectorXd offset(features);
-  for (int m = 0; m < features; ++m) omega(m, 0) = unit(rng), omega(m, 1) = unit(rng), offset[m] = phase(rng);
-  return CosineFeatures(points_px, omega / length_px, offset);
+  FieldFeatures f{Eigen::MatrixXd(features, 2), Eigen::VectorXd(features)};
+  for (int m = 0; m < features; ++m) f.omega(m, 0) = unit(rng), f.omega(m, 1) = unit(rng), f.offset[m] = phase(rng);
+  f.omega /= length_px;
+  return f;
 }
 
-FieldBasis RingFieldBasis(const std::vector<Eigen::Vector2d>& points_px, double period_px, int features,
-                               unsigned seed) {
+FieldFeatures RingFieldFeatures(double period_px, int features, unsigned seed) {
   if (!(period_px > 0) || features < 1) {
-    throw Error("ring field basis", fmt::format("period {} px, {} features", period_px, features), "");
+    throw Error("ring field features", fmt::format("period {} px, {} features", period_px, features), "");
   }
   std::mt19937_64 rng(seed);
   std::uniform_real_distribution<double> unit(0, 1);
   const double k = 6.283185307179586 / period_px;
-  Eigen::MatrixXd omega(features, 2);
-  Eigen::VectorXd offset(features);
+  FieldFeatures f{Eigen::MatrixXd(features, 2), Eigen::VectorXd(features)};
   for (int m = 0; m < features; ++m) {
     const double t = 3.141592653589793 * (m + unit(rng)) / features;
-    omega(m, 0) = k * std::cos(t), omega(m, 1) = k * std::sin(t), offset[m] = 6.283185307179586 * unit(rng);
+    f.omega(m, 0) = k * std::cos(t), f.omega(m, 1) = k * std::sin(t), f.offset[m] = 6.283185307179586 * unit(rng);
   }
-  return CosineFeatures(points_px, omega, offset);
+  return f;
 }
 
-FieldBasis MisfitComponentBasis(const std::vector<Eigen::Vector2d>& points_px,
-                                     const UncertaintyBudget::FieldComponent& component, const FitOptions& options) {
+FieldFeatures MisfitComponentFeatures(const UncertaintyBudget::FieldComponent& component, const FitOptions& options) {
   return component.family == UncertaintyBudget::FieldFamily::kRing
-             ? RingFieldBasis(points_px, component.length_px, options.misfit_features,
-                              options.systematic_field_seed + 3)
-             : GaussianFieldBasis(points_px, component.length_px, options.misfit_features,
-                                  options.systematic_field_seed + 2);
+             ? RingFieldFeatures(component.length_px, options.misfit_features, options.systematic_field_seed + 3)
+             : GaussianFieldFeatures(component.length_px, options.misfit_features, options.systematic_field_seed + 2);
 }
 
 double MisfitComponentCovariance(const UncertaintyBudget::FieldComponent& component, double distance_px) {

@@ -268,8 +268,8 @@ TEST(UncertaintyBudgetTest, FieldBasesHaveTheirStatedCovariances) {
   constexpr double kScale = 40;  // px: L and P
   std::vector<Eigen::Vector2d> points = {{100, 200}};
   for (double d : {0.0, 10.0, 20.0, 30.0, 40.0, 60.0}) points.emplace_back(100 + 0.6 * d, 200 + 0.8 * d);
-  const Eigen::MatrixXd g = GaussianFieldBasis(points, kScale, kFeatures, 3);
-  const Eigen::MatrixXd r = RingFieldBasis(points, kScale, kFeatures, 4);
+  const Eigen::MatrixXd g = GaussianFieldFeatures(kScale, kFeatures, 3).At(points);
+  const Eigen::MatrixXd r = RingFieldFeatures(kScale, kFeatures, 4).At(points);
   for (size_t i = 1; i < points.size(); ++i) {
     const double d = (points[i] - points[0]).norm();
     const double cg = g.row(0).dot(g.row(static_cast<long>(i))), cr = r.row(0).dot(r.row(static_cast<long>(i)));
@@ -277,7 +277,15 @@ TEST(UncertaintyBudgetTest, FieldBasesHaveTheirStatedCovariances) {
     EXPECT_NEAR(cr, std::cyl_bessel_j(0.0, 2 * M_PI * d / kScale), 0.03) << "d " << d;
   }
   EXPECT_LT(r.row(0).dot(r.row(3)), -0.2);  // d = 0.5 P: J0(pi) = -0.30
-  // A budget component's basis (MisfitComponentBasis: its family's, the budget's seeds) and its stated covariance
+  // A row depends on its point only: the fit evaluates a photo's points at a time and must get the rows of the
+  // basis over all points (bit for bit: the budget's numbers may not depend on how the points were grouped).
+  const FieldFeatures ring_features = RingFieldFeatures(kScale, kFeatures, 4);
+  for (size_t i = 0; i < points.size(); ++i) {
+    const FieldBasis one = ring_features.At({points[i]});
+    EXPECT_EQ(one.rows(), 1);
+    EXPECT_TRUE((one.row(0).array() == r.row(static_cast<long>(i)).array()).all()) << "point " << i;
+  }
+  // A budget component's basis (MisfitComponentFeatures: its family's, the budget's seeds) and its stated covariance
   // (MisfitComponentCovariance, what calibrate/projection_compare.cc adds cell to cell): variance s^2 times the
   // family's correlation, which the basis reproduces.
   FitOptions o;
@@ -289,7 +297,7 @@ TEST(UncertaintyBudgetTest, FieldBasesHaveTheirStatedCovariances) {
     c.length_px = kScale;
     c.variance_px2 = 2.5;
     const bool ring = family == UncertaintyBudget::FieldFamily::kRing;
-    const Eigen::MatrixXd phi = MisfitComponentBasis(points, c, o);
+    const Eigen::MatrixXd phi = MisfitComponentFeatures(c, o).At(points);
     for (size_t i = 0; i < points.size(); ++i) {
       const double d = (points[i] - points[0]).norm();
       const double expected =
@@ -321,7 +329,7 @@ TEST(UncertaintyBudgetTest, BandPassErrorIsMeasuredAsARingAndNotAsALongRangeFiel
   int rings = 0;
   constexpr int kFields = 12;
   for (int d = 0; d < kFields; ++d) {
-    const Eigen::MatrixXd basis = RingFieldBasis(clean.detected_px, period, 400, 1000 + static_cast<unsigned>(d));
+    const Eigen::MatrixXd basis = RingFieldFeatures(period, 400, 1000 + static_cast<unsigned>(d)).At(clean.detected_px);
     Eigen::VectorXd ax(basis.cols()), ay(basis.cols());
     for (long i = 0; i < basis.cols(); ++i) ax[i] = unit(rng), ay[i] = unit(rng);
     const Eigen::VectorXd fx = basis * ax, fy = basis * ay;

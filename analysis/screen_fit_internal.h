@@ -59,13 +59,10 @@ struct Setup {
   std::vector<Obs> obs;
   std::vector<std::string> feature_ids;
   double half_width_mm = 0;
-  // The lens-model-misfit row's random-feature bases at every observation's detected point, by family and
-  // length (screen_fit_misfit.cc: the same fields for every candidate, so built once per fit; a candidate takes
-  // the rows of its active observations), and the feature spacing its candidate lengths are counted in. A cache,
-  // filled on first use, shared by copies of the setup (same observations); written only on the
-  // calling thread (PrepareComponentBases in screen_fit_misfit.cc), read by the parallel candidates after.
+  // The lens-model-misfit row's feature spacing (screen_fit_misfit.cc FeatureSpacing: the median distance to the
+  // nearest neighbour in the same photo, the unit of its candidate lengths): computed on first use, shared by
+  // copies of the setup (same observations).
   struct MisfitCache {
-    std::map<std::pair<int, double>, FieldBasis> bases;
     double spacing_px = 0;
   };
   std::shared_ptr<MisfitCache> misfit_cache = std::make_shared<MisfitCache>();
@@ -192,7 +189,6 @@ std::vector<QuantityVariance> CompleteBudget(const Setup& setup, ModelWork& w, c
 void FinishBudget(const std::vector<QuantityVariance>& vars, ModelFit* fit);
 
 // screen_fit_misfit.cc: the lens-model-misfit row.
-void PrepareComponentBases(const Setup& setup, const std::vector<UncertaintyBudget::FieldComponent>& components);
 QuantityVariance FieldVariance(const Setup& setup, const Linearization& lin,
                                const UncertaintyBudget::FieldComponent& component);
 void EstimateMisfit(const Setup& setup, const Linearization& lin, const std::vector<Eigen::Vector2d>& residual,

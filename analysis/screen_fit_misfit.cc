@@ -16,9 +16,11 @@ using RowMajor = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::Ro
 
 // One photo's rows of the observations' Jacobian (2n x t, coordinates interleaved), dense over the columns that any
 // of them touches (its pose's and the shared ones: the shape, the deviation field, free intrinsics): rows (indices
-// into lin.obs, ascending), cols (ascending) and J_x, J_y on them (rows 2i and 2i + 1 of j_obs).
+// into lin.obs, ascending), their detected points, cols (ascending) and J_x, J_y on them (rows 2i and 2i + 1 of
+// j_obs).
 struct PhotoBlock {
   std::vector<int> rows;
+  std::vector<Eigen::Vector2d> points;
   std::vector<long> cols;
   std::array<RowMajor, 2> j;
 };
@@ -31,6 +33,7 @@ std::vector<PhotoBlock> PhotoBlocks(const Setup& setup, const Linearization& lin
   std::vector<PhotoBlock> out;
   for (PhotoBlock& block : blocks) {
     if (block.rows.empty()) continue;
+    for (const int r : block.rows) block.points.push_back(setup.obs[lin.obs[static_cast<size_t>(r)]].detected);
     for (long c = 0; c < lin.j_obs.cols(); ++c) {
       const bool used = std::any_of(block.rows.begin(), block.rows.end(), [&](int r) {
         return lin.j_obs(2L * r, c) != 0 || lin.j_obs(2L * r + 1, c) != 0;
@@ -49,14 +52,6 @@ std::vector<PhotoBlock> PhotoBlocks(const Setup& setup, const Linearization& lin
     out.push_back(std::move(block));
   }
   return out;
-}
-
-// One photo's rows of a basis over every observation (Setup::obs order), in the block's row order.
-void GatherRows(const Linearization& lin, const PhotoBlock& block, const FieldBasis& basis, RowMajor* phi) {
-  phi->resize(static_cast<long>(block.rows.size()), basis.cols());
-  for (size_t r = 0; r < block.rows.size(); ++r) {
-    phi->row(static_cast<long>(r)) = basis.row(static_cast<long>(lin.obs[static_cast<size_t>(block.rows[r])]));
-  }
 }
 
 // The median distance from each observation to its nearest neighbour in the same photo, over all observations
@@ -81,25 +76,20 @@ double FeatureSpacing(const Setup& setup) {
   return setup.misfit_cache->spacing_px;
 }
 
-// The cache key of a component's basis (Setup::misfit_cache): family and length.
-std::pair<int, double> BasisKey(const UncertaintyBudget::FieldComponent& c) {
-  return {c.family == UncertaintyBudget::FieldFamily::kRing ? 1 : 0, c.length_px};
-}
-
-
-// J_f^T Phi for both coordinates f (t x D each), Phi = `basis` (a cached component basis, rows: every observation)
-// at the active observations, summed photo by photo over the dense blocks; and the sum of Phi's squares.
+// J_f^T Phi for both coordinates f (t x D each), Phi the basis of `features` at the active observations, summed
+// photo by photo over the dense blocks (a photo's rows of Phi evaluated at a time, into *phi); and the sum of Phi's
+// squares.
 std::array<RowMajor, 2> JacobianTimesBasis(const Linearization& lin, const std::vector<PhotoBlock>& blocks,
-                                           const FieldBasis& basis, double* phi_squared) {
-  const long t = lin.j_obs.cols(), features = basis.cols();
-  std::array<RowMajor, 2> jtp = {RowMajor::Zero(t, features), RowMajor::Zero(t, features)};
+                                           const FieldFeatures& features, RowMajor* phi, double* phi_squared) {
+  const long t = lin.j_obs.cols(), d = features.omega.rows();
+  std::array<RowMajor, 2> jtp = {RowMajor::Zero(t, d), RowMajor::Zero(t, d)};
   *phi_squared = 0;
-  RowMajor phi, part;
+  RowMajor part;
   for (const PhotoBlock& block : blocks) {
-    GatherRows(lin, block, basis, &phi);
-    *phi_squared += phi.squaredNorm();
+    features.Evaluate(block.points, phi);
+    *phi_squared += phi->squaredNorm();
     for (size_t f = 0; f < 2; ++f) {
-      part.noalias() = block.j[f].transpose() * phi;
+      part.noalias() = block.j[f].transpose() * *phi;
       for (size_t c = 0; c < block.cols.size(); ++c) jtp[f].row(block.cols[c]) += part.row(static_cast<long>(c));
     }
   }
@@ -308,17 +298,18 @@ void EstimateMisfitCorrelation(const Setup& setup, const Linearization& lin,
     if (factor * spacing > setup.camera->width) break;
     candidates.push_back({UncertaintyBudget::FieldFamily::kRing, factor * spacing, 0, 0});
   }
-  // One candidate per core (the bases built first: the cache is then only read).
-  PrepareComponentBases(setup, candidates);
+  // One candidate per core. Its basis is evaluated a photo at a time, twice (for U_f, then for the pairs): stored
+  // for every observation, the 13 bases took 300 of the 450 ms of this function at ten photos (writing 210 MB of
+  // fresh memory), where evaluating a photo's rows into a buffer that stays in cache costs a few ms.
   const long t = lin.normal_pinv.rows();
   std::vector<Eigen::VectorXd> kappas(candidates.size());
   ParallelFor(static_cast<int>(candidates.size()), [&](int ci) {
-    const FieldBasis& basis = setup.misfit_cache->bases.at(BasisKey(candidates[static_cast<size_t>(ci)]));
-    const long features = basis.cols();
+    const FieldFeatures field = MisfitComponentFeatures(candidates[static_cast<size_t>(ci)], *setup.options);
+    const long features = field.omega.rows();
     RowMajor phi;  // one photo's rows of the basis
     // U_f = (J^T J)^+ J_f^T phi, J_f^T phi summed photo by photo.
     double phi_squared = 0;
-    const std::array<RowMajor, 2> jtp = JacobianTimesBasis(lin, blocks, basis, &phi_squared);
+    const std::array<RowMajor, 2> jtp = JacobianTimesBasis(lin, blocks, field, &phi, &phi_squared);
     std::array<RowMajor, 2> u;
     for (size_t f = 0; f < 2; ++f) u[f].noalias() = lin.normal_pinv * jtp[f];
     // The x field seen on y's rows (cross_y = U_x U_x^T), and vice versa.
@@ -330,7 +321,7 @@ void EstimateMisfitCorrelation(const Setup& setup, const Linearization& lin,
     RowMajor u_block;
     for (size_t bi = 0; bi < blocks.size(); ++bi) {
       const PhotoBlock& block = blocks[bi];
-      GatherRows(lin, block, basis, &phi);
+      field.Evaluate(block.points, &phi);
       const long nc = static_cast<long>(block.cols.size());
       for (size_t f = 0; f < 2; ++f) {
         u_block.resize(nc, features);
@@ -483,42 +474,19 @@ void EstimateMisfitCorrelation(const Setup& setup, const Linearization& lin,
 
 }  // namespace
 
-// Builds the bases of `components` at every observation that the cache does not hold yet, on all cores; the
-// cache is written here only, on the calling thread, so that FieldVariance and the
-// correlation's candidates may then read it from any thread.
-void PrepareComponentBases(const Setup& setup, const std::vector<UncertaintyBudget::FieldComponent>& components) {
-  std::vector<size_t> missing;
-  for (size_t i = 0; i < components.size(); ++i) {
-    const auto key = BasisKey(components[i]);
-    const bool queued = std::any_of(missing.begin(), missing.end(),
-                                    [&](size_t m) { return BasisKey(components[m]) == key; });
-    if (!queued && !setup.misfit_cache->bases.count(key)) missing.push_back(i);
-  }
-  if (missing.empty()) return;
-  std::vector<Eigen::Vector2d> all;
-  for (const Obs& ob : setup.obs) all.push_back(ob.detected);
-  std::vector<FieldBasis> built(missing.size());
-  ParallelFor(static_cast<int>(missing.size()), [&](int k) {
-    const size_t i = missing[static_cast<size_t>(k)];
-    built[static_cast<size_t>(k)] = MisfitComponentBasis(all, components[i], *setup.options);
-  });
-  for (size_t k = 0; k < missing.size(); ++k) {
-    setup.misfit_cache->bases.emplace(BasisKey(components[missing[k]]), std::move(built[k]));
-  }
-}
-
 // A stationary field of one component's family and variance, common to every photo, propagated through G exactly
 // from its random-feature basis: cov(q) = s2 / v (G_x Phi Phi^T G_x^T + G_y Phi Phi^T G_y^T), v the basis's mean
 // variance at the points.
 QuantityVariance FieldVariance(const Setup& setup, const Linearization& lin,
                                const UncertaintyBudget::FieldComponent& component) {
   const int n = static_cast<int>(lin.obs.size());
-  PrepareComponentBases(setup, {component});
-  const FieldBasis& basis = setup.misfit_cache->bases.at(BasisKey(component));
   // G_f Phi = sel (J^T J)^+ (J_f^T Phi), J_f^T Phi photo by photo (a photo's rows of J touch its pose and the
   // shared columns only): a quarter of the products of the dense G_f Phi at ten photos.
   double phi_squared = 0;
-  const std::array<RowMajor, 2> jtp = JacobianTimesBasis(lin, PhotoBlocks(setup, lin), basis, &phi_squared);
+  RowMajor phi;
+  const std::array<RowMajor, 2> jtp = JacobianTimesBasis(lin, PhotoBlocks(setup, lin),
+                                                         MisfitComponentFeatures(component, *setup.options), &phi,
+                                                         &phi_squared);
   const Eigen::MatrixXd mx = lin.sel_pinv * jtp[0], my = lin.sel_pinv * jtp[1];
   const double variance = phi_squared / n;
   return QuantityVariance::FromCovariance(

@@ -199,7 +199,7 @@ FromScreenIntrinsicsBudget IntrinsicsBudgetFromScreen(const std::vector<PhotoObs
     double var_sum = 0, dof_denominator = 0;
     for (const UncertaintyBudget::FieldComponent& f : bud.misfit_components) {
       if (!(f.variance_px2 > 0) || !(f.length_px > 0)) continue;
-      const Eigen::MatrixXd phi = MisfitComponentBasis(detected, f, options);
+      const Eigen::MatrixXd phi = MisfitComponentFeatures(f, options).At(detected);
       const double basis_variance = phi.squaredNorm() / static_cast<double>(n);
       const Eigen::MatrixXd px = ax * phi, py = ay * phi;
       const Eigen::MatrixXd part = f.variance_px2 / basis_variance * (px * px.transpose() + py * py.transpose());

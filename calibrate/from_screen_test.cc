@@ -294,7 +294,7 @@ TEST(FromScreenTest, FlatMonitorAgreesWithABoardCalibration) {
 }
 
 // The intrinsics' lens-model-misfit row propagates a ring (band-pass) component as the ring it is: against brute
-// force, 24 draws of a ring field (covariance s^2 J0(2 pi d / P), s = 0.05 px, P = 400 px; RingFieldBasis with other
+// force, 24 draws of a ring field (covariance s^2 J0(2 pi d / P), s = 0.05 px, P = 400 px; RingFieldFeatures, other
 // seeds than the row's) added to the detections (0.02 px noise, the same in every draw) of a flat 27" monitor from
 // 10 views and refitted (OPENCV4), the intrinsics' mean square shift per draw is the row's variance (fx, fy, cx, cy;
 // the sample variance of 24 draws lies within 0.4-2.2 of its expectation with 99% probability). Measured
@@ -339,7 +339,7 @@ TEST(FromScreenTest, MisfitRowPropagatesARingFieldAsBruteForceRefitsMoveTheIntri
   std::mt19937_64 rng(12);
   std::normal_distribution<double> normal(0, 1);
   for (int k = 0; k < kDraws; ++k) {
-    const Eigen::MatrixXd phi = RingFieldBasis(points, kPeriodPx, 400, 1000 + static_cast<unsigned>(k));
+    const Eigen::MatrixXd phi = RingFieldFeatures(kPeriodPx, 400, 1000 + static_cast<unsigned>(k)).At(points);
     Eigen::VectorXd cx(phi.cols()), cy(phi.cols());
     for (long c = 0; c < phi.cols(); ++c) cx[c] = normal(rng), cy[c] = normal(rng);
     const Eigen::VectorXd ex = kRingPx * phi * cx, ey = kRingPx * phi * cy;

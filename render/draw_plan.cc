@@ -223,6 +223,11 @@ ShaderParams MakeParams(const Monitor& m, const Eigen::Vector3d& viewpoint, cons
     p.warp[0] = static_cast<float>(intermediate.width);
     p.warp[1] = static_cast<float>(intermediate.height);
   }
+  // exact: the ray's constant terms, in double (ExactDraws).
+  const Eigen::Vector3d eye = viewpoint - centre, origin = pattern.plane.origin_in_screen - centre;
+  p.exact[0] = static_cast<float>(pattern.plane.Normal().dot(origin - eye));
+  p.exact[1] = static_cast<float>((eye - origin).dot(pattern.plane.x_axis_in_screen));
+  p.exact[2] = static_cast<float>((eye - origin).dot(pattern.plane.y_axis_in_screen));
   const auto clip = ColumnMajorFloats(warp_clip_from_centre);
   std::memcpy(p.clip_from_centre, clip.data(), sizeof(p.clip_from_centre));
   return p;
@@ -336,6 +341,62 @@ std::vector<DrawCall> StripDraws(const Monitor& m, const Eigen::Vector3d& eye, c
   return draws;
 }
 
+// exact: the ray through each pixel's surface point s meets the plane at t = n . (p0 - o) / (n . d), d = s - o, and
+// its plane coordinates are ((o - p0) . x_p, (o - p0) . y_p) + t (x_p . d, y_p . d) (o the viewpoint, p0, x_p,
+// y_p, n the plane's origin and axes). Those constants are ShaderParams::exact; what varies per pixel is
+// r = (n . d, x_p . d, y_p . d), linear in s. The display is cut into vertical strips of w columns; along a strip
+// s runs on a circular arc (its height is linear in the row), and r is interpolated from its exact values at the
+// strip's edges (linearly in the column, by the rasterizer) plus the quadratic through its exact value at the
+// middle: r(u) = r0 (1 - u) + r1 u + 4 u (1 - u) (r_mid - (r0 + r1) / 2), u = 0 .. 1 across the strip. The
+// quadratic's error on an arc of curvature kappa and half-length h is at most kappa^2 h^3 / (9 sqrt 3) (through 3
+// points, the bound is max |s'''| h^3 / (9 sqrt 3), and |s'''| = kappa^2); w is the widest strip, a multiple of
+// 4 columns (no 4 x 4 block of llvmpipe's straddles two strips), whose bound is below 1e-5 px, far below float
+// rounding (~1e-4 px): 28 columns on a 49" 1000R panel.
+// Each strip is two triangles, (c0, 0), (c1, 0), (c0, Ny) and (c1, 0), (c1, Ny), (c0, Ny) in framebuffer px, with
+// r exact at its corners; the strips that meet the pattern's box are one draw, scissored to that box. (Each
+// pixel's ray from a per-column table of s cost 1.7-1.9x `none` on llvmpipe, most of the difference its
+// per-pixel reads. One triangle per strip holding the whole strip, one draw each, rounded the extrapolated
+// vertices' r more: 0.003-0.004 px of mapping error against 0.0006.)
+// Vertices: 6 per strip, 9 floats each: clip x, y; r there; u; the bow r_mid - (r0 + r1) / 2 (the same at every
+// row: the row moves s along y only, which adds the same to r across the strip).
+int ExactStripColumns(const Monitor& m) {
+  const double kappa = std::abs(m.curvature_per_mm), pitch = m.pixel_pitch_mm();
+  if (kappa == 0) return m.width_px;  // flat: r is linear in the column
+  const double half_mm = std::cbrt(1e-5 * pitch * 9 * std::sqrt(3.0) / (kappa * kappa));
+  return std::clamp(4 * static_cast<int>(std::floor(half_mm / pitch / 2)), 4, m.width_px);
+}
+
+std::vector<DrawCall> ExactDraws(const Monitor& m, const Eigen::Vector3d& viewpoint, const Pattern& pattern,
+                                 const PixelRect& box, std::vector<float>* vertices) {
+  const Eigen::Vector3d centre = ScreenCentreInScreen(m), eye = viewpoint - centre;
+  const PatternPlane& plane = pattern.plane;
+  const Eigen::Vector3d n = plane.Normal(), x_p = plane.x_axis_in_screen, y_p = plane.y_axis_in_screen;
+  // r at framebuffer (x, y), display coordinates (x - 0.5, y - 0.5).
+  const auto ray = [&](double x, double y) {
+    const Eigen::Vector3d d = SurfacePointFromUv(m, UvFromDisplayPx(m, {x - 0.5, y - 0.5})) - centre - eye;
+    return Eigen::Vector3d(n.dot(d), x_p.dot(d), y_p.dot(d));
+  };
+  const int w = ExactStripColumns(m);
+  const double nx = m.width_px, ny = m.height_px;
+  const int box_x1 = box.x + static_cast<int>(box.width);
+  for (int c0 = 0; c0 < m.width_px; c0 += w) {
+    const int c1 = std::min(c0 + w, m.width_px);
+    if (c1 <= box.x || c0 >= box_x1) continue;
+    const Eigen::Vector3d bow = ray(0.5 * (c0 + c1), 0) - 0.5 * (ray(c0, 0) + ray(c1, 0));
+    const auto vertex = [&](int x, int y) {
+      const Eigen::Vector3d r = ray(x, y);
+      const double u = x == c0 ? 0.0 : 1.0;
+      for (const double f : {2 * x / nx - 1, 2 * y / ny - 1, r.x(), r.y(), r.z(), u, bow.x(), bow.y(), bow.z()}) {
+        vertices->push_back(static_cast<float>(f));
+      }
+    };
+    vertex(c0, 0), vertex(c1, 0), vertex(c0, m.height_px);
+    vertex(c1, 0), vertex(c1, m.height_px), vertex(c0, m.height_px);
+  }
+  const ImageSize display{static_cast<uint32_t>(m.width_px), static_cast<uint32_t>(m.height_px)};
+  return {{0, static_cast<uint32_t>(vertices->size() / 9), FullViewport(display), box, {}}};
+}
+
 // mesh: the patches in batches of at most kMaxTrianglesPerDraw triangles (2 level^2 per patch).
 std::vector<DrawCall> MeshDraws(size_t vertex_floats, double level, ImageSize display) {
   const uint32_t patches = static_cast<uint32_t>(vertex_floats / 8);
@@ -407,7 +468,7 @@ DrawPlan MakeDrawPlan(const Monitor& m, const Eigen::Vector3d& viewpoint, const 
       // Only the pattern's bounding box is ray cast; around it the clear colour is the surround, which is what
       // the ray cast would show there.
       pass.pipeline = PipelineKind::kExact;
-      pass.draws.push_back({0, 3, full_viewport, PatternBoxPx(m, viewpoint, pattern), {}});
+      pass.draws = ExactDraws(m, viewpoint, pattern, PatternBoxPx(m, viewpoint, pattern), &pass.vertices);
       break;
     case Method::kNone: {
       // The panel taken as flat: a W x H rectangle in the plane tangent at the screen centre.

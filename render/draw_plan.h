@@ -66,6 +66,7 @@ struct alignas(16) ShaderParams {
   float clip_from_centre[16];  // column-major
   float warp[4];
   float mesh[4];
+  float exact[4];
 };
 
 struct ImageSize {

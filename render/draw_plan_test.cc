@@ -361,7 +361,9 @@ TEST(NonePlan, DrawsThePatternPlaneAsAFlatPanel) {
   }
 }
 
-// exact: one ray-cast triangle, scissored to the pattern's display box (every feature inside, with its 2 px).
+// exact: one draw of the strips that meet the pattern's display box, scissored to that box (every feature inside,
+// with its 2 px); the strips (two triangles each) tile the box's columns, each a multiple of 4 columns wide but
+// the display's last, and span the display's height.
 TEST(ExactPlan, RayCastsThePatternBoxOnly) {
   const Scene s = Reference({200, 50, 650}, 0.1);
   MethodOptions o = Options(Method::kExact);
@@ -373,8 +375,33 @@ TEST(ExactPlan, RayCastsThePatternBoxOnly) {
   ASSERT_EQ(analytic.passes.size(), 1u);
   const Pass& pass = analytic.passes[0];
   EXPECT_EQ(pass.pipeline, PipelineKind::kExact);
-  EXPECT_TRUE(pass.vertices.empty());
-  const PixelRect& box = pass.draws.at(0).scissor;
+  ASSERT_EQ(pass.draws.size(), 1u);
+  const PixelRect& box = pass.draws[0].scissor;
+  EXPECT_EQ(pass.draws[0].first_vertex, 0u);
+  ASSERT_EQ(pass.vertices.size(), 9 * size_t{pass.draws[0].vertex_count});
+  ASSERT_EQ(pass.draws[0].vertex_count % 6, 0u);
+  const size_t strips = pass.draws[0].vertex_count / 6;
+  ASSERT_GT(strips, 1u);
+  const auto column = [&](size_t vertex) {  // framebuffer x of a vertex
+    return std::lround(0.5 * (pass.vertices[9 * vertex] + 1) * s.monitor.width_px);
+  };
+  const auto row = [&](size_t vertex) { return std::lround(0.5 * (pass.vertices[9 * vertex + 1] + 1) * 1440); };
+  for (size_t i = 0; i < strips; ++i) {
+    const size_t v = 6 * i;
+    const long c0 = column(v), c1 = column(v + 1);
+    EXPECT_EQ(c0 % 4, 0) << "strip " << i;
+    EXPECT_GT(c1, c0);
+    if (i > 0) {
+      EXPECT_EQ(c0, column(v - 5)) << "strip " << i;  // follows the previous strip
+    } else {
+      EXPECT_LE(c0, box.x);
+    }
+    if (i + 1 == strips) {
+      EXPECT_GE(c1, box.x + static_cast<long>(box.width));
+    }
+    EXPECT_EQ(row(v), 0);
+    EXPECT_EQ(row(v + 2), 1440);
+  }
   EXPECT_GE(box.x, 0);
   EXPECT_LE(box.x + box.width, 3440u);
   EXPECT_LT(box.width, 3440u);  // the margin around the pattern is not ray cast
@@ -388,6 +415,74 @@ TEST(ExactPlan, RayCastsThePatternBoxOnly) {
     ++inside;
   }
   EXPECT_EQ(inside, 15 * 5);
+}
+
+// exact: each pixel's ray from its strip's triangles (ExactDraws in draw_plan.cc: r = (n . d, x_p . d, y_p . d)
+// linear across the strip plus the quadratic bow, t = exact[0] / r_0, (a, b) = exact[1..2] + t r_12) meets the
+// plane where the exact ray does (PatternFromDisplayPx, double) to 2e-4 mm, at every column of the pattern's box
+// and three rows, on the 34" 1000R panel from on and off its axis, a 49" 32:9 1000R and a 1800R panel, and a
+// flat one (one strip). The quadratic's own error is bounded at 1e-5 px; what remains is the vertices' rounding
+// to float.
+TEST(ExactPlan, StripsReproduceEveryPixelsRay) {
+  struct Case {
+    Monitor monitor;
+    Eigen::Vector3d eye_from_centre;
+  };
+  const std::vector<Case> cases = {{MonitorFromDiagonal("34 1000R", 3440, 1440, 34, 1000), {0, 0, 600}},
+                                   {MonitorFromDiagonal("34 1000R", 3440, 1440, 34, 1000), {250, -80, 400}},
+                                   {MonitorFromDiagonal("49 1000R", 5120, 1440, 49, 1000), {0, 0, 500}},
+                                   {MonitorFromDiagonal("27 1800R", 2560, 1440, 27, 1800), {60, 30, 700}},
+                                   {MonitorFromDiagonal("27 flat", 2560, 1440, 27, 0), {0, 0, 600}}};
+  for (const Case& c : cases) {
+    Scene s;
+    s.monitor = c.monitor;
+    s.eye = ScreenCentreInScreen(s.monitor) + c.eye_from_centre;
+    s.pattern = BuildPattern(PatternSpec(), s.monitor, s.eye, TangentPlaneAtCentre(s.monitor));
+    const DrawPlan plan = Plan(s, Options(Method::kExact));
+    const Pass& pass = plan.passes.at(0);
+    ASSERT_EQ(pass.draws.size(), 1u);
+    const PixelRect& box = pass.draws[0].scissor;
+    const int nx = s.monitor.width_px, ny = s.monitor.height_px;
+    const auto at = [&](size_t vertex, int k) {
+      return static_cast<double>(pass.vertices.at(9 * vertex + static_cast<size_t>(k)));
+    };
+    double worst = 0;
+    int columns = 0;
+    for (size_t v = 0; v < pass.vertices.size() / 9; v += 6) {
+      // The strip's first triangle (c0, 0), (c1, 0), (c0, Ny) and second (c1, 0), (c1, Ny), (c0, Ny): both give
+      // the attributes the same plane over the strip (they agree at its four corners, the vertices being exact).
+      const double x0 = 0.5 * (at(v, 0) + 1) * nx, x1 = 0.5 * (at(v + 1, 0) + 1) * nx;
+      EXPECT_DOUBLE_EQ(at(v, 5), 0.0);
+      EXPECT_DOUBLE_EQ(at(v + 1, 5), 1.0);
+      for (int k = 2; k < 5; ++k) {  // r at (c1, Ny) = r(c1, 0) + r(c0, Ny) - r(c0, 0): r is affine in the row
+        EXPECT_NEAR(at(v + 4, k), at(v + 1, k) + at(v + 2, k) - at(v, k), 2e-5 * std::abs(at(v + 4, k)) + 1e-3);
+      }
+      for (int x = std::max(static_cast<int>(std::lround(x0)), box.x);
+           x < std::min(static_cast<int>(std::lround(x1)), box.x + static_cast<int>(box.width)); ++x, ++columns) {
+        for (const int y : {box.y, box.y + static_cast<int>(box.height) / 3, box.y + static_cast<int>(box.height) - 1}) {
+          const double fx = (x + 0.5 - x0) / (x1 - x0), fy = (y + 0.5) / ny;
+          const bool first = fx + fy <= 1;  // which triangle holds the pixel centre
+          const auto lerp = [&](int k) {
+            return first ? at(v, k) + fx * (at(v + 1, k) - at(v, k)) + fy * (at(v + 2, k) - at(v, k))
+                         : at(v + 4, k) + (1 - fx) * (at(v + 5, k) - at(v + 4, k)) +
+                               (1 - fy) * (at(v + 3, k) - at(v + 4, k));
+          };
+          const double u = lerp(5);
+          Eigen::Vector3d r;
+          for (int k = 0; k < 3; ++k) r[k] = lerp(2 + k) + 4 * u * (1 - u) * at(v, 6 + k);
+          const double t = plan.params.exact[0] / r.x();
+          const Eigen::Vector2d ab(plan.params.exact[1] + t * r.y(), plan.params.exact[2] + t * r.z());
+          const auto truth = PatternFromDisplayPx(s.monitor, s.eye, s.pattern.plane, {x, y});
+          ASSERT_TRUE(truth.has_value());
+          worst = std::max(worst, (ab - *truth).norm());
+        }
+      }
+    }
+    EXPECT_EQ(columns, static_cast<int>(box.width)) << s.monitor.name;  // the strips cover the box
+    EXPECT_LT(worst, 2e-4) << s.monitor.name;
+    std::cout << s.monitor.name << ": " << pass.vertices.size() / 54 << " strips, worst |ab - exact| " << worst
+              << " mm\n";
+  }
 }
 
 // The shaders' inputs: surface tables at pixel edges and centres (centre frame), padded cell labels, clear colours.

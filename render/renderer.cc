@@ -26,6 +26,9 @@ namespace {
 constexpr uint32_t kFullscreenVert[] =
 #include "fullscreen.vert.spv.inc"
     ;
+constexpr uint32_t kExactVert[] =
+#include "exact.vert.spv.inc"
+    ;
 constexpr uint32_t kExactFrag[] =
 #include "exact.frag.spv.inc"
     ;
@@ -217,9 +220,14 @@ const vk::raii::Pipeline& Renderer::Impl::Pipeline(PipelineKind kind, TexelForma
   std::vector<vk::VertexInputBindingDescription> vertex_bindings;
   std::vector<vk::VertexInputAttributeDescription> attributes;
   switch (kind) {
-    case PipelineKind::kExact:
-      add(vk::ShaderStageFlagBits::eVertex, kFullscreenVert, sizeof(kFullscreenVert));
+    case PipelineKind::kExact:  // vertices: render/draw_plan.cc ExactDraws
+      add(vk::ShaderStageFlagBits::eVertex, kExactVert, sizeof(kExactVert));
       add(vk::ShaderStageFlagBits::eFragment, kExactFrag, sizeof(kExactFrag));
+      vertex_bindings.emplace_back(0, 36, vk::VertexInputRate::eVertex);
+      attributes.emplace_back(0, 0, vk::Format::eR32G32Sfloat, 0);
+      attributes.emplace_back(1, 0, vk::Format::eR32G32B32Sfloat, 8);
+      attributes.emplace_back(2, 0, vk::Format::eR32Sfloat, 20);
+      attributes.emplace_back(3, 0, vk::Format::eR32G32B32Sfloat, 24);
       break;
     case PipelineKind::kQuad:
     case PipelineKind::kQuadLinear:

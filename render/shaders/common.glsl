@@ -15,6 +15,7 @@ layout(std140, set = 0, binding = 0) uniform Params {
   mat4 clip_from_centre; // warp: the off-axis frustum of the first pass (Vulkan clip space, y down)
   vec4 warp;             // intermediate width, height
   vec4 mesh;             // subdivision (0 uniform, 1 perez, 2 extended), uniform level, tolerance px
+  vec4 exact;            // n . (plane_origin - viewpoint); (viewpoint - plane_origin) . plane_x, . plane_y; unused
 } P;
 
 // Display-pixel tables, computed in double on the CPU: for k = 0 .. 2N, sample k sits at display coordinate

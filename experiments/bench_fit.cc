@@ -6,6 +6,7 @@
 #include <functional>
 #include <numeric>
 #include <random>
+#include <string>
 
 #include "analysis/screen_fit.h"
 #include "analysis/screen_fit_test_util.h"
@@ -114,6 +115,14 @@ void RunBenchFit(const BenchFitOptions& a, std::ostream& log) {
     covered += c.radius_ci95_mm[0] <= r_true && r_true <= c.radius_ci95_mm[1];
   }
   const double n = static_cast<double>(radius.size());
+  if (radius.size() < 2) {  // no scatter from one seed (the timing runs use --seeds 1)
+    log << fmt::format(
+        "\nradius over {} seed(s) (cylinder, one photo, {} features): truth {:.1f} mm{}; Cramer-Rao bound {:.4f} mm; "
+        "the scatter, bias in sigma and coverage need --seeds 2 or more\n",
+        radius.size(), grid.size(), r_true,
+        radius.empty() ? std::string(", no radius") : fmt::format(", off by {:+.4f} mm", radius[0] - r_true), crb);
+    return;
+  }
   const double mean = std::accumulate(radius.begin(), radius.end(), 0.0) / n;
   double var = 0;
   for (double x : radius) var += (x - mean) * (x - mean);

@@ -23,6 +23,7 @@ namespace fs = std::filesystem;
 using curvecheck::testing::CliRun;
 using curvecheck::testing::Slurp;
 using ::testing::HasSubstr;
+using ::testing::Not;
 
 class RobustnessValues : public curvecheck::testing::CliTest {
  protected:
@@ -172,7 +173,13 @@ TEST_F(RobustnessValues, BenchDefaultSceneWorksFromAnyFolder) {
     const CliRun r = Curvecheck(args, "-C " + dir_.string());
     ASSERT_EQ(r.code, 0) << r.err;
     EXPECT_THAT(r.out, HasSubstr(scene.empty() ? "scene embedded scene default" : "scene embedded scene close"));
+    EXPECT_THAT(r.out, HasSubstr("95% interval coverage"));
   }
+  // One seed (how the timings are taken) has no scatter: the bench says so instead of printing nan.
+  const CliRun one = Curvecheck({"bench", "fit", "--runs", "1", "--seeds", "1"}, "-C " + dir_.string());
+  ASSERT_EQ(one.code, 0) << one.err;
+  EXPECT_THAT(one.out, HasSubstr("need --seeds 2 or more"));
+  EXPECT_THAT(one.out, Not(HasSubstr("nan")));
 }
 
 }  // namespace

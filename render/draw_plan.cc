@@ -367,7 +367,7 @@ int ExactStripColumns(const Monitor& m) {
 }
 
 std::vector<DrawCall> ExactDraws(const Monitor& m, const Eigen::Vector3d& viewpoint, const Pattern& pattern,
-                                 const PixelRect& box, std::vector<float>* vertices) {
+                                 const PixelRect& box, int w, std::vector<float>* vertices) {
   const Eigen::Vector3d centre = ScreenCentreInScreen(m), eye = viewpoint - centre;
   const PatternPlane& plane = pattern.plane;
   const Eigen::Vector3d n = plane.Normal(), x_p = plane.x_axis_in_screen, y_p = plane.y_axis_in_screen;
@@ -376,7 +376,6 @@ std::vector<DrawCall> ExactDraws(const Monitor& m, const Eigen::Vector3d& viewpo
     const Eigen::Vector3d d = SurfacePointFromUv(m, UvFromDisplayPx(m, {x - 0.5, y - 0.5})) - centre - eye;
     return Eigen::Vector3d(n.dot(d), x_p.dot(d), y_p.dot(d));
   };
-  const int w = ExactStripColumns(m);
   const double nx = m.width_px, ny = m.height_px;
   const int box_x1 = box.x + static_cast<int>(box.width);
   for (int c0 = 0; c0 < m.width_px; c0 += w) {
@@ -468,7 +467,10 @@ DrawPlan MakeDrawPlan(const Monitor& m, const Eigen::Vector3d& viewpoint, const 
       // Only the pattern's bounding box is ray cast; around it the clear colour is the surround, which is what
       // the ray cast would show there.
       pass.pipeline = PipelineKind::kExact;
-      pass.draws = ExactDraws(m, viewpoint, pattern, PatternBoxPx(m, viewpoint, pattern), &pass.vertices);
+      // Supersampled, the shader casts each sample's ray itself (SurfacePoint) and reads no interpolated ray:
+      // one strip (two triangles) then spares the blocks on the strips' diagonals, shaded by both triangles.
+      pass.draws = ExactDraws(m, viewpoint, pattern, PatternBoxPx(m, viewpoint, pattern),
+                              plan.exact_supersample > 0 ? m.width_px : ExactStripColumns(m), &pass.vertices);
       break;
     case Method::kNone: {
       // The panel taken as flat: a W x H rectangle in the plane tangent at the screen centre.

@@ -371,7 +371,13 @@ TEST(ExactPlan, RayCastsThePatternBoxOnly) {
   EXPECT_EQ(analytic.exact_supersample, 0);
   o.antialiasing = AntiAliasing::kSupersample;
   o.supersample = 4;
-  EXPECT_EQ(Plan(s, o).exact_supersample, 4);
+  const DrawPlan supersampled = Plan(s, o);
+  EXPECT_EQ(supersampled.exact_supersample, 4);
+  // Supersampled, the shader casts its rays itself: one strip, the display's width, the same scissor.
+  ASSERT_EQ(supersampled.passes.at(0).draws.size(), 1u);
+  EXPECT_EQ(supersampled.passes[0].draws[0].vertex_count, 6u);
+  EXPECT_EQ(supersampled.passes[0].draws[0].scissor.x, analytic.passes.at(0).draws.at(0).scissor.x);
+  EXPECT_EQ(supersampled.passes[0].draws[0].scissor.width, analytic.passes[0].draws[0].scissor.width);
   ASSERT_EQ(analytic.passes.size(), 1u);
   const Pass& pass = analytic.passes[0];
   EXPECT_EQ(pass.pipeline, PipelineKind::kExact);

@@ -18,9 +18,16 @@ void main() {
   // The ray to the pixel centre's surface point: r = (n . d, x_p . d, y_p . d), interpolated across its strip
   // with the strip's quadratic bow (render/draw_plan.cc ExactDraws: exact to 1e-5 px). It meets the plane at
   // t = n . (p0 - o) / (n . d); (a, b) are the offsets from p0 along the plane axes.
-  vec3 r = in_ray + (4.0 * in_u * (1.0 - in_u)) * in_bow;
-  float t = P.exact.x / r.x;
-  vec2 ab = (t > 0.0 && !isinf(t)) ? P.exact.yz + t * r.yz : vec2(NaN());
+  // Supersampled, the plan draws one strip (no interpolated ray): the centre's ray from the column table.
+  vec2 ab;
+  if (kSupersample == 0) {
+    vec3 r = in_ray + (4.0 * in_u * (1.0 - in_u)) * in_bow;
+    float t = P.exact.x / r.x;
+    ab = (t > 0.0 && !isinf(t)) ? P.exact.yz + t * r.yz : vec2(NaN());
+  } else {
+    vec2 xz = column_xz[2 * px.x + 1];  // the column table (double on the CPU); the height is linear in the row
+    ab = PlaneAb(vec3(xz.x, (0.5 - gl_FragCoord.y / P.monitor.y) * P.monitor.w, xz.y));
+  }
   if (OutputCoordinates()) {
     out_color = vec4(ab, 0.0, 1.0);
     return;

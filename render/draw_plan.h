@@ -38,7 +38,7 @@ enum class TexelFormat {
 // The shader programs (render/shaders), each a pipeline; the vertex data of a pass is laid out as its pipeline
 // reads it.
 enum class PipelineKind {
-  kExact,            // fullscreen.vert + exact.frag: per-pixel ray cast; no vertex data (3 vertices)
+  kExact,            // exact.vert + exact.frag: per-pixel ray cast over strips, 9 floats per vertex (ExactDraws)
   kQuad,             // project_quad.vert + shade_ab.frag: a rectangle of the plane, (a, b) per vertex, strip of 4
   kQuadLinear,       // the same, writing linear light (the warp's first pass when shading)
   kWarpPerFragment,  // fullscreen.vert + warp.frag: resamples the first pass at exact texel coordinates

@@ -192,8 +192,9 @@ void AddBenchValidity(CLI::App& bench, std::function<int()>& run) {
   cmd->add_option("--jitter-mm", o.jitter_mm, "Camera position jitter per trial, mm per axis (1 sigma)")
       ->capture_default_str();
   cmd->add_option("--pitch-tolerance", o.pitch_tolerance_percent,
-                  "The true pixel pitch is drawn per trial uniformly within +-this percent of the datasheet's (as "
-                  "analyze --pitch-tolerance, whose default it is; 0 = the datasheet's exactly)")
+                  "The true pixel pitch is drawn per trial uniformly within +-this percent of the datasheet's, and "
+                  "the analysis is given this tolerance (analyze --pitch-tolerance, whose default it is); 0 = the "
+                  "datasheet's exactly and no pitch row: the budget's other rows tested alone")
       ->capture_default_str();
   cmd->add_option("--jitter-deg", o.jitter_deg, "Camera aim jitter per trial, deg per axis (1 sigma)")
       ->capture_default_str();

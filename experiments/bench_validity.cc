@@ -241,6 +241,8 @@ std::vector<std::string> RunTrial(Bench& b, int index, std::string* line) {
                                "scaled camera", [&] {
                                  AnalyzeOptions a;
                                  a.correct_pixel_locking = o.correct_pixel_locking;
+                                 // The tolerance the true pitch was drawn within, as analyze --pitch-tolerance.
+                                 a.fit.pitch_tolerance_relative = o.pitch_tolerance_percent / 100;
                                  return a;
                                }());
       const AnalysisResult& r = t.analysis;
@@ -722,7 +724,8 @@ bool RunBenchValidity(const BenchValidityOptions& o, const fs::path& out, std::o
       "yaws {} deg around the screen centre; realism {}; true radius x {}; {}x{} board, exact rendering for "
       "the "
       "camera's position; camera jitter {:g} mm and {:g} deg per axis (1 sigma); true pixel pitch the "
-      "datasheet's x (1 + d), d uniform in +-{:g}%; the default analysis (the chosen model's numbers); {} cells x {} trials = {} trials, shard {}/{} runs {}; seed {} (trial k: seed + "
+      "datasheet's x (1 + d), d uniform in +-{:g}%; the default analysis (the chosen model's numbers) with "
+      "that pitch tolerance; {} cells x {} trials = {} trials, shard {}/{} runs {}; seed {} (trial k: seed + "
       "k)\n",
       o.command_line, machine, o.scene, first.monitor.name, 1 / first.monitor.curvature_per_mm,
       first.camera.lensmodel, first.camera.width, first.camera.height, fmt::join(o.scales, ","),

@@ -52,9 +52,11 @@ struct BenchValidityOptions {
   std::string scene = "default";  // its monitor, lens, optics, sensor; the bench places the camera
   double jitter_mm = 3;           // camera position jitter, per axis (1 sigma), mm
   double jitter_deg = 0.2;        // camera aim jitter, per axis (1 sigma), deg
-  // The true panel's pixel pitch is the datasheet's times 1 + d, d drawn per trial uniformly in +-this: the
-  // analysis's stated pitch tolerance (FitOptions::pitch_tolerance_relative), so that its budget row is tested
-  // like the others (0: the datasheet's pitch exactly, the row then covers nothing).
+  // The true panel's pixel pitch is the datasheet's times 1 + d, d drawn per trial uniformly in +-this, and the
+  // analysis is told this tolerance (FitOptions::pitch_tolerance_relative, as analyze --pitch-tolerance), so that
+  // its budget row is tested like the others. 0: the datasheet's pitch exactly and no pitch row, so that the
+  // other rows are tested alone (with the default 0.1% the pitch row is 0.58 mm of a 1000 mm radius, often the
+  // largest, and can hide that the others are too small).
   double pitch_tolerance_percent = 0.1;  // as analyze --pitch-tolerance
   bool correct_pixel_locking = false;  // AnalyzeOptions::correct_pixel_locking (analyze --correct-pixel-locking)
   // Keep every trial's result.json (OUT/results/trial-INDEX.result.json): every candidate's fit, budget and choice,

@@ -4,14 +4,15 @@
 // columns; every trial gives a radius within 15 mm of its truth and the camera within 10 mm of its true
 // position in both frames (a wrong frame or a wrong truth would be off by hundreds of mm); the cell
 // statistics are what the trial rows imply (the coverage counts, the bias in sigmas, the Wilson interval);
-// seeds follow the trial index; shards 1/2 and 2/2 merged give the full run's rows; bad options fail with one
-// line. Does not prove that the intervals are honest (3 trials cannot): that is what the bench measures
-// (docs/bench/validity_bench.txt).
+// seeds follow the trial index; shards 1/2 and 2/2 merged give the full run's rows; the analysis's pitch row
+// follows --pitch-tolerance (none at 0); bad options fail with one line. Does not prove that the intervals
+// are honest (3 trials cannot): that is what the bench measures (docs/bench/validity_bench.txt).
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <filesystem>
+#include <fmt/format.h>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
@@ -189,6 +190,36 @@ TEST_F(BenchValidityCli, ShardsMergeIntoTheFullRun) {
   testing::ExpectOneLineFailure(Curvecheck({"bench", "validity", "merge", (dir_ / "shards/s1").string(),
                                             (dir_ / "shards/s1").string(), "-o", (dir_ / "m2").string()}),
                                 {"point 0 is also in", "the shards overlap"});
+}
+
+// The analysis is told the tolerance the true pitch is drawn within: its pitch row is R u / sqrt(3)
+// (rectangular), and with --pitch-tolerance 0 there is none, so that the other rows can be tested alone. One
+// trial each (quarter resolution, 1.5 m, clean chain, 1000R).
+TEST_F(BenchValidityCli, TheAnalysisStatesThePitchToleranceTheTruthIsDrawnWithin) {
+  for (const double tolerance : {0.0, 0.3}) {
+    const std::string out = fmt::format("pitch-{}", tolerance);
+    const std::vector<std::string> args = {
+        "bench", "validity", "--scales", "0.25", "--distances-mm", "1500", "--yaws-deg", "0", "--realism", "off",
+        "--radius-factors", "1", "--trials", "1", "--seed", "3", "--pitch-tolerance", fmt::format("{}", tolerance),
+        "--keep-results", "-o", (dir_ / out).string()};
+    const CliRun run = Curvecheck(args);
+    ASSERT_EQ(run.code, 0) << run.err << run.out;
+    const Rows trials = ReadCsv(dir_ / out / "validity_trials.csv");
+    ASSERT_EQ(trials.size(), 1u);
+    const double drawn = Num(trials[0], "true_pitch_scale") - 1;
+    EXPECT_LE(std::abs(drawn), tolerance / 100 + 1e-12);
+    const nlohmann::json result = nlohmann::json::parse(Slurp(dir_ / out / "results" / "trial-0.result.json"));
+    const nlohmann::json& budget = result.at("fit").at("uncertainty_budget");
+    const double radius = result.at("fit").at("radius_mm").get<double>();
+    double pitch_row = NAN;
+    for (const nlohmann::json& c : budget.at("components")) {
+      if (c.at("name") == "pixel pitch") pitch_row = c.at("standard_uncertainty_mm").get<double>();
+    }
+    EXPECT_NEAR(pitch_row, radius * tolerance / 100 / std::sqrt(3.0), 1e-9 * radius) << tolerance;
+    if (tolerance == 0) {
+      EXPECT_EQ(drawn, 0.0);
+    }
+  }
 }
 
 TEST_F(BenchValidityCli, BadOptionsFailWithOneLine) {

@@ -2,6 +2,7 @@
 #include "analysis/analyze_run.h"
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include <cmath>
 #include <filesystem>
@@ -26,11 +27,7 @@ void AnalyzeToFolder(AnalyzeRequest a, std::ostream& log) {
   }
   if (!a.models.empty()) a.options.fit.models = ParseScreenModels(a.models, "analyze options");
   a.options.fit_screen = !a.no_fit;
-  if (!(a.pitch_tolerance_percent >= 0 && a.pitch_tolerance_percent < 50)) {
-    throw Error("--pitch-tolerance", fmt::format("{} % is not a tolerance", a.pitch_tolerance_percent),
-                "give a percentage from 0 to 50, e.g. 0.1");
-  }
-  a.options.fit.pitch_tolerance_relative = a.pitch_tolerance_percent / 100;
+  a.options.fit.pitch_tolerance_relative = PitchToleranceFromPercent(a.pitch_tolerance_percent, "--pitch-tolerance");
   if (a.prefilter_sigma_px) {
     const double p = *a.prefilter_sigma_px;
     if (!(p == -1 || (p >= 0 && p <= 10))) {
@@ -38,6 +35,17 @@ void AnalyzeToFolder(AnalyzeRequest a, std::ostream& log) {
                   "give -1 (auto: from the moire measured in the photo), 0 (none) or a sigma up to 10 px");
     }
     a.options.detect.prefilter_sigma_px = p;
+  }
+  if (!a.lens_misfit.empty()) {
+    if (a.lens_misfit.size() != 2 || !(a.lens_misfit[0] > 0 && a.lens_misfit[0] < 100) ||
+        !(a.lens_misfit[1] > 0 && std::isfinite(a.lens_misfit[1]))) {
+      throw Error("--lens-misfit", fmt::format("{} is not an RMS and a length", fmt::join(a.lens_misfit, ",")),
+                  "give RMS_PX,LENGTH_PX: the misfit field's RMS per coordinate (0 to 100 px) and its correlation "
+                  "length (px), e.g. 0.1,1200 (curvecheck calibrate's report: candidates[].misfit)");
+    }
+    a.options.fit.stated_lens_misfit_px = a.lens_misfit[0];
+    a.options.fit.stated_lens_misfit_length_px = a.lens_misfit[1];
+    a.options.fit.stated_lens_misfit_source = "stated with --lens-misfit";
   }
   a.options.lens_covariance = a.lens_covariance;
   a.options.detect.detector = ParseDetector(a.detector, "analyze options");

@@ -29,6 +29,9 @@ struct AnalyzeRequest {
   std::string lens_covariance;
   double pitch_tolerance_percent = 0.1;
   std::optional<double> prefilter_sigma_px;
+  // --lens-misfit RMS_PX,LENGTH_PX: the lens model misfit as stated (FitOptions::stated_lens_misfit_px); empty: the
+  // calibration's, from the intrinsics covariance sidecar when it has one.
+  std::vector<double> lens_misfit;
 };
 
 

@@ -244,7 +244,14 @@ nlohmann::json BudgetJson(const ModelFit& f, const std::string& first_photo) {
                    "Gaussian fields (family gaussian: covariance s^2 exp(-d^2 / 2 L^2), L of 1-32 feature spacings) "
                    "and one ring field (family ring: covariance s^2 J0(2 pi d / P), P of 3-24 spacings, a band-pass "
                    "beat whose correlation changes sign) after the fit's linearized refit plus the noise's share; "
-                   "the combination of the smallest weighted misfit + 2 per component (AIC)"}}}};
+                   "the combination of the smallest weighted misfit + 2 per component (AIC)"}}},
+      {"row_basis", b.misfit_row_basis},
+      {"measured_curvature_per_mm", Num(b.measured_misfit_share_curvature_per_mm)},
+      {"stated_curvature_per_mm", Num(b.stated_misfit_share_curvature_per_mm)},
+      {"row_rule", "u(k) of the field measured from the residuals (measured_curvature_per_mm) and of the calibration's "
+                   "stated misfit field when one is given (stated_curvature_per_mm: calibrate's measurement in the "
+                   "intrinsics covariance sidecar, or analyze --lens-misfit); the row is the larger (row_basis "
+                   "residuals or calibration)"}};
   j["correlations"] = "rows are independent of one another and combined in quadrature; within a row the curvature "
                       "and the camera positions are correlated (their covariance is carried into the axis-frame z)";
   if (!b.note.empty()) j["note"] = b.note;
@@ -456,10 +463,7 @@ AnalysisResult AnalyzeWith(const CameraModel& camera, const std::filesystem::pat
     const std::filesystem::path beside = camera_path.empty() ? std::filesystem::path() : IntrinsicsCovariancePathFor(camera_path);
     const std::filesystem::path cov_path = !options.lens_covariance.empty() ? options.lens_covariance : beside;
     if (!options.lens_covariance.empty() || (!beside.empty() && std::filesystem::exists(beside))) {
-      const IntrinsicsCovariance cov = ReadIntrinsicsCovariance(cov_path, r.camera);
-      fit_options.intrinsics_covariance = cov.covariance;
-      fit_options.intrinsics_covariance_dof = cov.dof;
-      fit_options.intrinsics_covariance_source = cov.source;
+      ReadIntrinsicsCovariance(cov_path, r.camera).ApplyTo(&fit_options);
     } else if (!camera_path.empty()) {
       fit_options.lens_exact_note = fmt::format(
           "lens model taken as exact: no covariance beside {} ({} not found); calibrate with curvecheck calibrate "

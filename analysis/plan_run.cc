@@ -64,17 +64,14 @@ void PlanToFolder(PlanRequest a, const std::string& command_line, std::ostream& 
   if (!a.distances_mm.empty()) a.options.distances_mm = Numbers(a.distances_mm, "--distances-mm");
   if (!a.yaws_deg.empty()) a.options.yaws_deg = Numbers(a.yaws_deg, "--yaws-deg");
   if (!a.heights_mm.empty()) a.options.heights_mm = Numbers(a.heights_mm, "--heights-mm");
-  a.options.fit.pitch_tolerance_relative = a.pitch_tolerance_percent / 100;
+  a.options.fit.pitch_tolerance_relative = PitchToleranceFromPercent(a.pitch_tolerance_percent, "--pitch-tolerance");
   // The lens calibration's covariance, as analyze finds it: given, or beside the camera model.
   const fs::path beside = a.camera.empty() ? fs::path() : IntrinsicsCovariancePathFor(a.camera);
   const fs::path cov_path = !a.lens_covariance.empty() ? fs::path(a.lens_covariance) : beside;
   std::vector<fs::path> inputs;
   if (!a.camera.empty()) inputs.push_back(a.camera);
   if (!a.lens_covariance.empty() || (!beside.empty() && fs::exists(beside))) {
-    const IntrinsicsCovariance cov = ReadIntrinsicsCovariance(cov_path, camera);
-    a.options.fit.intrinsics_covariance = cov.covariance;
-    a.options.fit.intrinsics_covariance_dof = cov.dof;
-    a.options.fit.intrinsics_covariance_source = cov.source;
+    ReadIntrinsicsCovariance(cov_path, camera).ApplyTo(&a.options.fit);
     inputs.push_back(cov_path);
   }
   // The pattern: the one given, or render's default (its checkerboard for the eye 1.5 m in front of the

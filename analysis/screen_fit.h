@@ -158,6 +158,17 @@ struct FitOptions {
   // false: no lens-model-misfit row (the lens taken as exact beyond its calibration covariance), for tests of
   // other rows and for a lens known to be modelled exactly (the clean synthetic camera).
   bool measure_lens_misfit = true;
+  // The lens model misfit as the calibration measured it (type B here): a Gaussian field of RMS
+  // stated_lens_misfit_px per coordinate and correlation length stated_lens_misfit_length_px, common to every photo.
+  // curvecheck calibrate measures it from the residuals' correlation between its photos and writes it into the
+  // intrinsics covariance sidecar ("misfit"); analyze --lens-misfit states it. The lens-model-misfit row is then the
+  // larger, in the curvature's variance, of this field propagated through the fit and the field measured from the
+  // photos' own residuals: one photo cannot tell the variance of a field much longer than its feature spacing,
+  // which the fit mostly absorbs (docs/bench/validity_bench.txt, 2026-12-04: the row from the residuals alone
+  // was 0.05-19x the field's effect trial by trial). 0: none stated (the row is the measured field alone).
+  double stated_lens_misfit_px = 0;
+  double stated_lens_misfit_length_px = 0;
+  std::string stated_lens_misfit_source;
   // The largest lens model misfit (RMS px per coordinate, as a fraction of the image width) that the model choice
   // and the adequacy test accept as one (ScreenFitResult::lens_field_px): 1e-4, 0.6 px on a 6000 px imager. A
   // calibrated lens model misfits by less than its calibration's residual: mrcal's tour reports 0.4 px RMS for
@@ -264,6 +275,12 @@ struct UncertaintyBudget {
   double misfit_spacing_px = std::numeric_limits<double>::quiet_NaN();
   double misfit_fit_chi2 = std::numeric_limits<double>::quiet_NaN();
   std::vector<Lag> misfit_lags;
+  // The row's two candidates, u(k) (1/mm): the field measured from the residuals and the stated one
+  // (FitOptions::stated_lens_misfit_px, NaN when none is stated); misfit_row_basis names the one the row took
+  // ("residuals" or "calibration").
+  double measured_misfit_share_curvature_per_mm = std::numeric_limits<double>::quiet_NaN();
+  double stated_misfit_share_curvature_per_mm = std::numeric_limits<double>::quiet_NaN();
+  std::string misfit_row_basis;
 };
 
 struct ModelFit {
@@ -470,13 +487,22 @@ FieldFeatures MisfitComponentFeatures(const UncertaintyBudget::FieldComponent& c
 double MisfitComponentCovariance(const UncertaintyBudget::FieldComponent& component, double distance_px);
 
 
+// The pixel pitch's tolerance in percent (the commands' --pitch-tolerance) as FitOptions::pitch_tolerance_relative.
+// Throws Error naming `option` outside [0, 50) percent.
+double PitchToleranceFromPercent(double percent, const std::string& option);
+
 // The intrinsics covariance written beside a camera model at calibration time (format
 // curvecheck.intrinsics_covariance/1: lensmodel, intrinsics, covariance n x n, dof, ...). Throws Error naming the
 // file when it cannot be read or does not match `camera` (lens model, parameter count).
+// Optional "misfit": {"rms_px", "length_px"}: the lens model misfit the calibration measured (CandidateResult::
+// misfit_*), which ApplyTo states as FitOptions::stated_lens_misfit_px unless a misfit is stated already.
 struct IntrinsicsCovariance {
   Eigen::MatrixXd covariance;
   double dof = std::numeric_limits<double>::infinity();
   std::string source;
+  double misfit_rms_px = 0, misfit_length_px = 0;  // 0: not in the file
+
+  void ApplyTo(FitOptions* options) const;
 };
 IntrinsicsCovariance ReadIntrinsicsCovariance(const std::filesystem::path& path, const CameraModel& camera);
 // Where the covariance of a camera model is looked for: CAM.cameramodel -> CAM.intrinsics_covariance.json.

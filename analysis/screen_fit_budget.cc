@@ -244,7 +244,35 @@ IntrinsicsCovariance ReadIntrinsicsCovariance(const std::filesystem::path& path,
     }
   }
   if (j.contains("dof") && j["dof"].is_number() && j["dof"].get<double>() >= 1) out.dof = j["dof"].get<double>();
+  if (j.contains("misfit")) {
+    const nlohmann::json& m = j["misfit"];
+    const auto number = [&](const char* key) {
+      if (!m.is_object() || !m.contains(key) || !m[key].is_number()) {
+        throw Error(where, fmt::format("misfit.{} is not a number", key), fix);
+      }
+      return m[key].get<double>();
+    };
+    out.misfit_rms_px = number("rms_px");
+    out.misfit_length_px = number("length_px");
+    if (!(out.misfit_rms_px >= 0 && out.misfit_rms_px < 100) ||
+        (out.misfit_rms_px > 0 && !(out.misfit_length_px > 0 && std::isfinite(out.misfit_length_px)))) {
+      throw Error(where,
+                  fmt::format("misfit is {} px RMS at a length of {} px", out.misfit_rms_px, out.misfit_length_px),
+                  "an RMS of 0 to 100 px and a positive length; " + std::string(fix));
+    }
+  }
   return out;
+}
+
+void IntrinsicsCovariance::ApplyTo(FitOptions* options) const {
+  options->intrinsics_covariance = covariance;
+  options->intrinsics_covariance_dof = dof;
+  options->intrinsics_covariance_source = source;
+  if (options->stated_lens_misfit_px == 0 && misfit_rms_px > 0) {
+    options->stated_lens_misfit_px = misfit_rms_px;
+    options->stated_lens_misfit_length_px = misfit_length_px;
+    options->stated_lens_misfit_source = fmt::format("the calibration's measured misfit ({})", source);
+  }
 }
 
 }  // namespace curvecheck
@@ -706,6 +734,38 @@ std::vector<QuantityVariance> CompleteBudget(const Setup& setup, ModelWork& w, c
   } else {
     c.source = "not measurable here (too few features or pairs)";
   }
+  // The calibration's misfit (FitOptions::stated_lens_misfit_px) as the row's floor: the larger of the two in u(k).
+  bud.measured_misfit_share_curvature_per_mm = std::sqrt(std::max(0.0, misfit.var_k));
+  bud.misfit_row_basis = "residuals";
+  std::string stated_rule;
+  if (o.stated_lens_misfit_px > 0 && lin) {
+    const UncertaintyBudget::FieldComponent stated{UncertaintyBudget::FieldFamily::kGaussian,
+                                                   o.stated_lens_misfit_length_px,
+                                                   o.stated_lens_misfit_px * o.stated_lens_misfit_px, 0};
+    const QuantityVariance part = FieldVariance(setup, *lin, stated);
+    bud.stated_misfit_share_curvature_per_mm = std::sqrt(std::max(0.0, part.var_k));
+    const std::string field = fmt::format(
+        "a Gaussian field of RMS {:.4f} px per coordinate at a correlation length of {:.0f} px ({})",
+        o.stated_lens_misfit_px, o.stated_lens_misfit_length_px,
+        o.stated_lens_misfit_source.empty() ? "stated" : o.stated_lens_misfit_source);
+    stated_rule = "; of this field and the calibration's, the row takes the one that moves the curvature more";
+    if (part.var_k > misfit.var_k) {
+      c.source = fmt::format("{}, propagated through {} linearization; it moves the curvature more than the field "
+                             "measured from the residuals (u(k) {:.3g} against {:.3g} 1/mm), which was: {}",
+                             field, &reference == fit ? "the fit's" : "this model's",
+                             bud.stated_misfit_share_curvature_per_mm,
+                             bud.measured_misfit_share_curvature_per_mm, c.source);
+      c.type = "B";
+      c.dof = kInf;
+      misfit = part;
+      bud.misfit_row_basis = "calibration";
+    } else {
+      c.source += fmt::format("; it moves the curvature more than the calibration's misfit, {} (u(k) {:.3g} against "
+                              "{:.3g} 1/mm)",
+                              field, bud.measured_misfit_share_curvature_per_mm,
+                              bud.stated_misfit_share_curvature_per_mm);
+    }
+  }
   c.assumption = fmt::format(
       "the true lens departs from its model by stationary fields over the image, independent per coordinate and "
       "common to every photo (and so to every screen model: measured once, on the chosen model's residuals): up to "
@@ -715,8 +775,9 @@ std::vector<QuantityVariance> CompleteBudget(const Setup& setup, ModelWork& w, c
       "spacings after the fit (the part the fit absorbs into the poses and the screen is inferred from the part it "
       "leaves, in the same family), the combination chosen by AIC. Any other error correlated between features "
       "(detector bias that varies with the image position, moire) is measured here too, so it may be counted twice "
-      "with the detector row: conservative. Degrees of freedom 2 (s^2 / u(s^2))^2",
-      o.misfit_features);
+      "with the detector row: conservative. Degrees of freedom 2 (s^2 / u(s^2))^2{}. A calibration's measured misfit, "
+      "when given, is a Gaussian field of its RMS and length, type B with infinite degrees of freedom",
+      o.misfit_features, stated_rule);
   // Combined, fully in quadrature (the sources are independent; within a source the correlation of k with the
   // positions is kept).
   QuantityVariance total(setup.photos);

@@ -260,6 +260,63 @@ TEST(UncertaintyBudgetTest, LensMisfitIsMeasuredFromTheResidualsAndCoversItsShif
   }
 }
 
+// The calibration's stated misfit (FitOptions::stated_lens_misfit_px, as curvecheck calibrate writes it beside the
+// model) against the radius shifts of the true lens's fields: 24 lenses of the synthetic camera's family (a
+// Gaussian field of RMS 0.1 px at a length of 0.2 x the width, synth/lens_misfit.h), noise-free observations, so
+// that each shift is the field's own. The row is the stated field's (it moves the radius more than what one
+// photo's residuals show of a field this long) and its u(R) is the RMS of the shifts within their sampling error
+// (24 fields: the RMS to +-15% at 1 sigma); it scales with the stated RMS exactly. Without the statement the row
+// from the residuals alone falls short of most shifts (docs/bench/validity_bench.txt, 2026-12-04).
+TEST(UncertaintyBudgetTest, StatedLensMisfitRowMatchesTheRadiusShiftsOfTheLensFields) {
+  const SyntheticScene scene = DefaultScene();
+  constexpr double kField = 0.1;
+  Imaging g = ImagingFromPreset(ImagingPreset::kIlc24);
+  g.lens_misfit_px = kField;
+  FitOptions o = CylinderOnly();
+  o.stated_lens_misfit_px = kField;
+  o.stated_lens_misfit_length_px = g.lens_misfit_length * scene.camera.width;
+  o.stated_lens_misfit_source = "test";
+  const PhotoObservations clean = Clean(scene);
+  const ModelFit f0 = FitScreen(scene.monitor, scene.camera, {clean}, o).Chosen();
+  const double r0 = *f0.radius_mm;
+  const double row0 = Row(f0, "lens model misfit").radius_mm;
+  EXPECT_EQ(f0.budget.misfit_row_basis, "calibration");
+  EXPECT_EQ(Row(f0, "lens model misfit").type, "B");
+  EXPECT_NEAR(f0.budget.stated_misfit_share_curvature_per_mm / (f0.curvature_per_mm * f0.curvature_per_mm), row0,
+              1e-6 * row0);
+  // Twice the stated RMS: twice the row (the field's propagation is linear).
+  FitOptions twice = o;
+  twice.stated_lens_misfit_px = 2 * kField;
+  const ModelFit f2 = FitScreen(scene.monitor, scene.camera, {clean}, twice).Chosen();
+  EXPECT_NEAR(Row(f2, "lens model misfit").radius_mm, 2 * row0, 1e-6 * row0);
+  constexpr int kLenses = 24;
+  double shift2 = 0, row2 = 0, photo_row2 = 0;
+  int inside = 0, photo_inside = 0;
+  FitOptions photo_only = o;
+  photo_only.stated_lens_misfit_px = 0;
+  for (int d = 0; d < kLenses; ++d) {
+    g.lens_seed = static_cast<uint64_t>(d + 1);
+    const LensMisfit m(g, scene.camera.width, scene.camera.height);
+    PhotoObservations biased = clean;
+    for (Eigen::Vector2d& q : biased.detected_px) q += m.At(q);
+    const ModelFit f = FitScreen(scene.monitor, scene.camera, {biased}, o).Chosen();
+    const ModelFit p = FitScreen(scene.monitor, scene.camera, {biased}, photo_only).Chosen();
+    const double shift = *f.radius_mm - r0, row = Row(f, "lens model misfit").radius_mm;
+    shift2 += shift * shift / kLenses;
+    row2 += row * row / kLenses;
+    photo_row2 += Row(p, "lens model misfit").radius_mm * Row(p, "lens model misfit").radius_mm / kLenses;
+    if (std::abs(shift) <= 1.96 * row) ++inside;  // the row alone: the shift is the field's alone
+    if (std::abs(*p.radius_mm - r0) <= 1.96 * Row(p, "lens model misfit").radius_mm) ++photo_inside;
+  }
+  std::cout << "stated misfit " << kField << " px at " << o.stated_lens_misfit_length_px << " px: row u(R) "
+            << std::sqrt(row2) << " mm (noise-free: " << row0 << "), RMS radius shift " << std::sqrt(shift2)
+            << " mm over " << kLenses << " lenses; " << inside << " inside 1.96 sigma; the row from the residuals "
+            << "alone " << std::sqrt(photo_row2) << " mm RMS, " << photo_inside << " inside 1.96 of it\n";
+  EXPECT_GT(std::sqrt(row2), 0.7 * std::sqrt(shift2));
+  EXPECT_LT(std::sqrt(row2), 1.4 * std::sqrt(shift2));
+  EXPECT_GE(inside, 20);  // 95% of 24: 22.8; P(X < 20) = 3% for a 95% interval
+}
+
 // The random-feature bases have the covariances they state: the mean of phi_a . phi_b over features is
 // exp(-d^2 / 2 L^2) (Gaussian) and J0(2 pi d / P) (ring, negative beyond 0.38 P) within the features' sampling
 // error, ~1/sqrt(2 x features).
@@ -509,6 +566,28 @@ TEST(UncertaintyBudgetTest, CovarianceSidecarIsReadAndChecked) {
   EXPECT_EQ(got.covariance.rows(), static_cast<long>(n));
   EXPECT_EQ(got.covariance(3, 3), 0.25);
   EXPECT_EQ(got.dof, 5000);
+  EXPECT_EQ(got.misfit_rms_px, 0);
+  // The calibration's measured misfit: stated into the fit options, unless a misfit is stated already.
+  j["misfit"] = {{"rms_px", 0.12}, {"length_px", 900}};
+  std::ofstream(IntrinsicsCovariancePathFor(cam)) << j.dump();
+  const IntrinsicsCovariance with = ReadIntrinsicsCovariance(IntrinsicsCovariancePathFor(cam), scene.camera);
+  FitOptions o;
+  with.ApplyTo(&o);
+  EXPECT_EQ(o.intrinsics_covariance(3, 3), 0.25);
+  EXPECT_EQ(o.stated_lens_misfit_px, 0.12);
+  EXPECT_EQ(o.stated_lens_misfit_length_px, 900);
+  FitOptions stated;
+  stated.stated_lens_misfit_px = 0.3;
+  stated.stated_lens_misfit_length_px = 500;
+  with.ApplyTo(&stated);
+  EXPECT_EQ(stated.stated_lens_misfit_px, 0.3);
+  EXPECT_EQ(stated.stated_lens_misfit_length_px, 500);
+  j["misfit"] = {{"rms_px", 0.12}, {"length_px", -1}};
+  std::ofstream(IntrinsicsCovariancePathFor(cam)) << j.dump();
+  EXPECT_NE(testing::MessageOf([&] { ReadIntrinsicsCovariance(IntrinsicsCovariancePathFor(cam), scene.camera); })
+                .find("misfit is 0.12 px RMS"),
+            std::string::npos);
+  j.erase("misfit");
   j["lensmodel"] = "LENSMODEL_PINHOLE";
   std::ofstream(IntrinsicsCovariancePathFor(cam)) << j.dump();
   EXPECT_NE(testing::MessageOf([&] { ReadIntrinsicsCovariance(IntrinsicsCovariancePathFor(cam), scene.camera); })

@@ -51,6 +51,13 @@ void AddAnalyzeCommand(CLI::App& app, std::function<int()>& run) {
                   "The lens calibration's intrinsics covariance (curvecheck.intrinsics_covariance/1, written by "
                   "`curvecheck calibrate`); default: CAM.intrinsics_covariance.json beside --camera when it exists, "
                   "else the lens is taken as exact (the budget says so)");
+  cmd->add_option("--lens-misfit", args->lens_misfit,
+                  "RMS_PX,LENGTH_PX: the lens model misfit the calibration measured (a Gaussian field common to "
+                  "every photo, RMS per coordinate and correlation length, px; curvecheck calibrate writes it into "
+                  "the covariance sidecar, which is the default); the budget's lens-model-misfit row is the larger "
+                  "of this field's effect and that of the field measured from the photos' residuals")
+      ->delimiter(',')
+      ->expected(2);
   cmd->add_option("--pitch-tolerance", args->pitch_tolerance_percent,
                   "Tolerance of the datasheet's pixel pitch, percent (half-width of a rectangular distribution; "
                   "its u = tolerance/sqrt(3) is the budget's pixel-pitch row: u(R)/R = u(p)/p)")

@@ -196,6 +196,11 @@ void AddBenchValidity(CLI::App& bench, std::function<int()>& run) {
                   "the analysis is given this tolerance (analyze --pitch-tolerance, whose default it is); 0 = the "
                   "datasheet's exactly and no pitch row: the budget's other rows tested alone")
       ->capture_default_str();
+  cmd->add_option("--lens-misfit-stated", o.lens_misfit_stated,
+                  "The analysis is told the true lens's misfit (RMS times this factor, and its length) as its "
+                  "calibration's measurement (analyze --lens-misfit; curvecheck calibrate writes it beside the "
+                  "model): 1 = measured exactly, 0 = not told (the misfit row from the photo's residuals alone)")
+      ->capture_default_str();
   cmd->add_option("--jitter-deg", o.jitter_deg, "Camera aim jitter per trial, deg per axis (1 sigma)")
       ->capture_default_str();
   cmd->add_flag("--correct-pixel-locking", o.correct_pixel_locking,

@@ -139,7 +139,7 @@ nlohmann::json IntrinsicsCovarianceJson(const CandidateResult& c, const std::str
     for (long k = 0; k < c.intrinsics_covariance.cols(); ++k) row.push_back(c.intrinsics_covariance(i, k));
     cov.push_back(row);
   }
-  return {{"format", "curvecheck.intrinsics_covariance/1"},
+  nlohmann::json out = {{"format", "curvecheck.intrinsics_covariance/1"},
           {"model", model_file},
           {"lensmodel", c.lensmodel},
           {"intrinsics", c.intrinsics},
@@ -148,6 +148,15 @@ nlohmann::json IntrinsicsCovarianceJson(const CandidateResult& c, const std::str
           {"observed_pixel_uncertainty_px", c.observed_pixel_uncertainty_px},
           {"method", "mrcal: s^2 (J^T J)^-1 [J_obs^T J_obs] (J^T J)^-1 in the packed state, intrinsics block, "
                      "unpacked (D Var D), marginal over the board poses; s = std of the board residuals"}};
+  // The lens model misfit the calibration measured: curvecheck analyze takes it as the floor of its
+  // lens-model-misfit row (FitOptions::stated_lens_misfit_px).
+  if (c.misfit_note.empty() && c.misfit_length_px > 0 && std::isfinite(c.misfit_variance_px2)) {
+    out["misfit"] = {{"rms_px", std::sqrt(std::max(0.0, c.misfit_variance_px2))},
+                     {"length_px", c.misfit_length_px},
+                     {"method", "a stationary Gaussian field common to every photo, from the residuals' correlation "
+                                "between photos (mrcal_solve.py misfit_field)"}};
+  }
+  return out;
 }
 
 const std::string& MrcalSolveScript() {

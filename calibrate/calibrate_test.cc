@@ -114,6 +114,14 @@ TEST(Calibrate, Opencv8TruthChoosesOpencv8AndRecoversTheLens) {
   const nlohmann::json side = IntrinsicsCovarianceJson(ch, "cam.cameramodel");
   EXPECT_EQ(side["format"], "curvecheck.intrinsics_covariance/1");
   EXPECT_EQ(side["covariance"].size(), truth.intrinsics.size());
+  // The misfit the calibration measured goes with it (analyze's lens-model-misfit row takes it as its floor).
+  if (ch.misfit_note.empty() && ch.misfit_length_px > 0) {
+    ASSERT_TRUE(side.contains("misfit"));
+    EXPECT_NEAR(side["misfit"]["rms_px"].get<double>(), std::sqrt(std::max(0.0, ch.misfit_variance_px2)), 1e-12);
+    EXPECT_EQ(side["misfit"]["length_px"].get<double>(), ch.misfit_length_px);
+  } else {
+    EXPECT_FALSE(side.contains("misfit")) << ch.misfit_note;
+  }
 }
 
 // The wide lens: whatever model is chosen must reproduce the truth within 0.1 px and its own uncertainty.

@@ -28,6 +28,7 @@
 #include "experiments/trial.h"
 #include "experiments/trial_outcome.h"
 #include "experiments/validity_stats.h"
+#include "synth/lens_misfit.h"
 
 namespace curvecheck::experiments {
 namespace {
@@ -197,8 +198,8 @@ std::vector<std::string> RunTrial(Bench& b, int index, std::string* line) {
   for (int i = 0; i < 3; ++i) jitter[i] = position_noise(rng);
   for (int i = 0; i < 3; ++i) aim_deg[i] = aim_noise(rng);
   // Drawn after the pose so that the poses of a seed stay those of the benches before the pitch was drawn.
-  scene.truth.pitch_scale = 1 + std::uniform_real_distribution<double>(-o.pitch_tolerance_percent / 100,
-                                                                          o.pitch_tolerance_percent / 100)(rng);
+  const double pitch_tolerance = PitchToleranceFromPercent(o.pitch_tolerance_percent, "--pitch-tolerance");
+  scene.truth.pitch_scale = 1 + std::uniform_real_distribution<double>(-pitch_tolerance, pitch_tolerance)(rng);
   const Eigen::Vector3d position = placed + jitter;
   const Eigen::Matrix3d looking =
       ScreenFromCamLookAt(placed, centre, Eigen::Vector3d::UnitY()).RotationMatrix();
@@ -242,7 +243,17 @@ std::vector<std::string> RunTrial(Bench& b, int index, std::string* line) {
                                  AnalyzeOptions a;
                                  a.correct_pixel_locking = o.correct_pixel_locking;
                                  // The tolerance the true pitch was drawn within, as analyze --pitch-tolerance.
-                                 a.fit.pitch_tolerance_relative = o.pitch_tolerance_percent / 100;
+                                 a.fit.pitch_tolerance_relative = pitch_tolerance;
+                                 // The lens's misfit as its calibration would state it (at this imager).
+                                 const LensMisfit lens(scene.imaging, scene.camera.width, scene.camera.height);
+                                 if (o.lens_misfit_stated > 0 && lens.active()) {
+                                   a.fit.stated_lens_misfit_px = o.lens_misfit_stated * lens.rms_px();
+                                   a.fit.stated_lens_misfit_length_px =
+                                       scene.imaging.lens_misfit_length * scene.camera.width;
+                                   a.fit.stated_lens_misfit_source = fmt::format(
+                                       "the true lens's misfit x {:g}, as its calibration would state it",
+                                       o.lens_misfit_stated);
+                                 }
                                  return a;
                                }());
       const AnalysisResult& r = t.analysis;
@@ -682,6 +693,11 @@ void BenchValidityOptions::Check() const {
     throw Error("--pitch-tolerance", fmt::format("{:g} % is not in [0, 5]", pitch_tolerance_percent),
                 "give e.g. 0.1 (the analysis's default, percent) or 0 for the datasheet's pitch exactly");
   }
+  if (!(lens_misfit_stated >= 0 && lens_misfit_stated <= 10)) {
+    throw Error("--lens-misfit-stated", fmt::format("{:g} is not in [0, 10]", lens_misfit_stated),
+                "give 1 (the true lens's misfit, as a calibration that measured it exactly), 0 (none stated) or "
+                "a factor such as 0.5 or 2");
+  }
   shard.Check();
 }
 
@@ -725,12 +741,12 @@ bool RunBenchValidity(const BenchValidityOptions& o, const fs::path& out, std::o
       "the "
       "camera's position; camera jitter {:g} mm and {:g} deg per axis (1 sigma); true pixel pitch the "
       "datasheet's x (1 + d), d uniform in +-{:g}%; the default analysis (the chosen model's numbers) with "
-      "that pitch tolerance; {} cells x {} trials = {} trials, shard {}/{} runs {}; seed {} (trial k: seed + "
+      "that pitch tolerance and told the true lens's misfit x {:g} as its calibration's (0: none); {} cells x {} trials = {} trials, shard {}/{} runs {}; seed {} (trial k: seed + "
       "k)\n",
       o.command_line, machine, o.scene, first.monitor.name, 1 / first.monitor.curvature_per_mm,
       first.camera.lensmodel, first.camera.width, first.camera.height, fmt::join(o.scales, ","),
       fmt::join(o.distances_mm, ","), fmt::join(o.yaws_deg, ","), levels, fmt::join(o.radius_factors, ","),
-      o.cols, o.rows, o.jitter_mm, o.jitter_deg, o.pitch_tolerance_percent, b.grid.Cells(), o.trials, total, o.shard.index,
+      o.cols, o.rows, o.jitter_mm, o.jitter_deg, o.pitch_tolerance_percent, o.lens_misfit_stated, b.grid.Cells(), o.trials, total, o.shard.index,
       o.shard.count, mine.size(), o.seed);
   log << head << std::flush;
 
@@ -752,6 +768,7 @@ bool RunBenchValidity(const BenchValidityOptions& o, const fs::path& out, std::o
   grid["seed"] = o.seed;
   grid["jitter"] = {{"position_mm", o.jitter_mm}, {"aim_deg", o.jitter_deg}};
   grid["pitch_tolerance_percent"] = o.pitch_tolerance_percent;
+  grid["lens_misfit_stated"] = o.lens_misfit_stated;
   grid["correct_pixel_locking"] = o.correct_pixel_locking;
   grid["board"] = {o.cols, o.rows};
   json overrides = json::object();

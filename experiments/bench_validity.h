@@ -58,6 +58,12 @@ struct BenchValidityOptions {
   // other rows are tested alone (with the default 0.1% the pitch row is 0.58 mm of a 1000 mm radius, often the
   // largest, and can hide that the others are too small).
   double pitch_tolerance_percent = 0.1;  // as analyze --pitch-tolerance
+  // The analysis is told the true lens's misfit (its RMS at the trial's imager times this factor, and its
+  // correlation length) as the calibration's measurement (FitOptions::stated_lens_misfit_px: curvecheck calibrate
+  // writes it beside the camera model). 1: a calibration that measured it exactly; 0: not told, the
+  // lens-model-misfit row from the photo's residuals alone. The bench does not calibrate: a real calibration's
+  // estimate scatters (docs/bench/flat_vs_board.txt: 0.6-3x the true RMS), so run 0.5 and 2 to see what that does.
+  double lens_misfit_stated = 1;
   bool correct_pixel_locking = false;  // AnalyzeOptions::correct_pixel_locking (analyze --correct-pixel-locking)
   // Keep every trial's result.json (OUT/results/trial-INDEX.result.json): every candidate's fit, budget and choice,
   // to see why a trial missed.

@@ -269,6 +269,54 @@ TEST_F(AnalyzeCli, AnInputIsNeverOverwritten) {
   EXPECT_EQ(Slurp(Dir() / "trap" / "result.json"), before);
 }
 
+// The lens model misfit its calibration measured (the sidecar's "misfit", as curvecheck calibrate writes it) is the
+// floor of the lens-model-misfit row, and --lens-misfit states it instead: the radius is the same, the stated
+// field's u(k) doubles with its RMS (0.05 px in the sidecar, 0.1 px stated), and the row says where it came from.
+TEST_F(AnalyzeCli, TheCalibrationsLensMisfitIsTheMisfitRowsFloor) {
+  const std::string camera = (Dir() / "small.cameramodel").string(), pattern = (Dir() / "exact.json").string();
+  const size_t n = ReadCameraModel(camera).intrinsics.size();
+  nlohmann::json cov = nlohmann::json::array();
+  for (size_t r = 0; r < n; ++r) cov.push_back(std::vector<double>(n, 0.0));
+  const fs::path sidecar = Dir() / "misfit.intrinsics_covariance.json";
+  std::ofstream(sidecar) << nlohmann::json{{"format", "curvecheck.intrinsics_covariance/1"},
+                                           {"lensmodel", ReadCameraModel(camera).lensmodel},
+                                           {"covariance", cov},
+                                           {"misfit", {{"rms_px", 0.05}, {"length_px", 300}}}}
+                                .dump();
+  const fs::path from_sidecar = Dir() / "out-misfit-sidecar", stated = Dir() / "out-misfit-stated";
+  const std::vector<std::string> common = {"analyze", "--camera", camera, "--pattern", pattern,
+                                           (Dir() / "photo-exact.png").string(), "--lens-covariance",
+                                           sidecar.string(), "--no-report", "--no-overlays"};
+  std::vector<std::string> args = common;
+  args.insert(args.end(), {"-o", from_sidecar.string()});
+  CliRun r = Curvecheck(args);
+  ASSERT_EQ(r.code, 0) << r.err;
+  args = common;
+  args.insert(args.end(), {"-o", stated.string(), "--lens-misfit", "0.1,300"});
+  r = Curvecheck(args);
+  ASSERT_EQ(r.code, 0) << r.err;
+  const nlohmann::json a = Result(from_sidecar), b = Result(stated);
+  EXPECT_EQ(a["fit"]["radius_mm"], b["fit"]["radius_mm"]);
+  const nlohmann::json &ma = a["fit"]["uncertainty_budget"]["lens_model_misfit"],
+                       &mb = b["fit"]["uncertainty_budget"]["lens_model_misfit"];
+  const double sa = ma["stated_curvature_per_mm"], sb = mb["stated_curvature_per_mm"];
+  EXPECT_NEAR(sb, 2 * sa, 1e-9 * sb);
+  EXPECT_GT(sa, ma["measured_curvature_per_mm"].get<double>()) << "the clean photo shows less than 0.05 px";
+  EXPECT_EQ(ma["row_basis"], "calibration");
+  std::string source_a, source_b;
+  for (const nlohmann::json& c : a["fit"]["uncertainty_budget"]["components"]) {
+    if (c["name"] == "lens model misfit") source_a = c["source"];
+  }
+  for (const nlohmann::json& c : b["fit"]["uncertainty_budget"]["components"]) {
+    if (c["name"] == "lens model misfit") source_b = c["source"];
+  }
+  EXPECT_THAT(source_a, HasSubstr("the calibration's measured misfit (" + sidecar.string()));
+  EXPECT_THAT(source_b, HasSubstr("stated with --lens-misfit"));
+  args = common;
+  args.insert(args.end(), {"-o", (Dir() / "out-misfit-bad").string(), "--lens-misfit", "0.1,-300"});
+  ExpectOneLineFailure(Curvecheck(args), {"--lens-misfit", "0.1,-300 is not an RMS and a length"});
+}
+
 TEST_F(AnalyzeCli, UsageErrors) {
   const CliRun r = Curvecheck({"analyze", "--camera", "x.cameramodel", "-o", "out"});
   EXPECT_EQ(r.code, 1);  // a usage error exits 1, as every error (app/cli.h)

@@ -5,14 +5,17 @@
 // position in both frames (a wrong frame or a wrong truth would be off by hundreds of mm); the cell
 // statistics are what the trial rows imply (the coverage counts, the bias in sigmas, the Wilson interval);
 // seeds follow the trial index; shards 1/2 and 2/2 merged give the full run's rows; the analysis's pitch row
-// follows --pitch-tolerance (none at 0); bad options fail with one line. Does not prove that the intervals
+// follows --pitch-tolerance (none at 0); the misfit row's floor follows --lens-misfit-stated; bad options fail
+// with one line. Does not prove that the intervals
 // are honest (3 trials cannot): that is what the bench measures (docs/bench/validity_bench.txt).
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fmt/format.h>
+#include <iostream>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
@@ -64,6 +67,25 @@ class BenchValidityCli : public ::testing::Test {
             "3",
             "-o",
             (dir_ / out).string()};
+  }
+  // One trial (quarter resolution, 1.5 m on axis, 1000R, seed 3) on the chain `realism`, its result.json kept in
+  // OUT/results, with `extra` options.
+  static CliRun OneTrial(const std::string& out, const std::string& realism, const std::vector<std::string>& extra) {
+    std::vector<std::string> a = {"bench", "validity", "--scales", "0.25", "--distances-mm", "1500", "--yaws-deg",
+                                  "0", "--realism", realism, "--radius-factors", "1", "--trials", "1", "--seed", "3",
+                                  "--keep-results", "-o", (dir_ / out).string()};
+    a.insert(a.end(), extra.begin(), extra.end());
+    return Curvecheck(a);
+  }
+  static nlohmann::json Result(const std::string& out) {
+    return nlohmann::json::parse(Slurp(dir_ / out / "results" / "trial-0.result.json"));
+  }
+  static double RowMm(const nlohmann::json& result, const std::string& name) {
+    for (const nlohmann::json& c : result.at("fit").at("uncertainty_budget").at("components")) {
+      if (c.at("name") == name) return c.at("standard_uncertainty_mm").get<double>();
+    }
+    ADD_FAILURE() << "no row " << name;
+    return NAN;
   }
   static void SetUpTestSuite() {
     dir_ = curvecheck::testing::FreshDir("bench_validity_cli_test");
@@ -198,28 +220,51 @@ TEST_F(BenchValidityCli, ShardsMergeIntoTheFullRun) {
 TEST_F(BenchValidityCli, TheAnalysisStatesThePitchToleranceTheTruthIsDrawnWithin) {
   for (const double tolerance : {0.0, 0.3}) {
     const std::string out = fmt::format("pitch-{}", tolerance);
-    const std::vector<std::string> args = {
-        "bench", "validity", "--scales", "0.25", "--distances-mm", "1500", "--yaws-deg", "0", "--realism", "off",
-        "--radius-factors", "1", "--trials", "1", "--seed", "3", "--pitch-tolerance", fmt::format("{}", tolerance),
-        "--keep-results", "-o", (dir_ / out).string()};
-    const CliRun run = Curvecheck(args);
+    const CliRun run = OneTrial(out, "off", {"--pitch-tolerance", fmt::format("{}", tolerance)});
     ASSERT_EQ(run.code, 0) << run.err << run.out;
     const Rows trials = ReadCsv(dir_ / out / "validity_trials.csv");
     ASSERT_EQ(trials.size(), 1u);
     const double drawn = Num(trials[0], "true_pitch_scale") - 1;
     EXPECT_LE(std::abs(drawn), tolerance / 100 + 1e-12);
-    const nlohmann::json result = nlohmann::json::parse(Slurp(dir_ / out / "results" / "trial-0.result.json"));
-    const nlohmann::json& budget = result.at("fit").at("uncertainty_budget");
+    const nlohmann::json result = Result(out);
     const double radius = result.at("fit").at("radius_mm").get<double>();
-    double pitch_row = NAN;
-    for (const nlohmann::json& c : budget.at("components")) {
-      if (c.at("name") == "pixel pitch") pitch_row = c.at("standard_uncertainty_mm").get<double>();
-    }
-    EXPECT_NEAR(pitch_row, radius * tolerance / 100 / std::sqrt(3.0), 1e-9 * radius) << tolerance;
+    EXPECT_NEAR(RowMm(result, "pixel pitch"), radius * tolerance / 100 / std::sqrt(3.0), 1e-9 * radius) << tolerance;
     if (tolerance == 0) {
       EXPECT_EQ(drawn, 0.0);
     }
   }
+}
+
+// The analysis is told the true lens's misfit as its calibration would state it (--lens-misfit-stated F: F x the
+// true RMS at the trial's imager, at its length), the floor of the lens-model-misfit row. One realistic trial
+// (the ilc24 lens, 0.1 px at 6000 px) at F = 0, 1 and 2: the photo and the radius are the same (the statement
+// moves the interval, not the estimate); at 0 nothing is stated and the row is the residuals' field; the stated
+// field's u(k) doubles with F (the propagation is linear); the row is the larger of the measured and the stated.
+TEST_F(BenchValidityCli, TheAnalysisIsToldTheLensMisfitItsCalibrationWouldState) {
+  std::vector<nlohmann::json> results;
+  for (const std::string factor : {"0", "1", "2"}) {
+    const std::string out = "misfit-" + factor;
+    const CliRun run = OneTrial(out, "on", {"--pitch-tolerance", "0", "--lens-misfit-stated", factor});
+    ASSERT_EQ(run.code, 0) << run.err << run.out;
+    results.push_back(Result(out));
+  }
+  const auto misfit = [&](size_t i) { return results[i].at("fit").at("uncertainty_budget").at("lens_model_misfit"); };
+  const double radius = results[0].at("fit").at("radius_mm").get<double>(), k = 1 / radius;
+  for (size_t i = 1; i < 3; ++i) EXPECT_EQ(results[i].at("fit").at("radius_mm").get<double>(), radius);
+  EXPECT_TRUE(misfit(0).at("stated_curvature_per_mm").is_null());
+  EXPECT_EQ(misfit(0).at("row_basis"), "residuals");
+  const double measured = misfit(0).at("measured_curvature_per_mm").get<double>();
+  EXPECT_NEAR(RowMm(results[0], "lens model misfit"), measured / (k * k), 1e-6 * radius);
+  const double stated1 = misfit(1).at("stated_curvature_per_mm").get<double>();
+  EXPECT_GT(stated1, 0);
+  EXPECT_NEAR(misfit(2).at("stated_curvature_per_mm").get<double>(), 2 * stated1, 1e-9 * stated1);
+  for (size_t i = 1; i < 3; ++i) {
+    EXPECT_EQ(misfit(i).at("measured_curvature_per_mm").get<double>(), measured);
+    const double stated = misfit(i).at("stated_curvature_per_mm").get<double>();
+    EXPECT_NEAR(RowMm(results[i], "lens model misfit"), std::max(measured, stated) / (k * k), 1e-6 * radius) << i;
+    EXPECT_EQ(misfit(i).at("row_basis"), stated > measured ? "calibration" : "residuals");
+  }
+  std::cout << "misfit row u(k): measured " << measured << " 1/mm, stated (F = 1) " << stated1 << " 1/mm\n";
 }
 
 TEST_F(BenchValidityCli, BadOptionsFailWithOneLine) {
@@ -232,6 +277,8 @@ TEST_F(BenchValidityCli, BadOptionsFailWithOneLine) {
                                 {"--radius-factors", "3 is outside"});
   testing::ExpectOneLineFailure(Curvecheck({"bench", "validity", "--shard", "3/2", "-o", o}),
                                 {"--shard", "'3/2' is not i/n"});
+  testing::ExpectOneLineFailure(Curvecheck({"bench", "validity", "--lens-misfit-stated", "-1", "-o", o}),
+                                {"--lens-misfit-stated", "-1 is not in [0, 10]"});
   testing::ExpectOneLineFailure(Curvecheck({"bench", "validity", "merge", o, "-o", (dir_ / "m").string()}),
                                 {"holds no validity.json"});
 }

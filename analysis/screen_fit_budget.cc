@@ -737,7 +737,10 @@ std::vector<QuantityVariance> CompleteBudget(const Setup& setup, ModelWork& w, c
   // The calibration's misfit (FitOptions::stated_lens_misfit_px) as the row's floor: the larger of the two in u(k).
   bud.measured_misfit_share_curvature_per_mm = std::sqrt(std::max(0.0, misfit.var_k));
   bud.misfit_row_basis = "residuals";
-  std::string stated_rule;
+  std::string stated_rule =
+      ". No misfit from the lens's calibration was given (the covariance sidecar's misfit, or analyze --lens-misfit): "
+      "one photo's residuals poorly determine the variance of a field much longer than the feature spacing, which "
+      "the fit mostly absorbs, so this row can under-state it (docs/bench/validity_bench.txt)";
   if (o.stated_lens_misfit_px > 0 && lin) {
     const UncertaintyBudget::FieldComponent stated{UncertaintyBudget::FieldFamily::kGaussian,
                                                    o.stated_lens_misfit_length_px,

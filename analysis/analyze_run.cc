@@ -37,8 +37,7 @@ void AnalyzeToFolder(AnalyzeRequest a, std::ostream& log) {
     a.options.detect.prefilter_sigma_px = p;
   }
   if (!a.lens_misfit.empty()) {
-    if (a.lens_misfit.size() != 2 || !(a.lens_misfit[0] > 0 && a.lens_misfit[0] < 100) ||
-        !(a.lens_misfit[1] > 0 && std::isfinite(a.lens_misfit[1]))) {
+    if (a.lens_misfit.size() != 2 || !(a.lens_misfit[0] > 0) || !IsLensMisfitField(a.lens_misfit[0], a.lens_misfit[1])) {
       throw Error("--lens-misfit", fmt::format("{} is not an RMS and a length", fmt::join(a.lens_misfit, ",")),
                   "give RMS_PX,LENGTH_PX: the misfit field's RMS per coordinate (0 to 100 px) and its correlation "
                   "length (px), e.g. 0.1,1200 (curvecheck calibrate's report: candidates[].misfit)");

@@ -3,7 +3,7 @@
 // camera model, and stated into the fit's options (the lens calibration row and the lens-model-misfit row's floor).
 #include <fmt/format.h>
 
-#include <cmath>
+#include <algorithm>
 #include <nlohmann/json.hpp>
 #include <string>
 
@@ -74,8 +74,7 @@ IntrinsicsCovariance ReadIntrinsicsCovariance(const std::filesystem::path& path,
     };
     out.misfit_rms_px = number("rms_px");
     out.misfit_length_px = number("length_px");
-    if (!(out.misfit_rms_px >= 0 && out.misfit_rms_px < 100) ||
-        (out.misfit_rms_px > 0 && !(out.misfit_length_px > 0 && std::isfinite(out.misfit_length_px)))) {
+    if (!IsLensMisfitField(out.misfit_rms_px, out.misfit_length_px)) {
       throw Error(where,
                   fmt::format("misfit is {} px RMS at a length of {} px", out.misfit_rms_px, out.misfit_length_px),
                   "an RMS of 0 to 100 px and a positive length; " + std::string(fix));

@@ -439,13 +439,16 @@ void FitOptions::Check(const std::string& where) const {
   if (intrinsics_covariance.rows() != intrinsics_covariance.cols() || !intrinsics_covariance.allFinite()) {
     throw Error(where, "the intrinsics covariance is not a finite square matrix", "");
   }
-  if (!(stated_lens_misfit_px >= 0 && stated_lens_misfit_px < 100) ||
-      (stated_lens_misfit_px > 0 && !(stated_lens_misfit_length_px > 0 && std::isfinite(stated_lens_misfit_length_px)))) {
+  if (!IsLensMisfitField(stated_lens_misfit_px, stated_lens_misfit_length_px)) {
     throw Error(stated_lens_misfit_source.empty() ? where : stated_lens_misfit_source,
                 fmt::format("the stated lens model misfit is {} px RMS at a length of {} px",
                             stated_lens_misfit_px, stated_lens_misfit_length_px),
                 "give an RMS of 0 to 100 px and a positive correlation length in px");
   }
+}
+
+bool IsLensMisfitField(double rms_px, double length_px) {
+  return rms_px >= 0 && rms_px < 100 && (rms_px == 0 || (length_px > 0 && std::isfinite(length_px)));
 }
 
 double PitchToleranceFromPercent(double percent, const std::string& option) {

@@ -487,6 +487,10 @@ FieldFeatures MisfitComponentFeatures(const UncertaintyBudget::FieldComponent& c
 double MisfitComponentCovariance(const UncertaintyBudget::FieldComponent& component, double distance_px);
 
 
+// A stated lens model misfit field (FitOptions::stated_lens_misfit_px, the sidecar's misfit, analyze --lens-misfit)
+// is one: an RMS in [0, 100) px and, when the RMS is not 0, a positive finite correlation length in px.
+bool IsLensMisfitField(double rms_px, double length_px);
+
 // The pixel pitch's tolerance in percent (the commands' --pitch-tolerance) as FitOptions::pitch_tolerance_relative.
 // Throws Error naming `option` outside [0, 50) percent.
 double PitchToleranceFromPercent(double percent, const std::string& option);

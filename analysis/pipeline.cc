@@ -109,6 +109,7 @@ nlohmann::json ModelFitJson(const ModelFit& f) {
                       {"radius_mm", f.radius_mm ? nlohmann::json(*f.radius_mm) : nlohmann::json(nullptr)},
                       {"radius_sigma_mm", f.radius_sigma_mm ? nlohmann::json(*f.radius_sigma_mm) : nlohmann::json(nullptr)},
                       {"radius_ci95_mm", {Num(f.radius_ci95_mm[0]), Num(f.radius_ci95_mm[1])}},
+                      {"radius_ci68_mm", {Num(f.radius_ci68_mm[0]), Num(f.radius_ci68_mm[1])}},
                       {"converged", f.converged},
                       {"ill_conditioned", f.ill_conditioned},
                       {"time_ms", f.time_ms}};
@@ -128,8 +129,19 @@ nlohmann::json ModelFitJson(const ModelFit& f) {
 }
 
 // One budget (UncertaintyBudget) for one quantity: per row its standard uncertainty, picked by `u` from the row.
+// The 95% and 68% intervals with their coverage factors.
+struct Intervals {
+  std::array<double, 2> at95, at68;
+  double factor95, factor68;
+  // value +- factor u for both.
+  static Intervals Symmetric(double value, double u, double factor95, double factor68) {
+    return {{value - factor95 * u, value + factor95 * u}, {value - factor68 * u, value + factor68 * u}, factor95,
+            factor68};
+  }
+};
+
 nlohmann::json BudgetRowsJson(const UncertaintyBudget& b, const std::function<double(const BudgetComponent&)>& u,
-                              const std::string& unit_suffix, double value, std::array<double, 2> interval) {
+                              const std::string& unit_suffix, double value, const Intervals& interval) {
   nlohmann::json rows = nlohmann::json::array();
   size_t dominant = 0;
   for (size_t i = 0; i < b.components.size(); ++i) {
@@ -139,16 +151,19 @@ nlohmann::json BudgetRowsJson(const UncertaintyBudget& b, const std::function<do
                     {"type", c.type},
                     {"standard_uncertainty" + unit_suffix, Num(u(c))},
                     {"dof", Num(c.dof)},
+                    {"distribution", RowDistributionName(c.distribution)},
                     {"source", c.source},
                     {"assumption", c.assumption}});
   }
   return {{"value" + unit_suffix, Num(value)},
           {"components", rows},
           {"combined_standard_uncertainty" + unit_suffix, Num(u(b.combined))},
-          {"coverage_factor", Num(b.coverage_factor)},
+          {"coverage_factor", Num(interval.factor95)},
           {"coverage_probability", b.coverage_probability},
           {"effective_dof", Num(b.effective_dof)},
-          {"interval95" + unit_suffix, {Num(interval[0]), Num(interval[1])}},
+          {"interval95" + unit_suffix, {Num(interval.at95[0]), Num(interval.at95[1])}},
+          {"coverage_factor68", Num(interval.factor68)},
+          {"interval68" + unit_suffix, {Num(interval.at68[0]), Num(interval.at68[1])}},
           {"dominant", b.components.empty() ? std::string() : b.components[dominant].name}};
 }
 
@@ -157,19 +172,22 @@ nlohmann::json BudgetRowsJson(const UncertaintyBudget& b, const std::function<do
 nlohmann::json BudgetJson(const ModelFit& f, const std::string& first_photo) {
   const UncertaintyBudget& b = f.budget;
   if (!b.computed) return {{"computed", false}, {"note", b.note}};
-  const double kc = b.coverage_factor;
-  nlohmann::json j = BudgetRowsJson(
-      b, [](const BudgetComponent& c) { return c.radius_mm; }, "_mm", f.radius_mm.value_or(kNaNJson),
-      {f.radius_ci95_mm[0], f.radius_ci95_mm[1]});
+  const double kc = b.coverage_factor, kc68 = b.coverage_factor68;
+  nlohmann::json j = BudgetRowsJson(b, [](const BudgetComponent& c) { return c.radius_mm; }, "_mm",
+                                    f.radius_mm.value_or(kNaNJson),
+                                    {f.radius_ci95_mm, f.radius_ci68_mm, kc, kc68});
   j["quantity"] = "radius R (mm); rows u(R) = u(k)/k^2; null when the radius is not a number";
   j["unit"] = "mm";
   j["interval_note"] = fmt::format(
-      "formed on the curvature, k +- {:.3f} u_c(k), and inverted to R (coverage factor: Student's t for {:g}% at "
-      "the Welch-Satterthwaite effective degrees of freedom; type B rows have infinite dof)",
+      "formed on the curvature, k +- {:.3f} u_c(k), and inverted to R. Coverage factor for {:g}%: the normal rows "
+      "as Student's t at their Welch-Satterthwaite degrees of freedom (type B rows: infinite), convolved with the "
+      "rectangular row (the pixel pitch's tolerance) exactly; 1.96 for normal rows alone, 1.645 for the "
+      "rectangular alone. Each quantity (curvature, each camera coordinate) has its own factor from its own rows. "
+      "The 68% interval likewise (factor 1 for normal rows alone, 1.18 for the rectangular alone)",
       kc, 100 * b.coverage_probability);
   const double k = f.curvature_per_mm, uk = b.combined.curvature_per_mm;
   j["curvature"] = BudgetRowsJson(b, [](const BudgetComponent& c) { return c.curvature_per_mm; }, "_per_mm", k,
-                                  {k - kc * uk, k + kc * uk});
+                                  Intervals::Symmetric(k, uk, kc, kc68));
   j["curvature"]["quantity"] = "curvature k = 1/R (mean over the width for varying curvature)";
   j["curvature"]["unit"] = "1/mm";
   if (!f.cameras.empty()) {
@@ -182,7 +200,7 @@ nlohmann::json BudgetJson(const ModelFit& f, const std::string& first_photo) {
       const double v = cam.position_in_screen_mm[a], ua = b.combined.position_in_axis_mm[a];
       nlohmann::json row = BudgetRowsJson(
           b, [a](const BudgetComponent& c) { return c.position_in_axis_mm[a]; }, "_mm", v,
-          {v - kc * ua, v + kc * ua});
+          Intervals::Symmetric(v, ua, b.position_factor.axis[a], b.position_factor68.axis[a]));
       row["quantity"] = fmt::format("first camera position {} (axis frame)", axes[a]);
       row["unit"] = "mm";
       pos[axes[a]] = row;

@@ -197,7 +197,9 @@ std::string BudgetTable(const json& fit) {
     const json& c = rows[i];
     const std::optional<double> uk = Opt(b["curvature"]["components"][i]["standard_uncertainty_per_mm"]);
     s << "<tr" << (Str(c["name"]) == Str(b["dominant"]) ? " class=\"dominant\"" : "") << "><td>" << Html(Str(c["name"]))
-      << "</td><td>" << Html(Str(c["type"])) << "</td><td>" << Fixed(Opt(c["standard_uncertainty_mm"]), 2)
+      << "</td><td>" << Html(Str(c["type"]))
+      << (c.value("distribution", std::string()) == "rectangular" ? ", rectangular" : "") << "</td><td>"
+      << Fixed(Opt(c["standard_uncertainty_mm"]), 2)
       << "</td><td>" << Fixed(uk ? std::optional<double>(*uk * 1000) : std::nullopt, 5) << "</td><td>"
       << Fixed(pos("x", i), 2) << ", " << Fixed(pos("y", i), 2) << ", " << Fixed(pos("z", i), 2) << "</td><td>"
       << Html(Str(c["source"])) << "</td><td>" << Html(Str(c["assumption"])) << "</td></tr>\n";

@@ -49,6 +49,11 @@ void RadiusFromCurvature(const Setup& setup, const ModelWork& w, ModelFit* fit) 
     fit->radius_mm = 1 / k;
     fit->radius_sigma_mm = sk / (k * k);
     fit->radius_ci95_mm = {std::min(1 / lo, 1 / hi), std::max(1 / lo, 1 / hi)};
+    if (fit->budget.computed) {
+      // Inside the 95% interval, so of the same sign as k.
+      const double lo68 = k - fit->budget.coverage_factor68 * sk, hi68 = k + fit->budget.coverage_factor68 * sk;
+      fit->radius_ci68_mm = {std::min(1 / lo68, 1 / hi68), std::max(1 / lo68, 1 / hi68)};
+    }
   } else if (curved_model) {
     fit->radius_lower_bound_mm = 1 / std::max(std::abs(lo), std::abs(hi));
     fit->radius_ci95_mm = {fit->radius_lower_bound_mm, kInf};

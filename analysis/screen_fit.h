@@ -205,9 +205,15 @@ struct CameraEstimate {
 
 // One row of the uncertainty budget: a standard uncertainty of the curvature k = 1/R, of the radius and of the
 // first camera's position, from one source (GUM, JCGM 100:2008 section 5: rows combined in quadrature).
+// How a budget row's error is distributed: the coverage factor depends on it (JCGM 100 G.2.3: a rectangular
+// distribution of standard uncertainty u lies wholly within +- sqrt(3) u, and 95% of it within +- 1.645 u).
+enum class RowDistribution { kNormal, kRectangular };
+const char* RowDistributionName(RowDistribution d);  // "normal", "rectangular"
+
 struct BudgetComponent {
   std::string name;  // "detection noise", "detector systematic", "lens calibration", "pixel pitch"
   std::string type;  // "A" (evaluated from the data's statistics) or "B" (from other information)
+  RowDistribution distribution = RowDistribution::kNormal;
   std::string source, assumption;
   double curvature_per_mm = 0;  // u(k), 1/mm
   double radius_mm = 0;         // u(R) = u(k)/k^2 (linearized), NaN when the radius is not a number
@@ -231,8 +237,20 @@ struct UncertaintyBudget {
   std::vector<BudgetComponent> components;
   BudgetComponent combined;  // quadrature sum (name "combined")
   double effective_dof = 0;  // Welch-Satterthwaite over the components' dof
-  double coverage_factor = 0;  // Student's t at effective_dof for FitOptions::coverage_probability
+  // For FitOptions::coverage_probability, on the curvature: CoverageFactor over the rows (Student's t at the normal
+  // rows' Welch-Satterthwaite dof, convolved with the rectangular row; t alone when there is none).
+  double coverage_factor = 0;
   double coverage_probability = 0.95;
+  // The same at kCoverage68 (the level of one standard uncertainty of a normal distribution): the 68% interval,
+  // which is +- u_c only when the normal rows dominate (a rectangle of standard uncertainty u holds 57.7% within
+  // +- u, and 68.3% within +- 1.18 u).
+  double coverage_factor68 = 0;
+  // Both for the first camera's position, per coordinate, in the axis frame and the centre frame (their rows in
+  // BudgetComponent::position_in_axis_mm, position_in_centre_mm); FinishBudget.
+  struct PositionFactors {
+    Eigen::Vector3d axis = Eigen::Vector3d::Zero(), centre = Eigen::Vector3d::Zero();
+  };
+  PositionFactors position_factor, position_factor68;
   std::string dominant;  // the component with the largest u(k)
   std::array<std::string, 3> dominant_position;  // per axis (axis frame)
   ResidualPixelLocking pixel_locking;
@@ -322,6 +340,9 @@ struct ModelFit {
   std::optional<double> radius_mm, radius_sigma_mm;  // empty when flat is inside the 95% interval
   double radius_lower_bound_mm = 0;                  // 95% lower bound of |R| when the radius is not a number
   std::array<double, 2> radius_ci95_mm{};            // from k +- 1.96 sigma_k, inverted (+inf when it holds 0)
+  // The 68% interval, k +- budget.coverage_factor68 sigma_k inverted, when the radius is a number (NaN otherwise).
+  std::array<double, 2> radius_ci68_mm{std::numeric_limits<double>::quiet_NaN(),
+                                       std::numeric_limits<double>::quiet_NaN()};
   std::map<std::string, std::pair<double, double>> extra;  // e.g. "lean_deg" -> (value, sigma)
   std::vector<CameraEstimate> cameras;                     // one per photo
   // Per photo, per observation (detected - predicted); NaN where the fitted point falls behind the camera.
@@ -446,6 +467,29 @@ ResidualPixelLocking EstimatePixelLocking(const std::vector<Eigen::Vector2d>& de
 // (infinity: the normal quantile); Hill's expansion (Abramowitz & Stegun 26.7.5) from the normal quantile,
 // accurate to 1e-3 for dof >= 3. Throws Error for dof < 1.
 double StudentTCoverageFactor(double p, double dof);
+
+// One row of a budget as the coverage factor sees it: its standard uncertainty for the quantity, its degrees of
+// freedom (infinity for type B) and its distribution.
+struct CoverageRow {
+  double u = 0;
+  double dof = std::numeric_limits<double>::infinity();
+  RowDistribution distribution = RowDistribution::kNormal;
+};
+
+// The coverage factor k of a quantity whose error is the sum of independent rows: the interval value +- k u_c,
+// u_c^2 the sum of the rows' u^2, holds the truth with probability p. The normal rows pool into one normal part
+// of standard uncertainty u_n (Welch-Satterthwaite dof nu, JCGM 100 G.4.1), widened to s = u_n t_p(nu) / z_p so
+// that alone it gives Student's t (JCGM 100 G.3); the largest rectangular row, of half-width a = sqrt(3) u, is
+// convolved with it exactly (P(|N(0, s^2) + U(-a, a)| <= c) in closed form, JCGM 101 5.1-style propagation of the
+// distributions rather than the normal approximation of JCGM 100 G.6.6, which over-covers when a rectangular row
+// dominates: at p = 0.95 k goes from t_p(nu) with no rectangular row to 1.645 when it is alone); further
+// rectangular rows are pooled into the normal part. Throws Error for p outside (0, 1), a negative or non-finite
+// u. Writes the normal part's dof to *normal_dof when given.
+double CoverageFactor(double p, const std::vector<CoverageRow>& rows, double* normal_dof = nullptr);
+
+// The coverage probability of +- 1 standard deviation of a normal distribution, erf(1 / sqrt 2): the level of the
+// 68% intervals.
+inline constexpr double kCoverage68 = 0.682689492137086;
 
 // The Legendre field basis over an image of width x height px: one column per polynomial
 // P_i(x') P_j(y'), i + j <= degree, x' = 2 x/(width - 1) - 1 (likewise y'), evaluated at the points.

@@ -1,6 +1,6 @@
 // The screen fit's uncertainty budget (analysis/screen_fit.h): its data-only parts (the pixel-locking regression,
-// the coverage factor, the Legendre and Gaussian bias fields; the lens covariance sidecar is read in
-// intrinsics_covariance.cc), then the budget itself:
+// the Legendre and Gaussian bias fields; the coverage factor is in coverage_factor.cc, the lens covariance sidecar
+// is read in intrinsics_covariance.cc), then the budget itself:
 // the fit's linearization and each source propagated through it (analysis/screen_fit_internal.h; the
 // lens-model-misfit row's measurement is in screen_fit_misfit.cc).
 #include <fmt/format.h>
@@ -19,20 +19,6 @@ namespace curvecheck {
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;
-
-// The standard normal quantile: Newton on 0.5 erfc(-z/sqrt 2) = p from z = 0 (monotone, converges in < 10 steps
-// for 1e-12 < p < 1 - 1e-12).
-double NormalQuantile(double p) {
-  double z = 0;
-  for (int i = 0; i < 100; ++i) {
-    const double cdf = 0.5 * std::erfc(-z / std::sqrt(2.0));
-    const double pdf = std::exp(-0.5 * z * z) / std::sqrt(2 * kPi);
-    const double step = (cdf - p) / std::max(pdf, 1e-300);
-    z -= step;
-    if (std::abs(step) < 1e-14) break;
-  }
-  return z;
-}
 
 // Legendre polynomial P_n(x) by the three-term recurrence.
 double Legendre(int n, double x) {
@@ -85,20 +71,6 @@ ResidualPixelLocking EstimatePixelLocking(const std::vector<Eigen::Vector2d>& de
     out.sigma_px[c] = a > 3 * rms_sigma ? std::sqrt((ab / a).dot(cov * (ab / a))) : rms_sigma;
   }
   return out;
-}
-
-double StudentTCoverageFactor(double p, double dof) {
-  if (!(p > 0 && p < 1)) throw Error("coverage factor", fmt::format("coverage probability {} is not in (0, 1)", p), "");
-  if (!(dof >= 1)) throw Error("coverage factor", fmt::format("{} degrees of freedom", dof), "need at least 1");
-  const double x = NormalQuantile(0.5 + 0.5 * p);
-  if (std::isinf(dof)) return x;
-  const double x2 = x * x, x3 = x2 * x, x5 = x3 * x2, x7 = x5 * x2, x9 = x7 * x2;
-  const double g1 = (x3 + x) / 4;
-  const double g2 = (5 * x5 + 16 * x3 + 3 * x) / 96;
-  const double g3 = (3 * x7 + 19 * x5 + 17 * x3 - 15 * x) / 384;
-  const double g4 = (79 * x9 + 776 * x7 + 1482 * x5 - 1920 * x3 - 945 * x) / 92160;
-  const double v = dof;
-  return x + g1 / v + g2 / (v * v) + g3 / (v * v * v) + g4 / (v * v * v * v);
 }
 
 Eigen::MatrixXd LegendreFieldBasis(const std::vector<Eigen::Vector2d>& points_px, int width, int height, int degree) {
@@ -579,6 +551,7 @@ void Budget(const Setup& setup, ModelWork& w, int n_residuals, ModelFit* fit) {
     BudgetComponent c;
     c.name = "pixel pitch";
     c.type = "B";
+    c.distribution = RowDistribution::kRectangular;
     c.source = fmt::format("the datasheet's pixel pitch {:.5f} mm with a tolerance of +-{} (rectangular: u = {}/sqrt(3) "
                            "= {})",
                            setup.nominal->pixel_pitch_mm(), Percent(o.pitch_tolerance_relative),
@@ -708,13 +681,17 @@ std::vector<QuantityVariance> CompleteBudget(const Setup& setup, ModelWork& w, c
       total.cov_pos_k[static_cast<size_t>(p)] += v.cov_pos_k[static_cast<size_t>(p)];
     }
   }
-  // Welch-Satterthwaite on u(k).
+  // Welch-Satterthwaite on u(k) over every row (reported); the coverage factor from the rows' distributions.
   double denom = 0;
+  std::vector<CoverageRow> coverage_rows;
   for (size_t i = 0; i < vars.size(); ++i) {
     if (std::isfinite(bud.components[i].dof)) denom += vars[i].var_k * vars[i].var_k / bud.components[i].dof;
+    coverage_rows.push_back(
+        {std::sqrt(std::max(0.0, vars[i].var_k)), bud.components[i].dof, bud.components[i].distribution});
   }
   bud.effective_dof = denom > 0 ? total.var_k * total.var_k / denom : kInf;
-  bud.coverage_factor = StudentTCoverageFactor(o.coverage_probability, std::max(1.0, bud.effective_dof));
+  bud.coverage_factor = CoverageFactor(o.coverage_probability, coverage_rows);
+  bud.coverage_factor68 = CoverageFactor(kCoverage68, coverage_rows);
   bud.computed = true;
   vars.push_back(total);
   fit->curvature_sigma_per_mm = std::sqrt(std::max(0.0, total.var_k));
@@ -753,6 +730,22 @@ void FinishBudget(const std::vector<QuantityVariance>& vars, ModelFit* fit) {
   bud.combined.source = "quadrature sum of the rows";
   bud.combined.assumption = "the sources are independent of one another";
   fill(vars.back(), &bud.combined);
+  // Each camera coordinate's coverage factors from its own rows (the pitch row's share differs per coordinate).
+  for (int a = 0; a < 3; ++a) {
+    for (const bool axis : {true, false}) {
+      std::vector<CoverageRow> rows;
+      bool finite = true;
+      for (const BudgetComponent& c : bud.components) {
+        const double u = axis ? c.position_in_axis_mm[a] : c.position_in_centre_mm[a];
+        finite = finite && std::isfinite(u);
+        rows.push_back({finite ? u : 0, c.dof, c.distribution});
+      }
+      (axis ? bud.position_factor.axis : bud.position_factor.centre)[a] =
+          finite ? CoverageFactor(bud.coverage_probability, rows) : bud.coverage_factor;
+      (axis ? bud.position_factor68.axis : bud.position_factor68.centre)[a] =
+          finite ? CoverageFactor(kCoverage68, rows) : bud.coverage_factor68;
+    }
+  }
   size_t best = 0;
   for (size_t i = 1; i < bud.components.size(); ++i) {
     if (bud.components[i].curvature_per_mm > bud.components[best].curvature_per_mm) best = i;

@@ -19,6 +19,7 @@
 
 #include "analysis/screen_fit.h"
 #include "analysis/screen_fit_test_util.h"
+#include "core/error.h"
 #include "core/test_util.h"
 #include "core/screen_geometry.h"
 #include "core/look_at.h"
@@ -66,6 +67,51 @@ TEST(UncertaintyBudgetTest, CoverageFactorIsStudentT) {
   EXPECT_NEAR(StudentTCoverageFactor(0.6827, 1e9), 1.0, 1e-3);
 }
 
+TEST(UncertaintyBudgetTest, CoverageFactorConvolvesTheRectangularRow) {
+  constexpr double kInf = std::numeric_limits<double>::infinity();
+  using D = RowDistribution;
+  // Normal rows alone: Student's t at their Welch-Satterthwaite dof (two rows of 1 at 10 dof each: 20 dof).
+  EXPECT_NEAR(CoverageFactor(0.95, {{1, kInf, D::kNormal}, {2, kInf, D::kNormal}}), 1.959964, 1e-6);
+  double dof = 0;
+  EXPECT_NEAR(CoverageFactor(0.95, {{1, 10, D::kNormal}, {1, 10, D::kNormal}}, &dof),
+              StudentTCoverageFactor(0.95, 20), 1e-9);
+  EXPECT_NEAR(dof, 20, 1e-9);
+  // The rectangular row alone: p sqrt(3) (JCGM 100 G.2.3: 1.65 for 95%), whatever its size.
+  EXPECT_NEAR(CoverageFactor(0.95, {{0.3, kInf, D::kRectangular}}), 0.95 * std::sqrt(3.0), 1e-9);
+  EXPECT_NEAR(CoverageFactor(0.6827, {{7, kInf, D::kRectangular}, {0, 5, D::kNormal}}), 0.6827 * std::sqrt(3.0),
+              1e-9);
+  // A second rectangular row joins the normal part (the largest stays rectangular).
+  EXPECT_NEAR(CoverageFactor(0.95, {{1, kInf, D::kRectangular}, {1e-9, kInf, D::kRectangular}}), 0.95 * std::sqrt(3.0),
+              1e-6);
+  // Mixed: the factor's interval holds p of N(0, u_n^2) + U(-a, a), by seeded Monte Carlo (2e6 draws: binomial
+  // sigma 1.5e-4 at 95%, 3.3e-4 at 68%).
+  std::mt19937_64 rng(16);
+  for (const double ratio : {0.3, 1.0, 3.0}) {  // u(rectangular) / u(normal)
+    for (const double p : {0.95, 0.6827}) {
+      const double un = 1, ur = ratio, a = std::sqrt(3.0) * ur, uc = std::hypot(un, ur);
+      const double k = CoverageFactor(p, {{un, kInf, D::kNormal}, {ur, kInf, D::kRectangular}});
+      // Between the two pure cases (at 95% the rectangle's is the smaller, at 68% the larger: 1.18 against 1).
+      const double normal_k = StudentTCoverageFactor(p, kInf), rect_k = p * std::sqrt(3.0);
+      EXPECT_LT(k, std::max(normal_k, rect_k) + 1e-12) << ratio << " " << p;
+      EXPECT_GT(k, std::min(normal_k, rect_k) - 1e-12) << ratio << " " << p;
+      std::normal_distribution<double> normal(0, un);
+      std::uniform_real_distribution<double> uniform(-a, a);
+      constexpr int kDraws = 2000000;
+      int inside = 0;
+      for (int i = 0; i < kDraws; ++i) inside += std::abs(normal(rng) + uniform(rng)) <= k * uc ? 1 : 0;
+      const double sigma = std::sqrt(p * (1 - p) / kDraws);
+      EXPECT_NEAR(static_cast<double>(inside) / kDraws, p, 4 * sigma) << "u_r/u_n " << ratio << ", p " << p;
+    }
+  }
+  // Finite dof widen the normal part as Student's t does: between the infinite-dof factor and t alone.
+  const double k10 = CoverageFactor(0.95, {{1, 10, D::kNormal}, {1, kInf, D::kRectangular}});
+  EXPECT_GT(k10, CoverageFactor(0.95, {{1, kInf, D::kNormal}, {1, kInf, D::kRectangular}}));
+  EXPECT_LT(k10, StudentTCoverageFactor(0.95, 10));
+  EXPECT_THROW(CoverageFactor(1.0, {{1, kInf, D::kNormal}}), Error);
+  EXPECT_THROW(CoverageFactor(0.95, {{-1, kInf, D::kNormal}}), Error);
+  EXPECT_THROW(CoverageFactor(0.95, {{std::nan(""), kInf, D::kRectangular}}), Error);
+}
+
 TEST(UncertaintyBudgetTest, RowsArePresentAndCombineInQuadrature) {
   const SyntheticScene scene = DefaultScene();
   const ScreenFitResult r = FitScreen(scene.monitor, scene.camera, {Clean(scene, 0.05)}, CylinderOnly());
@@ -86,7 +132,22 @@ TEST(UncertaintyBudgetTest, RowsArePresentAndCombineInQuadrature) {
   const double k = f.curvature_per_mm, t = f.budget.coverage_factor;
   EXPECT_NEAR(f.radius_ci95_mm[0], 1 / (k + t * f.curvature_sigma_per_mm), 1e-9);
   EXPECT_NEAR(f.radius_ci95_mm[1], 1 / (k - t * f.curvature_sigma_per_mm), 1e-9);
-  EXPECT_NEAR(t, 1.96, 0.01);  // ~500 residual dof and type B rows: t is the normal quantile
+  // ~500 residual dof and type B rows, the pitch row rectangular: the factor from the rows' distributions, between
+  // the rectangular row's 1.645 and the normal quantile.
+  std::vector<CoverageRow> rows;
+  for (const BudgetComponent& c : f.budget.components) rows.push_back({c.curvature_per_mm, c.dof, c.distribution});
+  EXPECT_NEAR(t, CoverageFactor(0.95, rows), 1e-12);
+  EXPECT_EQ(Row(f, "pixel pitch").distribution, RowDistribution::kRectangular);
+  EXPECT_EQ(Row(f, "detection noise").distribution, RowDistribution::kNormal);
+  EXPECT_GT(t, 1.645);
+  EXPECT_LT(t, 1.96);
+  // The 68% interval likewise, with its own factor (between 1 and the rectangle's 1.18).
+  const double t68 = f.budget.coverage_factor68;
+  EXPECT_NEAR(t68, CoverageFactor(kCoverage68, rows), 1e-12);
+  EXPECT_GT(t68, 1.0);
+  EXPECT_LT(t68, 0.6827 * std::sqrt(3.0));
+  EXPECT_NEAR(f.radius_ci68_mm[0], 1 / (k + t68 * f.curvature_sigma_per_mm), 1e-9);
+  EXPECT_NEAR(f.radius_ci68_mm[1], 1 / (k - t68 * f.curvature_sigma_per_mm), 1e-9);
   // The camera's axis-frame sigma is the combined one.
   EXPECT_NEAR(f.cameras[0].position_in_screen_sigma_mm.z(), f.budget.combined.position_in_axis_mm.z(), 1e-9);
 }

@@ -149,10 +149,13 @@ std::vector<std::string> TrialColumns() {
                                 "radius_sigma_mm",
                                 "radius_ci95_lo_mm",
                                 "radius_ci95_hi_mm",
+                                "radius_ci68_lo_mm",
+                                "radius_ci68_hi_mm",
                                 "radius_in68",
                                 "radius_in95"};
   for (const char* f : kFrames) {
-    for (const char* what : {"true_cam_{}_{}_mm", "cam_{}_{}_mm", "cam_{}_{}_sigma_mm"}) {
+    for (const char* what :
+         {"true_cam_{}_{}_mm", "cam_{}_{}_mm", "cam_{}_{}_sigma_mm", "cam_{}_{}_k95", "cam_{}_{}_k68"}) {
       for (const char* a : kAxes) c.push_back(fmt::format(fmt::runtime(what), f, a));
     }
   }
@@ -219,9 +222,11 @@ std::vector<std::string> RunTrial(Bench& b, int index, std::string* line) {
   std::string detail, verdict, chosen;
   int features = 0;
   double render_ms = kNaN, photo_ms = kNaN, detect_ms = kNaN, fit_ms = kNaN;
-  double radius = kNaN, sigma = kNaN, lo = kNaN, hi = kNaN;
-  Eigen::Vector3d estimate[2], estimate_sigma[2];
-  for (int f = 0; f < 2; ++f) estimate[f] = estimate_sigma[f] = Eigen::Vector3d::Constant(kNaN);
+  double radius = kNaN, sigma = kNaN, lo = kNaN, hi = kNaN, lo68 = kNaN, hi68 = kNaN;
+  Eigen::Vector3d estimate[2], estimate_sigma[2], coverage_factor[2], coverage_factor68[2];
+  for (int f = 0; f < 2; ++f) {
+    estimate[f] = estimate_sigma[f] = coverage_factor[f] = coverage_factor68[f] = Eigen::Vector3d::Constant(kNaN);
+  }
   const fs::path pattern_json = b.scratch / fmt::format("trial-{}.pattern.json", index);
   try {
     std::unique_ptr<TrialDisplay> display;
@@ -291,12 +296,20 @@ std::vector<std::string> RunTrial(Bench& b, int index, std::string* line) {
           sigma = *m.radius_sigma_mm;
           lo = m.radius_ci95_mm[0];
           hi = m.radius_ci95_mm[1];
+          lo68 = m.radius_ci68_mm[0];
+          hi68 = m.radius_ci68_mm[1];
           if (!m.cameras.empty()) {
             const CameraEstimate& c = m.cameras.front();
             estimate[0] = c.centre_from_cam.translation;
             estimate_sigma[0] = c.position_in_centre_sigma_mm;
             estimate[1] = c.position_in_screen_mm;
             estimate_sigma[1] = c.position_in_screen_sigma_mm;
+            if (m.budget.computed) {
+              coverage_factor[0] = m.budget.position_factor.centre;
+              coverage_factor[1] = m.budget.position_factor.axis;
+              coverage_factor68[0] = m.budget.position_factor68.centre;
+              coverage_factor68[1] = m.budget.position_factor68.axis;
+            }
           }
         }
       }
@@ -312,7 +325,7 @@ std::vector<std::string> RunTrial(Bench& b, int index, std::string* line) {
        at = detail.find(pattern_json.string(), at)) {
     detail.replace(at, pattern_json.string().size(), "pattern.json");
   }
-  const IntervalSample rs{radius, true_radius, sigma, lo, hi};
+  const IntervalSample rs{radius, true_radius, sigma, lo, hi, lo68, hi68};
   std::vector<std::string> row = {
       std::to_string(index),    std::to_string(cell.index),
       Cell(cell.scale),         Cell(cell.distance_mm),
@@ -325,7 +338,7 @@ std::vector<std::string> RunTrial(Bench& b, int index, std::string* line) {
   for (const std::string& c :
        {std::string(TrialOutcomeName(outcome)), verdict, std::to_string(features), chosen,
         Cell(true_radius, kDigits), Cell(radius, kDigits), Cell(sigma, kDigits), Cell(lo, kDigits),
-        Cell(hi, kDigits), rs.Valid() ? std::string(rs.In68() ? "1" : "0") : "",
+        Cell(hi, kDigits), Cell(lo68, kDigits), Cell(hi68, kDigits), rs.Valid() ? std::string(rs.In68() ? "1" : "0") : "",
         rs.Valid() ? std::string(rs.In95() ? "1" : "0") : ""}) {
     row.push_back(c);
   }
@@ -333,6 +346,8 @@ std::vector<std::string> RunTrial(Bench& b, int index, std::string* line) {
     for (int i = 0; i < 3; ++i) row.push_back(Cell(truth[f][i], kDigits));
     for (int i = 0; i < 3; ++i) row.push_back(Cell(estimate[f][i], kDigits));
     for (int i = 0; i < 3; ++i) row.push_back(Cell(estimate_sigma[f][i], kDigits));
+    for (int i = 0; i < 3; ++i) row.push_back(Cell(coverage_factor[f][i], kDigits));
+    for (int i = 0; i < 3; ++i) row.push_back(Cell(coverage_factor68[f][i], kDigits));
   }
   const double trial_ms = watch.Ms();
   for (double ms : {render_ms, photo_ms, detect_ms, fit_ms, trial_ms}) row.push_back(Cell(ms));
@@ -374,13 +389,16 @@ CellStats CellOf(const SweepTable& t, const std::vector<size_t>& rows, const Gri
     }
     ++s.ok;
     radius.push_back({t.Num(r, "radius_mm"), t.Num(r, "true_radius_mm"), t.Num(r, "radius_sigma_mm"),
-                      t.Num(r, "radius_ci95_lo_mm"), t.Num(r, "radius_ci95_hi_mm")});
+                      t.Num(r, "radius_ci95_lo_mm"), t.Num(r, "radius_ci95_hi_mm"), t.Num(r, "radius_ci68_lo_mm"),
+                      t.Num(r, "radius_ci68_hi_mm")});
     for (int f = 0; f < 2; ++f) {
       for (int a = 0; a < 3; ++a) {
         camera[f][a].push_back(
             SymmetricSample(t.Num(r, fmt::format("cam_{}_{}_mm", kFrames[f], kAxes[a])),
                             t.Num(r, fmt::format("true_cam_{}_{}_mm", kFrames[f], kAxes[a])),
-                            t.Num(r, fmt::format("cam_{}_{}_sigma_mm", kFrames[f], kAxes[a]))));
+                            t.Num(r, fmt::format("cam_{}_{}_sigma_mm", kFrames[f], kAxes[a])),
+                            t.Num(r, fmt::format("cam_{}_{}_k95", kFrames[f], kAxes[a])),
+                            t.Num(r, fmt::format("cam_{}_{}_k68", kFrames[f], kAxes[a]))));
       }
     }
   }

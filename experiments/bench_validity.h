@@ -19,9 +19,10 @@
 // Truth (never from the analysis): the radius 1 / scene.truth.curvature_per_mm; the camera position in the
 // true screen's centre frame (the true monitor's translation and rigid rotation removed; a lean is not
 // modelled here) and in its axis frame (centre frame shifted by -R_true in z), against the chosen fit's
-// CameraEstimate in the same frames with their sigmas. Radius: 68% interval R +- radius_sigma_mm, 95%
-// interval radius_ci95_mm (as the fit reports them); camera coordinates: +- sigma and +- 1.96 sigma. Coverage
-// rates carry Wilson 95% intervals.
+// CameraEstimate in the same frames with their sigmas. Radius: the 68% and 95% intervals radius_ci68_mm and
+// radius_ci95_mm (as the fit reports them); camera coordinates: +- k68 sigma and +- k95 sigma, the budget's
+// coverage factors for that coordinate (columns cam_FRAME_AXIS_k68, _k95; 1 and 1.96 when absent). Coverage rates
+// carry Wilson 95% intervals.
 //
 // Shards (shards.h): trials k with k mod n = i - 1; validity_trials.csv has one row per trial, and every cell
 // statistic is computed from those rows, so `bench validity merge` of all shards reproduces an unsharded run.

@@ -8,13 +8,17 @@ bool IntervalSample::Valid() const {
   return std::isfinite(estimate) && std::isfinite(truth) && std::isfinite(sigma) && sigma > 0 && lo95 <= hi95;
 }
 
-bool IntervalSample::In68() const { return std::abs(estimate - truth) <= sigma; }
+bool IntervalSample::In68() const {
+  if (std::isfinite(lo68) && std::isfinite(hi68)) return truth >= lo68 && truth <= hi68;
+  return std::abs(estimate - truth) <= sigma;
+}
 
 bool IntervalSample::In95() const { return truth >= lo95 && truth <= hi95; }
 
-IntervalSample SymmetricSample(double estimate, double truth, double sigma) {
-  constexpr double kZ95 = 1.959963984540054;
-  return {estimate, truth, sigma, estimate - kZ95 * sigma, estimate + kZ95 * sigma};
+IntervalSample SymmetricSample(double estimate, double truth, double sigma, double k95, double k68) {
+  const double k = std::isfinite(k95) ? k95 : 1.959963984540054, h = std::isfinite(k68) ? k68 : 1;
+  return {estimate, truth, sigma, estimate - k * sigma, estimate + k * sigma, estimate - h * sigma,
+          estimate + h * sigma};
 }
 
 double CoverageStats::Coverage68() const {

@@ -19,17 +19,22 @@ struct IntervalSample {
   double sigma = std::numeric_limits<double>::quiet_NaN();  // reported standard uncertainty, > 0
   // The reported 95% interval (may be asymmetric, or reach +inf: a radius from a curvature interval).
   double lo95 = std::numeric_limits<double>::quiet_NaN(), hi95 = std::numeric_limits<double>::quiet_NaN();
+  // The reported 68% interval; NaN (not reported, e.g. a row of an older bench): estimate +- sigma.
+  double lo68 = std::numeric_limits<double>::quiet_NaN(), hi68 = std::numeric_limits<double>::quiet_NaN();
 
   // Usable: finite estimate, truth and sigma > 0, and lo95 <= hi95 (NaN bounds are not).
   bool Valid() const;
-  // The 68% interval is estimate +- sigma (coverage factor 1: 68.3% for a Gaussian); the 95% one [lo95,
-  // hi95].
+  // The 68% interval is [lo68, hi68] when reported, else estimate +- sigma (coverage factor 1: 68.3% for a
+  // Gaussian); the 95% one [lo95, hi95].
   bool In68() const;
   bool In95() const;
 };
 
-// A sample whose 95% interval is estimate +- 1.959964 sigma (a camera position coordinate).
-IntervalSample SymmetricSample(double estimate, double truth, double sigma);
+// A sample whose 95% interval is estimate +- k95 sigma and 68% interval estimate +- k68 sigma (a camera position
+// coordinate: the budget's coverage factors for it; not finite or absent: the normal 1.959964 and 1).
+IntervalSample SymmetricSample(double estimate, double truth, double sigma,
+                               double k95 = std::numeric_limits<double>::quiet_NaN(),
+                               double k68 = std::numeric_limits<double>::quiet_NaN());
 
 struct CoverageStats {
   int n = 0;  // valid samples: everything below is over them

@@ -64,6 +64,18 @@ TEST(ValidityStats, SymmetricSampleUsesTheNormalQuantile) {
   EXPECT_TRUE(x.In95());
   EXPECT_FALSE(SymmetricSample(0, 1.961, 1).In95());
   EXPECT_FALSE(x.In68());
+  // With the budget's coverage factor (a rectangular row dominating: down to 1.645).
+  EXPECT_TRUE(SymmetricSample(0, 1.64, 1, 1.645).In95());
+  EXPECT_FALSE(SymmetricSample(0, 1.65, 1, 1.645).In95());
+  EXPECT_TRUE(SymmetricSample(0, 1.95, 1, std::numeric_limits<double>::quiet_NaN()).In95());
+  // The 68% interval: +- sigma unless a factor is given (a rectangle: 1.18 sigma holds 68%).
+  EXPECT_TRUE(SymmetricSample(0, 1.1, 1, 1.645, 1.18).In68());
+  EXPECT_FALSE(SymmetricSample(0, 1.1, 1, 1.645).In68());
+  // A reported asymmetric 68% interval is used as it is.
+  IntervalSample r{10, 11.5, 1, 7, 14, 8.5, 11.6};
+  EXPECT_TRUE(r.In68());
+  r.hi68 = 11.4;
+  EXPECT_FALSE(r.In68());
 }
 
 // Seeded Gaussian errors: an honest sigma covers 95% and 68% (within the binomial scatter of 4000 samples:

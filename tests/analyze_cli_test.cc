@@ -317,6 +317,57 @@ TEST_F(AnalyzeCli, TheCalibrationsLensMisfitIsTheMisfitRowsFloor) {
   ExpectOneLineFailure(Curvecheck(args), {"--lens-misfit", "0.1,-300 is not an RMS and a length"});
 }
 
+TEST_F(AnalyzeCli, TheCoverageFactorFollowsTheRowsDistributions) {
+  // A 2% pitch tolerance (rectangular, u = 1.15% of R: some 12 mm against a few mm for the other rows) dominates
+  // the budget: the 95% factor falls from near 1.96 towards 0.95 sqrt(3) = 1.645 on the radius and on the camera's
+  // distance (scale moves a position in proportion to it: little near x = y = 0, where the normal rows keep
+  // their Student's t), and the report says which row is rectangular.
+  const std::string camera = (Dir() / "small.cameramodel").string(), pattern = (Dir() / "exact.json").string();
+  const fs::path narrow = Dir() / "out-pitch-narrow", wide = Dir() / "out-pitch-wide";
+  for (const auto& [out, percent] : {std::pair{narrow, "0"}, std::pair{wide, "2"}}) {
+    const CliRun r = Curvecheck({"analyze", "--camera", camera, "--pattern", pattern,
+                                 (Dir() / "photo-exact.png").string(), "--pitch-tolerance", percent,
+                                 "--no-overlays", "-o", out.string()});
+    ASSERT_EQ(r.code, 0) << r.err;
+  }
+  const nlohmann::json n = Result(narrow)["fit"], w = Result(wide)["fit"];
+  EXPECT_EQ(n["radius_mm"], w["radius_mm"]);
+  const nlohmann::json &bn = n["uncertainty_budget"], &bw = w["uncertainty_budget"];
+  for (const nlohmann::json* b : {&bn, &bw}) {
+    for (const nlohmann::json& c : (*b)["components"]) {
+      EXPECT_EQ(c["distribution"], c["name"] == "pixel pitch" ? "rectangular" : "normal") << c["name"];
+    }
+  }
+  const double kn = bn["coverage_factor"], kw = bw["coverage_factor"];
+  EXPECT_GE(kn, 1.959);  // no rectangular row: Student's t
+  EXPECT_GT(kw, 0.95 * std::sqrt(3.0));
+  EXPECT_LT(kw, 1.70);
+  // The radius interval is the curvature's k +- factor u_c(k), inverted.
+  const double k = bw["curvature"]["value_per_mm"], uk = bw["curvature"]["combined_standard_uncertainty_per_mm"];
+  EXPECT_NEAR(w["radius_ci95_mm"][0].get<double>(), 1 / (k + kw * uk), 1e-6);
+  EXPECT_NEAR(w["radius_ci95_mm"][1].get<double>(), 1 / (k - kw * uk), 1e-6);
+  EXPECT_NEAR(bw["curvature"]["coverage_factor"].get<double>(), kw, 1e-12);
+  // The 68% interval: +- u_c with normal rows alone, wider with the rectangle (1.18 u alone).
+  EXPECT_NEAR(bn["coverage_factor68"].get<double>(), 1.0, 0.02);  // Student's t at the rows' dof: about 1
+  const double k68 = bw["coverage_factor68"];
+  EXPECT_GT(k68, 1.1);
+  EXPECT_LT(k68, 0.6827 * std::sqrt(3.0));
+  EXPECT_NEAR(w["radius_ci68_mm"][0].get<double>(), 1 / (k + k68 * uk), 1e-6);
+  EXPECT_NEAR(w["radius_ci68_mm"][1].get<double>(), 1 / (k - k68 * uk), 1e-6);
+  for (const char* a : {"x", "y", "z"}) {
+    const nlohmann::json& p = bw["camera_position"][a];
+    const double v = p["value_mm"], u = p["combined_standard_uncertainty_mm"], f = p["coverage_factor"];
+    EXPECT_LT(f, bn["camera_position"][a]["coverage_factor"].get<double>() + 1e-9) << a;
+    std::cout << a << ": coverage factor " << bn["camera_position"][a]["coverage_factor"] << " -> " << f << "\n";
+    if (std::string(a) == "z") {
+      EXPECT_LT(f, 1.9);
+    }
+    EXPECT_GE(f, 0.95 * std::sqrt(3.0) - 1e-9) << a;
+    EXPECT_NEAR(p["interval95_mm"][0].get<double>(), v - f * u, 1e-9 * (1 + std::abs(v))) << a;
+  }
+  EXPECT_THAT(Slurp(wide / "report.html"), HasSubstr("<td>B, rectangular</td>"));
+}
+
 TEST_F(AnalyzeCli, UsageErrors) {
   const CliRun r = Curvecheck({"analyze", "--camera", "x.cameramodel", "-o", "out"});
   EXPECT_EQ(r.code, 1);  // a usage error exits 1, as every error (app/cli.h)

@@ -141,6 +141,12 @@ TEST_F(BenchValidityCli, TrialsMeetTheirTruthAndCellsAreWhatTheTrialsImply) {
         const std::string c = std::string("cam_") + f + "_" + a;
         EXPECT_NEAR(Num(t, c + "_mm"), Num(t, "true_" + c + "_mm"), 10) << what << " " << c;
         EXPECT_GT(Num(t, c + "_sigma_mm"), 0) << what << " " << c;
+        // The budget's coverage factor for the coordinate: from 0.95 sqrt(3) (the rectangular pitch row alone)
+        // up to Student's t at a few degrees of freedom.
+        EXPECT_GE(Num(t, c + "_k95"), 0.95 * std::sqrt(3.0) - 1e-4) << what << " " << c;
+        EXPECT_LT(Num(t, c + "_k95"), 5) << what << " " << c;
+        EXPECT_GE(Num(t, c + "_k68"), 0.99) << what << " " << c;  // 1 (normal) to 1.18 (rectangular)
+        EXPECT_LT(Num(t, c + "_k68"), Num(t, c + "_k95")) << what << " " << c;
       }
     }
   }
@@ -157,7 +163,11 @@ TEST_F(BenchValidityCli, TrialsMeetTheirTruthAndCellsAreWhatTheTrialsImply) {
     for (size_t i = 3 * c; i < 3 * c + 3; ++i) {
       const auto& t = trials[i];
       const double e = Num(t, "radius_mm") - Num(t, "true_radius_mm"), sigma = Num(t, "radius_sigma_mm");
-      const bool in68 = std::abs(e) <= sigma;
+      // The fit's 68% interval (k +- its factor u_c(k), inverted): about R +- sigma, wider when the rectangular
+      // pitch row dominates.
+      const bool in68 = Num(t, "true_radius_mm") >= Num(t, "radius_ci68_lo_mm") &&
+                        Num(t, "true_radius_mm") <= Num(t, "radius_ci68_hi_mm");
+      EXPECT_NEAR(Num(t, "radius_ci68_hi_mm") - Num(t, "radius_ci68_lo_mm"), 2 * sigma, 0.5 * sigma);
       const bool in95 = Num(t, "true_radius_mm") >= Num(t, "radius_ci95_lo_mm") &&
                         Num(t, "true_radius_mm") <= Num(t, "radius_ci95_hi_mm");
       EXPECT_EQ(t.at("radius_in68"), in68 ? "1" : "0");
@@ -180,6 +190,21 @@ TEST_F(BenchValidityCli, TrialsMeetTheirTruthAndCellsAreWhatTheTrialsImply) {
     const bool pass = k95 / 3.0 >= 0.9 && k95 / 3.0 <= 0.98 && std::abs(sum_error / sum_sigma) < 0.5;
     EXPECT_EQ(cell.at("radius_pass"), pass ? "1" : "0");  // 3 trials: 3/3 = 100% is above 98%, so never
     EXPECT_GT(Num(cell, "cam_axis_z_n"), 0);
+    // A camera coordinate's 95% interval is its estimate +- its own coverage factor times its sigma.
+    for (const char* f : {"centre", "axis"}) {
+      for (const char* a : {"x", "y", "z"}) {
+        const std::string col = std::string("cam_") + f + "_" + a;
+        int cam95 = 0, cam68 = 0;
+        for (size_t i = 3 * c; i < 3 * c + 3; ++i) {
+          const auto& t = trials[i];
+          const double e = std::abs(Num(t, col + "_mm") - Num(t, "true_" + col + "_mm"));
+          cam95 += e <= Num(t, col + "_k95") * Num(t, col + "_sigma_mm");
+          cam68 += e <= Num(t, col + "_k68") * Num(t, col + "_sigma_mm");
+        }
+        EXPECT_EQ(Num(cell, col + "_cov95_k"), cam95) << col;
+        EXPECT_EQ(Num(cell, col + "_cov68_k"), cam68) << col;
+      }
+    }
   }
 
   const nlohmann::json j = nlohmann::json::parse(Slurp(out / "validity.json"));

@@ -11,9 +11,10 @@ add_library(curvecheck_analysis_fit STATIC
   ${CMAKE_CURRENT_SOURCE_DIR}/screen_fit_budget.cc
   ${CMAKE_CURRENT_SOURCE_DIR}/coverage_factor.cc
   ${CMAKE_CURRENT_SOURCE_DIR}/intrinsics_covariance.cc
+  ${CMAKE_CURRENT_SOURCE_DIR}/screen_fit_pixel_locking.cc
 )
 # Batches of four (the two heaviest files, screen_fit_misfit.cc and screen_fit_budget.cc, fall in the second, the
-# small sidecar reader and the coverage factor in a third; one batch of eight saves more CPU but is one 90 s job
+# small sidecar reader, the coverage factor and the pixel-locking signature in a third; one batch of eight saves more CPU but is one 90 s job
 # at the end of a 2-core build).
 curvecheck_unity(curvecheck_analysis_fit 4)
 target_link_libraries(curvecheck_analysis_fit PUBLIC curvecheck_core Ceres::ceres PRIVATE opencv_core opencv_calib3d)

@@ -208,11 +208,16 @@ nlohmann::json BudgetJson(const ModelFit& f, const std::string& first_photo) {
     j["camera_position"] = pos;
   }
   j["detector_systematic"] = {
-      {"pixel_locking_amplitude_px", Vec(b.pixel_locking.amplitude_px)},
-      {"pixel_locking_sigma_px", Vec(b.pixel_locking.sigma_px)},
+      {"pixel_locking_amplitude_px", Vec(Eigen::Vector2d(b.pixel_locking.amplitude_px.col(0)))},
+      {"pixel_locking_sigma_px", Vec(Eigen::Vector2d(b.pixel_locking.sigma_px.col(0)))},
+      {"pixel_locking_period2_amplitude_px", Vec(Eigen::Vector2d(b.pixel_locking.amplitude_px.col(1)))},
+      {"pixel_locking_period2_sigma_px", Vec(Eigen::Vector2d(b.pixel_locking.sigma_px.col(1)))},
       {"pixel_locking_observations", b.pixel_locking.observations},
-      {"method", "per coordinate, the fit's residuals (detected - predicted) regressed on (1, sin 2 pi phi, cos 2 pi "
-                 "phi), phi the detected coordinate's subpixel phase; amplitude = sqrt(a_sin^2 + a_cos^2)"},
+      {"noise_without_signature_px", Num(b.pixel_locking.noise_px)},
+      {"method", "per coordinate and period (1 px; 2 px, a colour filter array's) the bias a sin 2 pi phi + b cos "
+                 "2 pi phi, phi the detected coordinate's phase in the period; the eight coefficients fitted to the fit's residuals (detected - predicted) on the "
+                 "shapes' refit projections (I - J (J^T J)^+ J^T) sin, cos, so that the part the fit absorbed counts; "
+                 "amplitude = sqrt(a^2 + b^2)"},
       {"bound_px", b.systematic_bound_px},
       {"smooth_fields_curvature_per_mm", Num(b.smooth_share_curvature_per_mm)},
       {"pixel_locking_shape_curvature_per_mm", Num(b.pixel_locking_share_curvature_per_mm)},

@@ -37,7 +37,7 @@ namespace curvecheck {
 struct DetectionNoiseModel {
   std::vector<std::pair<double, double>> camera_px_per_display_px_to_noise_px;  // ascending in m
   // Part of that noise is the detector's pixel-locking: a bias A sin(2 pi phase + psi) per coordinate at each
-  // detection's subpixel phase (analysis/screen_fit.h EstimatePixelLocking), A = this fraction of the noise,
+  // detection's subpixel phase (analysis/screen_fit.h ResidualPixelLocking), A = this fraction of the noise,
   // psi common to the photos (a property of the detector); the rest is independent Gaussian noise, so that
   // the total RMS per coordinate is the noise (A^2/2 + g^2 = noise^2). The budget's detector-systematic row
   // measures A.

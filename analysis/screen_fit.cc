@@ -134,7 +134,7 @@ void CompleteFits(const Setup& setup, std::vector<ModelWork>& work, ScreenFitRes
   ModelFit& chosen = result->candidates[static_cast<size_t>(result->chosen)];
   const ModelWork& cw = work[static_cast<size_t>(result->chosen)];
   if (cw.lin && setup.options->measure_lens_misfit) {
-    MeasureMisfitCorrelation(setup, *cw.lin, LinearizedResiduals(setup, *cw.lin, chosen), chosen.noise_px,
+    MeasureMisfitCorrelation(setup, *cw.lin, LinearizedResiduals(setup, *cw.lin, chosen), IndependentNoisePx(chosen),
                              &chosen.budget);
   }
   // On all cores: each candidate writes only its own fit; the chosen one's misfit fields, which the others copy,

@@ -142,6 +142,11 @@ struct FitOptions {
   // empirical scatter of 5.0 mm, so a smooth bias there is at most a small part; the earlier bound, the
   // detection floor 0.05 px, added 5.4 mm that the scatter did not show (intervals of 99.9% coverage).
   double smooth_bias_px = 0.02;
+  // false: the pixel-locking signature is not fitted (no share in the detector-systematic row, the noise row
+  // scaled by the whole residual noise, nothing removed before the misfit statistics): for tests of other rows on
+  // detections with independent noise only, where a small patch cannot tell the signature from the curvature and
+  // the row would (rightly) widen the interval on its own.
+  bool measure_pixel_locking = true;
   int systematic_field_draws = 2000;
   unsigned systematic_field_seed = 20261201;
   // Lens model misfit (the true lens's departure from the camera model, and any other error that is smooth over
@@ -222,13 +227,24 @@ struct BudgetComponent {
   double dof = std::numeric_limits<double>::infinity();  // degrees of freedom (infinity for type B)
 };
 
-// The pixel-locking left in the fit's residuals (after the verification's estimate was removed from the
-// detections, analysis/error_field.h): per coordinate, the fit's residuals regressed on (1, sin 2 pi phi, cos 2 pi phi)
-// with phi the subpixel phase of the detected coordinate (EstimatePixelLocking).
+// The detector's pixel-locking signature measured through the fit: per coordinate c and period T a bias
+// a sin 2 pi phi + b cos 2 pi phi, phi the detected coordinate's phase in that period (frac(q / T)); periods 1 px
+// (the sampling) and 2 px (a Bayer colour filter array repeats every 2 px, and its demosaicing error with it;
+// measured 0.05 px with the CFA on, 0.004 px without, docs/bench/validity_bench.txt 2026-12-05). The coefficients
+// reach the residuals through the refit as P sin, P cos (P = I - J (J^T J)^+ J^T), so they are fitted to the
+// residuals on those projected shapes (screen_fit_internal.h EstimatePixelLockingThroughFit): unbiased where the fit
+// absorbs part of the signature (a frontal view of a regular board, whose phases beat slowly across the image).
+inline constexpr int kPixelLockingTerms = 2;
+inline constexpr std::array<double, kPixelLockingTerms> kPixelLockingPeriods = {1.0, 2.0};  // px
 struct ResidualPixelLocking {
-  Eigen::Vector2d amplitude_px = Eigen::Vector2d::Zero();  // sqrt(a_sin^2 + a_cos^2), x and y
-  Eigen::Vector2d sigma_px = Eigen::Vector2d::Zero();      // its standard uncertainty
+  // sqrt(a^2 + b^2): row = coordinate (x, y), column = period (1 px, 2 px)
+  Eigen::Matrix2d amplitude_px = Eigen::Matrix2d::Zero();
+  Eigen::Matrix2d sigma_px = Eigen::Matrix2d::Zero();  // its standard uncertainty
   int observations = 0;
+  // The residuals' RMS per coordinate once the fitted signature is removed (over 2n - parameters - 4 degrees of
+  // freedom): the independent detection noise, which the detection-noise row propagates (the fit's noise_px holds
+  // the signature's power too, which the detector-systematic row propagates in its own shape). NaN: not measured.
+  double noise_px = std::numeric_limits<double>::quiet_NaN();
 };
 
 struct UncertaintyBudget {
@@ -455,13 +471,6 @@ std::vector<Eigen::Vector3d> FittedSurfacePointsInCamera(const Monitor& nominal,
 double RadiusCramerRaoBoundMm(const Monitor& true_monitor, const CameraModel& camera,
                               const std::vector<Pose>& centre_from_cams,
                               const std::vector<std::vector<Eigen::Vector2d>>& display_px, double sigma_px);
-
-// Pixel-locking signature of detections: per coordinate c, the residuals (detected - predicted, px) regressed
-// by least squares on (1, sin 2 pi phi, cos 2 pi phi), phi = the subpixel phase of the detected coordinate
-// (q - floor(q)); amplitude sqrt(a_s^2 + a_c^2) with its standard uncertainty from the regression's residual
-// scatter (delta method; near zero amplitude the coefficients' RMS sigma). Non-finite entries are skipped.
-ResidualPixelLocking EstimatePixelLocking(const std::vector<Eigen::Vector2d>& detected_px,
-                                  const std::vector<Eigen::Vector2d>& residual_px);
 
 // The two-sided quantile of Student's t for coverage probability p (e.g. 0.95) at dof degrees of freedom
 // (infinity: the normal quantile); Hill's expansion (Abramowitz & Stegun 26.7.5) from the normal quantile,

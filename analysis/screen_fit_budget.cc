@@ -1,6 +1,6 @@
-// The screen fit's uncertainty budget (analysis/screen_fit.h): its data-only parts (the pixel-locking regression,
-// the Legendre and Gaussian bias fields; the coverage factor is in coverage_factor.cc, the lens covariance sidecar
-// is read in intrinsics_covariance.cc), then the budget itself:
+// The screen fit's uncertainty budget (analysis/screen_fit.h): its data-only parts (the Legendre and Gaussian bias
+// fields; the coverage factor is in coverage_factor.cc, the lens covariance sidecar is read in
+// intrinsics_covariance.cc, the pixel-locking signature is fitted in screen_fit_pixel_locking.cc), then the budget:
 // the fit's linearization and each source propagated through it (analysis/screen_fit_internal.h; the
 // lens-model-misfit row's measurement is in screen_fit_misfit.cc).
 #include <fmt/format.h>
@@ -33,45 +33,6 @@ double Legendre(int n, double x) {
 }
 
 }  // namespace
-
-ResidualPixelLocking EstimatePixelLocking(const std::vector<Eigen::Vector2d>& detected_px,
-                                  const std::vector<Eigen::Vector2d>& residual_px) {
-  if (detected_px.size() != residual_px.size()) {
-    throw Error("pixel-locking estimate", "detections and residuals differ in number", "");
-  }
-  ResidualPixelLocking out;
-  for (int c = 0; c < 2; ++c) {
-    std::vector<Eigen::Vector3d> rows;
-    std::vector<double> y;
-    for (size_t i = 0; i < detected_px.size(); ++i) {
-      if (!detected_px[i].allFinite() || !residual_px[i].allFinite()) continue;
-      const double phase = 2 * kPi * (detected_px[i][c] - std::floor(detected_px[i][c]));
-      rows.emplace_back(1.0, std::sin(phase), std::cos(phase));
-      y.push_back(residual_px[i][c]);
-    }
-    const int n = static_cast<int>(y.size());
-    out.observations = n;
-    if (n < 6) {
-      out.amplitude_px[c] = out.sigma_px[c] = std::numeric_limits<double>::quiet_NaN();
-      continue;
-    }
-    Eigen::MatrixXd x(n, 3);
-    Eigen::VectorXd yv(n);
-    for (int i = 0; i < n; ++i) x.row(i) = rows[static_cast<size_t>(i)].transpose(), yv[i] = y[static_cast<size_t>(i)];
-    const Eigen::Matrix3d xtx = x.transpose() * x;
-    const Eigen::Vector3d beta = xtx.ldlt().solve(x.transpose() * yv);
-    const double s2 = (yv - x * beta).squaredNorm() / (n - 3);
-    const Eigen::Matrix2d cov = (s2 * xtx.inverse()).bottomRightCorner<2, 2>();
-    const Eigen::Vector2d ab = beta.tail<2>();
-    const double a = ab.norm();
-    out.amplitude_px[c] = a;
-    // Delta method along the estimate's direction; near zero (a below its own noise) the direction is
-    // undefined and the coefficients' RMS sigma is the amplitude's scale.
-    const double rms_sigma = std::sqrt(0.5 * cov.trace());
-    out.sigma_px[c] = a > 3 * rms_sigma ? std::sqrt((ab / a).dot(cov * (ab / a))) : rms_sigma;
-  }
-  return out;
-}
 
 Eigen::MatrixXd LegendreFieldBasis(const std::vector<Eigen::Vector2d>& points_px, int width, int height, int degree) {
   if (width < 2 || height < 2 || degree < 0) {
@@ -328,21 +289,26 @@ QuantityVariance SystematicVariance(const Setup& setup, const Linearization& lin
   return QuantityVariance::FromCovariance(cov / o.systematic_field_draws, setup.photos);
 }
 
-// Pixel-locking itself, propagated in its own shape: per coordinate c a bias A_c sin(2 pi phi_i + psi) with phi_i
-// the detection's subpixel phase, A_c^2 its expectation given the estimate (estimate^2 + sigma^2: a standard
-// uncertainty, not the 95% bound estimate + 2 sigma, which stated as one inflated the row 1.3-2x in variance)
-// and the phase offset psi unknown (uniform):
-// dq = A_c (G s_c cos psi + G c_c sin psi), s_c = sin 2 pi phi, c_c = cos 2 pi phi, whose covariance over psi is
-// A_c^2 / 2 (G s_c s_c^T G^T + G c_c c_c^T G^T). On a regular board the phases beat across the image, so this
-// field is correlated in a way that low-order smooth fields do not represent.
-QuantityVariance PixelLockingVariance(const Setup& setup, const Linearization& lin, const Eigen::Vector2d& bound_px) {
+// Pixel-locking itself, propagated in its own shape: per coordinate c and period T (kPixelLockingPeriods) a bias
+// A sin(2 pi phi_i + psi) with phi_i the detection's phase in that period (frac(q / T)), A^2 its expectation given
+// the estimate (estimate^2 + sigma^2: a standard uncertainty, not the 95% bound estimate + 2 sigma, which stated
+// as one inflated the row 1.3-2x in variance) and the phase offset psi unknown (uniform):
+// dq = A (G s cos psi + G c sin psi), s = sin 2 pi phi, c = cos 2 pi phi, whose covariance over psi is
+// A^2 / 2 (G s s^T G^T + G c c^T G^T); the four terms (two coordinates, two periods) add. On a regular board the
+// phases beat across the image, so this field is correlated in a way that low-order smooth fields do not represent.
+QuantityVariance PixelLockingVariance(const Setup& setup, const Linearization& lin, const ResidualPixelLocking& pl,
+                                      const Eigen::VectorXd& residual) {
   const int nq = static_cast<int>(lin.g.rows());
-  const Eigen::MatrixXd shapes = PixelLockingShapes(setup, lin);
+  const Eigen::MatrixXd shapes = PixelLockingShapes(setup, lin, residual);
   Eigen::MatrixXd cov = Eigen::MatrixXd::Zero(nq, nq);
   for (int c = 0; c < 2; ++c) {
-    if (!std::isfinite(bound_px[c]) || !(bound_px[c] > 0)) continue;
-    const Eigen::VectorXd gs = lin.g * shapes.col(2 * c), gc = lin.g * shapes.col(2 * c + 1);
-    cov += 0.5 * bound_px[c] * bound_px[c] * (gs * gs.transpose() + gc * gc.transpose());
+    for (int t = 0; t < kPixelLockingTerms; ++t) {
+      const double bound = std::hypot(pl.amplitude_px(c, t), pl.sigma_px(c, t));
+      if (!std::isfinite(bound) || !(bound > 0)) continue;
+      const long col = PixelLockingColumn(c, t);
+      const Eigen::VectorXd gs = lin.g * shapes.col(col), gc = lin.g * shapes.col(col + 1);
+      cov += 0.5 * bound * bound * (gs * gs.transpose() + gc * gc.transpose());
+    }
   }
   return QuantityVariance::FromCovariance(cov, setup.photos);
 }
@@ -381,23 +347,6 @@ std::string Percent(double relative) { return fmt::format("{:.3g}%", 100 * relat
 
 }  // namespace
 
-// The pixel-locking signature's shapes at the active observations (2n x 4, rows interleaved x, y): columns 2c and
-// 2c + 1 hold sin and cos of 2 pi x the subpixel phase of coordinate c on that coordinate's rows, zero elsewhere.
-Eigen::MatrixXd PixelLockingShapes(const Setup& setup, const Linearization& lin) {
-  constexpr double kTwoPi = 6.283185307179586;
-  const int n = static_cast<int>(lin.obs.size());
-  Eigen::MatrixXd shapes = Eigen::MatrixXd::Zero(2 * n, 4);
-  for (int i = 0; i < n; ++i) {
-    const Eigen::Vector2d q = setup.obs[lin.obs[static_cast<size_t>(i)]].detected;
-    for (int c = 0; c < 2; ++c) {
-      const double phase = kTwoPi * (q[c] - std::floor(q[c]));
-      shapes(2 * i + c, 2 * c) = std::sin(phase);
-      shapes(2 * i + c, 2 * c + 1) = std::cos(phase);
-    }
-  }
-  return shapes;
-}
-
 // The active observations' detected positions, in Linearization order.
 std::vector<Eigen::Vector2d> DetectedPoints(const Setup& setup, const Linearization& lin) {
   std::vector<Eigen::Vector2d> points;
@@ -423,43 +372,58 @@ void Budget(const Setup& setup, ModelWork& w, int n_residuals, ModelFit* fit) {
   bud.coverage_probability = o.coverage_probability;
   std::vector<QuantityVariance>& vars = w.budget_vars;
   vars.clear();
-  // 1. Detection noise: the covariance scaled by the residual noise (Covariances).
-  QuantityVariance noise(setup.photos);
-  noise.var_k = fit->curvature_sigma_per_mm * fit->curvature_sigma_per_mm;
-  for (int p = 0; p < setup.photos && static_cast<size_t>(p) < fit->cameras.size(); ++p) {
-    noise.var_pos[static_cast<size_t>(p)] = fit->cameras[static_cast<size_t>(p)].position_in_centre_sigma_mm.cwiseAbs2();
-    noise.cov_pos_k[static_cast<size_t>(p)] = w.position_curvature_cov[static_cast<size_t>(p)];
+  const std::optional<Linearization>& lin = w.lin;  // FitFinal's (Linearize)
+  // The detector's pixel-locking signature, fitted through the fit (row 2 propagates it); what the residuals hold
+  // besides it is the independent noise of row 1.
+  if (lin && o.measure_pixel_locking) {
+    bud.pixel_locking =
+        EstimatePixelLockingThroughFit(setup, *lin, LinearizedResiduals(setup, *lin, *fit), fit->parameters);
+  } else {
+    bud.pixel_locking.amplitude_px.setConstant(std::numeric_limits<double>::quiet_NaN());
+    bud.pixel_locking.sigma_px = bud.pixel_locking.amplitude_px;
   }
-  fit->curvature_noise_sigma_per_mm = fit->curvature_sigma_per_mm;
+  const ResidualPixelLocking& pl = bud.pixel_locking;
+  // 1. Detection noise: the covariance (Covariances, scaled by the fit's residual noise) rescaled to the noise
+  // without the signature: counted in both rows, its power had stood in row 1 as independent noise as well.
+  const double noise_px = IndependentNoisePx(*fit);
+  const bool signature_out = noise_px != fit->noise_px;
+  const double rescale = signature_out ? (noise_px / fit->noise_px) * (noise_px / fit->noise_px) : 1.0;
+  QuantityVariance noise(setup.photos);
+  noise.var_k = rescale * fit->curvature_sigma_per_mm * fit->curvature_sigma_per_mm;
+  for (int p = 0; p < setup.photos && static_cast<size_t>(p) < fit->cameras.size(); ++p) {
+    noise.var_pos[static_cast<size_t>(p)] =
+        rescale * fit->cameras[static_cast<size_t>(p)].position_in_centre_sigma_mm.cwiseAbs2();
+    noise.cov_pos_k[static_cast<size_t>(p)] = rescale * w.position_curvature_cov[static_cast<size_t>(p)];
+  }
+  fit->curvature_noise_sigma_per_mm = std::sqrt(noise.var_k);
   BudgetComponent c_noise;
   c_noise.name = "detection noise";
   c_noise.type = "A";
-  c_noise.dof = std::max(1, n_residuals - fit->parameters);
+  c_noise.dof = std::max(1, n_residuals - fit->parameters - (signature_out ? 4 * kPixelLockingTerms : 0));
   c_noise.source = fmt::format(
-      "the fit's covariance (J^T J)^-1 scaled by its residual noise {:.4f} px per coordinate ({} residuals, {} "
-      "parameters)",
-      fit->noise_px, n_residuals, fit->parameters);
+      "the fit's covariance (J^T J)^-1 scaled by its residual noise without the pixel-locking signature, {:.4f} px "
+      "per coordinate ({} residuals, {} parameters, {} signature coefficients; with the signature {:.4f} px)",
+      noise_px, n_residuals, fit->parameters, signature_out ? 4 * kPixelLockingTerms : 0, fit->noise_px);
   c_noise.assumption = "independent, isotropic Gaussian detection errors; the residual scatter measures them";
   bud.components.push_back(c_noise);
   vars.push_back(noise);
 
-  const std::optional<Linearization>& lin = w.lin;  // FitFinal's (Linearize)
   // 2. Detector systematic (pixel-locking and other detector bias).
   {
-    const std::vector<Eigen::Vector2d> det = lin ? DetectedPoints(setup, *lin) : std::vector<Eigen::Vector2d>();
-    const std::vector<Eigen::Vector2d> res =
-        lin ? LinearizedResiduals(setup, *lin, *fit) : std::vector<Eigen::Vector2d>();
-    bud.pixel_locking = EstimatePixelLocking(det, res);
-    const ResidualPixelLocking& pl = bud.pixel_locking;
     double upper = 0;
     for (int c = 0; c < 2; ++c) {
-      if (std::isfinite(pl.amplitude_px[c])) upper = std::max(upper, std::hypot(pl.amplitude_px[c], pl.sigma_px[c]));
+      for (int t = 0; t < kPixelLockingTerms; ++t) {
+        const double b = std::hypot(pl.amplitude_px(c, t), pl.sigma_px(c, t));
+        if (std::isfinite(b)) upper = std::max(upper, b);
+      }
     }
     bud.systematic_bound_px = o.smooth_bias_px;
     bud.systematic_bound_reason = fmt::format(
         "the stated smooth detector bias FitOptions::smooth_bias_px (type B, not measured); the pixel-locking "
-        "signature's RMS amplitude sqrt(estimate^2 + sigma^2), at most {:.4f} px (x {:.4f} +- {:.4f}, y {:.4f} +- {:.4f} px)",
-        upper, pl.amplitude_px.x(), pl.sigma_px.x(), pl.amplitude_px.y(), pl.sigma_px.y());
+        "signature's RMS amplitude sqrt(estimate^2 + sigma^2), at most {:.4f} px (period 1 px: x {:.4f} +- {:.4f}, "
+        "y {:.4f} +- {:.4f} px; period 2 px, a colour filter array's: x {:.4f} +- {:.4f}, y {:.4f} +- {:.4f} px)",
+        upper, pl.amplitude_px(0, 0), pl.sigma_px(0, 0), pl.amplitude_px(1, 0), pl.sigma_px(1, 0),
+        pl.amplitude_px(0, 1), pl.sigma_px(0, 1), pl.amplitude_px(1, 1), pl.sigma_px(1, 1));
     BudgetComponent c;
     c.name = "detector systematic";
     c.type = "B";
@@ -472,20 +436,21 @@ void Budget(const Setup& setup, ModelWork& w, int n_residuals, ModelFit* fit) {
         "scaled to RMS b ({} seeded draws); its standard uncertainty is the RMS effect. Correlated across features, "
         "unlike the noise row (independent per-feature errors are in that row already); plus, in quadrature, the "
         "pixel-locking signature in its own shape: A sin(2 pi phase + psi) per coordinate at each detection's "
-        "subpixel phase, A^2 = estimate^2 + sigma^2 (its expectation), psi uniform (on a regular board the phases beat across the "
+        "phase in periods of 1 px and 2 px (a colour filter array's demosaicing repeats every 2 px), A^2 = "
+        "estimate^2 + sigma^2 (its expectation), psi uniform (on a regular board the phases beat across the "
         "image: a correlated field that smooth fields do not represent)",
         o.systematic_field_degree, o.systematic_field_draws);
     bud.components.push_back(c);
     QuantityVariance v(setup.photos);
     if (lin && (bud.systematic_bound_px > 0 || upper > 0)) {
       // Two parts in quadrature: smooth bias fields of RMS b, and the pixel-locking signature in its own shape.
-      Eigen::Vector2d pl_bound(std::hypot(pl.amplitude_px.x(), pl.sigma_px.x()),
-                               std::hypot(pl.amplitude_px.y(), pl.sigma_px.y()));
       const QuantityVariance smooth = SystematicVariance(
           setup, *lin, bud.systematic_bound_px,
           LegendreFieldBasis(DetectedPoints(setup, *lin), setup.camera->width, setup.camera->height,
                              o.systematic_field_degree));
-      const QuantityVariance locking = PixelLockingVariance(setup, *lin, pl_bound);
+      const std::vector<Eigen::Vector2d> res = LinearizedResiduals(setup, *lin, *fit);
+      const QuantityVariance locking =
+          PixelLockingVariance(setup, *lin, pl, Eigen::Map<const Eigen::VectorXd>(res.data()->data(), 2 * static_cast<long>(res.size())));
       v.var_k = smooth.var_k + locking.var_k;
       for (int p = 0; p < setup.photos; ++p) {
         v.var_pos[static_cast<size_t>(p)] = smooth.var_pos[static_cast<size_t>(p)] + locking.var_pos[static_cast<size_t>(p)];
@@ -531,7 +496,7 @@ void Budget(const Setup& setup, ModelWork& w, int n_residuals, ModelFit* fit) {
     c.name = "lens model misfit";
     c.type = "A";
     if (lin && o.measure_lens_misfit) {
-      EstimateMisfit(setup, *lin, LinearizedResiduals(setup, *lin, *fit), fit->noise_px, &bud, &w.lens_field);
+      EstimateMisfit(setup, *lin, LinearizedResiduals(setup, *lin, *fit), noise_px, &bud, &w.lens_field);
     }
     static_assert(kMisfitRow == 3, "the lens model misfit is the budget's fourth row");
     bud.components.push_back(c);

@@ -118,22 +118,21 @@ std::vector<std::pair<int, int>> NeighbourPairs(const Setup& setup, const Linear
 }
 
 // The residuals without the detector's pixel-locking signature, which the detector systematic row propagates: per
-// coordinate c the bias a_c sin 2 pi phi + b_c cos 2 pi phi (phi the detection's subpixel phase in c) reaches the
-// residuals through the refit as P s_c, P c_c (P = I - J (J^T J)^+ J^T), so the coefficients are fitted to the
-// residuals on those four projected shapes and the fitted part is removed. Left in, the signature (a beat across
+// coordinate c and period (1 px, 2 px) the bias a sin 2 pi phi + b cos 2 pi phi (phi the detection's phase in that
+// period) reaches the residuals through the refit as P s, P c (P = I - J (J^T J)^+ J^T), so the coefficients are
+// fitted to the residuals on those eight projected shapes (FitPixelLocking) and the fitted part is removed. Left in, the signature (a beat across
 // a regular board) is measured again as a correlated field here: counted twice. Subtracting the unprojected shape
 // instead would put back the part the refit absorbed, a smooth field with the wrong sign (it was tried: the row
 // grew).
 std::vector<Eigen::Vector2d> WithoutPixelLocking(const Setup& setup, const Linearization& lin,
                                                  const std::vector<Eigen::Vector2d>& residual) {
+  if (!setup.options->measure_pixel_locking) return residual;
   const int n = static_cast<int>(lin.obs.size());
-  const Eigen::MatrixXd shapes = PixelLockingShapes(setup, lin);
   Eigen::VectorXd r(2 * n);
   for (int i = 0; i < n; ++i) r.segment<2>(2 * i) = residual[static_cast<size_t>(i)];
-  const Eigen::MatrixXd projected = shapes - JTimes(lin, lin.normal_pinv * JtTimes(lin, shapes));
-  const Eigen::MatrixXd normal = projected.transpose() * projected;
-  if (!r.allFinite() || !(normal.diagonal().minCoeff() > 1e-9 * n)) return residual;
-  const Eigen::VectorXd fitted = projected * normal.ldlt().solve(projected.transpose() * r);
+  const PixelLockingRegression f = FitPixelLocking(setup, lin, r);
+  if (!f.ok) return residual;
+  const Eigen::VectorXd fitted = f.projected * f.coefficients;
   std::vector<Eigen::Vector2d> out(residual.size());
   for (int i = 0; i < n; ++i) out[static_cast<size_t>(i)] = residual[static_cast<size_t>(i)] - fitted.segment<2>(2 * i);
   return out;

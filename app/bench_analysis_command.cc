@@ -180,7 +180,7 @@ void AddBenchValidity(CLI::App& bench, std::function<int()>& run) {
                   "Camera yaws around the screen centre, deg, comma-separated (positive: to the right)")
       ->delimiter(',')
       ->capture_default_str();
-  cmd->add_option("--realism", a->realism, "Imaging chain: off (imaging.preset=clean), on (imaging.preset=ilc24: Bayer, JPEG, defocus, panel fall-off, glare), or off,on")
+  cmd->add_option("--realism", a->realism, "Imaging chain: off (imaging.preset=clean), on (imaging.preset=ilc24: Bayer, JPEG, defocus, panel fall-off, glare), or off,on; a level may add scene overrides after '+', e.g. on+imaging.cfa=none (an ablation)")
       ->capture_default_str();
   cmd->add_option("--radius-factors", o.radius_factors,
                   "True radius as factors of the nominal, comma-separated (the pattern is rendered for the nominal)")

@@ -159,27 +159,31 @@ FromScreenIntrinsicsBudget IntrinsicsBudgetFromScreen(const std::vector<PhotoObs
       }
     }
     const ResidualPixelLocking& pl = bud.pixel_locking;
-    Eigen::Vector2d bound = Eigen::Vector2d::Zero();
+    Eigen::Matrix2d bound = Eigen::Matrix2d::Zero();  // coordinate x period, as ResidualPixelLocking
     for (int c = 0; c < 2; ++c) {
-      const double v = pl.amplitude_px[c] + 2 * pl.sigma_px[c];
-      if (std::isfinite(v) && v > 0) bound[c] = v;
-      if (!(bound[c] > 0)) continue;
-      // A_c sin(2 pi phi + psi), psi uniform: Cov = A_c^2 / 2 (A s s^T A^T + A k k^T A^T).
-      Eigen::VectorXd sv(n), cv(n);
-      for (long i = 0; i < n; ++i) {
-        const double phase = kTwoPi * (detected[static_cast<size_t>(i)][c] - std::floor(detected[static_cast<size_t>(i)][c]));
-        sv[i] = std::sin(phase);
-        cv[i] = std::cos(phase);
+      for (int t = 0; t < kPixelLockingTerms; ++t) {
+        const double v = pl.amplitude_px(c, t) + 2 * pl.sigma_px(c, t);
+        if (std::isfinite(v) && v > 0) bound(c, t) = v;
+        if (!(bound(c, t) > 0)) continue;
+        // A sin(2 pi phi + psi), phi the phase in the period, psi uniform: Cov = A^2 / 2 (A s s^T A^T + A k k^T A^T).
+        Eigen::VectorXd sv(n), cv(n);
+        for (long i = 0; i < n; ++i) {
+          const double u = detected[static_cast<size_t>(i)][c] / kPixelLockingPeriods[static_cast<size_t>(t)];
+          const double phase = kTwoPi * (u - std::floor(u));
+          sv[i] = std::sin(phase);
+          cv[i] = std::cos(phase);
+        }
+        const Eigen::MatrixXd& ac = c == 0 ? ax : ay;
+        const Eigen::VectorXd gs = ac * sv, gc = ac * cv;
+        row.covariance += 0.5 * bound(c, t) * bound(c, t) * (gs * gs.transpose() + gc * gc.transpose());
       }
-      const Eigen::MatrixXd& ac = c == 0 ? ax : ay;
-      const Eigen::VectorXd gs = ac * sv, gc = ac * cv;
-      row.covariance += 0.5 * bound[c] * bound[c] * (gs * gs.transpose() + gc * gc.transpose());
     }
     row.source = fmt::format(
         "the screen fit's detector-systematic row propagated to the intrinsics: Legendre bias fields of total degree "
         "<= {} and RMS b = {:.4f} px per coordinate (the stated FitOptions::smooth_bias_px), plus the pixel-locking "
-        "signature at its bound (estimate + 2 sigma: x {:.4f}, y {:.4f} px)",
-        options.systematic_field_degree, b, bound.x(), bound.y());
+        "signature at its bound (estimate + 2 sigma; period 1 px: x {:.4f}, y {:.4f} px; period 2 px: x {:.4f}, "
+        "y {:.4f} px)",
+        options.systematic_field_degree, b, bound(0, 0), bound(1, 0), bound(0, 1), bound(1, 1));
     out.rows.push_back(row);
   }
 

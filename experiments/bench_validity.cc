@@ -668,9 +668,23 @@ bool WriteOutputs(const fs::path& out, SweepTable& trials, json meta, const std:
 std::vector<std::string> RealismOverrides(const std::string& level) {
   // The synthetic camera's imaging chain (synth/imaging.h): "off" is the clean monochrome chain, "on" the
   // realistic 24 MP interchangeable-lens camera (Bayer, demosaic, JPEG, defocus, panel fall-off, glare).
-  if (level == "off") return {"imaging.preset=clean"};
-  if (level == "on") return {"imaging.preset=ilc24"};
-  throw Error("--realism", fmt::format("'{}' is not a level", level), "give on, off or on,off");
+  // A level may carry scene overrides after '+' (an ablation: "on+imaging.glare=0+imaging.f_number=0").
+  const std::vector<std::string> parts = SplitList(level, '+');
+  std::vector<std::string> set;
+  if (!parts.empty() && parts[0] == "off") set.push_back("imaging.preset=clean");
+  if (!parts.empty() && parts[0] == "on") set.push_back("imaging.preset=ilc24");
+  if (set.empty()) {
+    throw Error("--realism", fmt::format("'{}' is not a level", level),
+                "give on, off or on,off, each optionally followed by +dotted.key=value scene overrides");
+  }
+  for (size_t i = 1; i < parts.size(); ++i) {
+    if (parts[i].find('=') == std::string::npos || parts[i].front() == '=') {
+      throw Error("--realism", fmt::format("'{}' in '{}' is not a dotted.key=value override", parts[i], level),
+                  "give e.g. on+imaging.glare=0");
+    }
+    set.push_back(parts[i]);
+  }
+  return set;
 }
 
 const ShardFiles& ValidityShardFiles() {

@@ -78,7 +78,9 @@ struct BenchValidityOptions {
   void Check() const;
 };
 
-// The scene overrides ("key=value", synth/scene.h LoadScene) of a realism level: "off" and "on".
+// The scene overrides ("key=value", synth/scene.h LoadScene) of a realism level: "off" and "on", each optionally
+// followed by more overrides after '+' ("on+imaging.cfa=none": the realistic chain without its colour filter
+// array, an ablation of one effect). Throws Error naming --realism for anything else.
 std::vector<std::string> RealismOverrides(const std::string& level);
 
 // What a validity bench's shard folder holds (validity.json, validity_trials.csv).

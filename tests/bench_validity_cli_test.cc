@@ -16,6 +16,7 @@
 #include <filesystem>
 #include <fmt/format.h>
 #include <iostream>
+#include <map>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
@@ -141,9 +142,11 @@ TEST_F(BenchValidityCli, TrialsMeetTheirTruthAndCellsAreWhatTheTrialsImply) {
         const std::string c = std::string("cam_") + f + "_" + a;
         EXPECT_NEAR(Num(t, c + "_mm"), Num(t, "true_" + c + "_mm"), 10) << what << " " << c;
         EXPECT_GT(Num(t, c + "_sigma_mm"), 0) << what << " " << c;
-        // The budget's coverage factor for the coordinate: from 0.95 sqrt(3) (the rectangular pitch row alone)
-        // up to Student's t at a few degrees of freedom.
-        EXPECT_GE(Num(t, c + "_k95"), 0.95 * std::sqrt(3.0) - 1e-4) << what << " " << c;
+        // The budget's coverage factor for the coordinate: from about 0.95 sqrt(3) = 1.6454 (the rectangular pitch
+        // row alone) up to Student's t at a few degrees of freedom. A small normal part dips it slightly below the
+        // rectangle's: the 95% point stays near 0.95 a while u_c grows, to 1.64428 at s / a = 0.025 (the smallest
+        // over the mix, by the closed form CoverageFactor solves).
+        EXPECT_GE(Num(t, c + "_k95"), 1.6442) << what << " " << c;
         EXPECT_LT(Num(t, c + "_k95"), 5) << what << " " << c;
         EXPECT_GE(Num(t, c + "_k68"), 0.99) << what << " " << c;  // 1 (normal) to 1.18 (rectangular)
         EXPECT_LT(Num(t, c + "_k68"), Num(t, c + "_k95")) << what << " " << c;
@@ -292,12 +295,44 @@ TEST_F(BenchValidityCli, TheAnalysisIsToldTheLensMisfitItsCalibrationWouldState)
   std::cout << "misfit row u(k): measured " << measured << " 1/mm, stated (F = 1) " << stated1 << " 1/mm\n";
 }
 
+// A realism level may carry scene overrides after '+' (an ablation of one effect): the grid records them, the
+// trial's photo is taken with them, and the budget sees what they change. One realistic trial (1.5 m on axis,
+// quarter resolution) with the Bayer colour filter array and without it: the pixel-locking signature in the 2 px
+// period (the CFA's) stands out of its noise with the CFA (measured 0.0081 +- 0.0013 px in x, 0.0074 +- 0.0015 in y)
+// and is at least 1.5 times smaller without it (0.0023 in both: demosaicing repeats every 2 px, a monochrome
+// sensor does not).
+TEST_F(BenchValidityCli, ARealismLevelCarriesSceneOverrides) {
+  std::map<std::string, nlohmann::json> systematic;
+  for (const std::string level : {"on", "on+imaging.cfa=none"}) {
+    const std::string out = level == "on" ? "cfa" : "no-cfa";
+    const CliRun run = OneTrial(out, level, {"--pitch-tolerance", "0"});
+    ASSERT_EQ(run.code, 0) << run.err << run.out;
+    const nlohmann::json grid = nlohmann::json::parse(Slurp(dir_ / out / "validity.json")).at("grid");
+    const std::vector<std::string> want =
+        level == "on" ? std::vector<std::string>{"imaging.preset=ilc24"}
+                      : std::vector<std::string>{"imaging.preset=ilc24", "imaging.cfa=none"};
+    EXPECT_EQ(grid.at("realism_overrides").at(level).get<std::vector<std::string>>(), want);
+    systematic[level] = Result(out).at("fit").at("uncertainty_budget").at("detector_systematic");
+  }
+  for (int c = 0; c < 2; ++c) {
+    const double with = systematic["on"].at("pixel_locking_period2_amplitude_px")[c].get<double>();
+    const double sigma = systematic["on"].at("pixel_locking_period2_sigma_px")[c].get<double>();
+    const double without = systematic["on+imaging.cfa=none"].at("pixel_locking_period2_amplitude_px")[c].get<double>();
+    std::cout << "period-2 pixel-locking, coordinate " << c << ": with the CFA " << with << " +- " << sigma
+              << " px, without " << without << " px\n";
+    EXPECT_GT(with, 4 * sigma) << c;
+    EXPECT_GT(with, 1.5 * without) << c;
+  }
+}
+
 TEST_F(BenchValidityCli, BadOptionsFailWithOneLine) {
   const std::string o = (dir_ / "bad").string();
   testing::ExpectOneLineFailure(Curvecheck({"bench", "validity", "--scales", "0.5,1.5", "-o", o}),
                                 {"--scales", "1.5 is outside (0, 1]"});
   testing::ExpectOneLineFailure(Curvecheck({"bench", "validity", "--realism", "sometimes", "-o", o}),
                                 {"--realism", "'sometimes' is not a level"});
+  testing::ExpectOneLineFailure(Curvecheck({"bench", "validity", "--realism", "on+imaging.glare", "-o", o}),
+                                {"--realism", "'imaging.glare' in 'on+imaging.glare' is not a dotted.key=value override"});
   testing::ExpectOneLineFailure(Curvecheck({"bench", "validity", "--radius-factors", "3", "-o", o}),
                                 {"--radius-factors", "3 is outside"});
   testing::ExpectOneLineFailure(Curvecheck({"bench", "validity", "--shard", "3/2", "-o", o}),

@@ -94,8 +94,10 @@ TEST(EvaluatePlacement, MatchesTheSceneReadersCameraAndTheProjection) {
 }
 
 // With the lens exact, no pitch tolerance and no smooth bias, the prediction's noise row is the Cramer-Rao
-// bound at the expected noise (the fit's covariance scaled by its residual noise, which estimates that
-// noise), and the pitch row, switched on, is R u/sqrt(3) exactly.
+// bound at the expected noise's independent part (the fit's covariance scaled by its residual noise without the
+// pixel-locking signature, which the detector-systematic row carries: the simulated detections lock with A = f x
+// the noise, so the independent part is the noise x sqrt(1 - f^2 / 2)), and the pitch row, switched on, is
+// R u/sqrt(3) exactly.
 TEST(PredictRadiusSigma, NoiseRowIsTheCramerRaoBoundAndPitchRowItsClosedForm) {
   PlanOptions o;
   o.lens_misfit_relative = 0;
@@ -117,7 +119,9 @@ TEST(PredictRadiusSigma, NoiseRowIsTheCramerRaoBoundAndPitchRowItsClosedForm) {
                        p.screen_from_cam.translation - ScreenCentreInScreen(S().monitor));
     px.push_back(all);
   }
-  const double crb = RadiusCramerRaoBoundMm(S().monitor, S().camera, poses, px, places[0].noise_px);
+  const double f = o.noise.pixel_locking_fraction;
+  const double crb =
+      RadiusCramerRaoBoundMm(S().monitor, S().camera, poses, px, places[0].noise_px * std::sqrt(1 - f * f / 2));
   double noise_row = -1, pitch_row = -1, combined2 = 0;
   for (const PlanBudgetRow& r : rows) {
     if (r.name == "detection noise") noise_row = r.radius_mm;

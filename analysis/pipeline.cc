@@ -215,12 +215,22 @@ nlohmann::json BudgetJson(const ModelFit& f, const std::string& first_photo) {
       {"pixel_locking_observations", b.pixel_locking.observations},
       {"noise_without_signature_px", Num(b.pixel_locking.noise_px)},
       {"method", "per coordinate and period (1 px; 2 px, a colour filter array's) the bias a sin 2 pi phi + b cos "
-                 "2 pi phi, phi the detected coordinate's phase in the period; the eight coefficients fitted to the fit's residuals (detected - predicted) on the "
-                 "shapes' refit projections (I - J (J^T J)^+ J^T) sin, cos, so that the part the fit absorbed counts; "
-                 "amplitude = sqrt(a^2 + b^2)"},
+                 "2 pi phi, phi the phase of the fit's prediction in the period; the eight coefficients fitted to the "
+                 "fit's residuals (detected - predicted) on the shapes' refit projections (I - J (J^T J)^+ J^T) sin, "
+                 "cos, so that the part the fit absorbed counts; amplitude = sqrt(a^2 + b^2). The curvature (so the "
+                 "radius) and the camera positions are corrected for the fitted signature by -G S b (the linearized "
+                 "fit with the coefficients as nuisance parameters); the correction's uncertainty is in this row"},
+      {"correction",
+       {{"curvature_per_mm", b.pixel_locking_correction_curvature_per_mm},
+        {"radius_mm", Num(f.radius_mm ? *f.radius_mm - 1 / (f.curvature_per_mm -
+                                                                  b.pixel_locking_correction_curvature_per_mm)
+                                      : kNaNJson)},
+        {"first_camera_position_in_centre_mm", Vec(b.pixel_locking_correction_position_mm)},
+        {"note", "added to the fit's values (reported ones include it); the fitted surface, the rotations and the "
+                 "deviations are the uncorrected fit's"}}},
       {"bound_px", b.systematic_bound_px},
       {"smooth_fields_curvature_per_mm", Num(b.smooth_share_curvature_per_mm)},
-      {"pixel_locking_shape_curvature_per_mm", Num(b.pixel_locking_share_curvature_per_mm)},
+      {"pixel_locking_correction_sigma_curvature_per_mm", Num(b.pixel_locking_share_curvature_per_mm)},
       {"bound_reason", b.systematic_bound_reason}};
   j["lens_model_misfit"] = {
       {"neighbour_pairs", b.misfit_pairs},
@@ -337,7 +347,7 @@ void AddPlausibilityWarnings(AnalysisResult& r) {
     if (p.fit_index < 0 || static_cast<size_t>(p.fit_index) >= chosen.cameras.size()) continue;
     const PatternFile& pattern = r.patterns[static_cast<size_t>(&p - r.photos.data())];
     const Eigen::Vector3d stated = pattern.viewpoint_in_screen - centre;
-    const Eigen::Vector3d fitted = chosen.cameras[static_cast<size_t>(p.fit_index)].centre_from_cam.translation;
+    const Eigen::Vector3d fitted = chosen.cameras[static_cast<size_t>(p.fit_index)].position_in_centre_mm;
     const double off = (fitted - stated).norm(), limit = std::max(100.0, 0.1 * stated.norm());
     if (off > limit) {
       r.fit->warnings.push_back(fmt::format(
@@ -616,7 +626,7 @@ nlohmann::json ResultJson(const AnalysisResult& r, const std::string& command_li
                          {"position_sigma_mm", Vec(c.position_in_screen_sigma_mm)},
                          {"position_in_axis_mm", Vec(c.position_in_screen_mm)},
                          {"position_in_axis_sigma_mm", Vec(c.position_in_screen_sigma_mm)},
-                         {"position_in_centre_mm", Vec(c.centre_from_cam.translation)},
+                         {"position_in_centre_mm", Vec(c.position_in_centre_mm)},
                          {"position_in_centre_sigma_mm", Vec(c.position_in_centre_sigma_mm)},
                          {"stated_viewpoint_mm", Vec(r.patterns[static_cast<size_t>(&p - r.photos.data())].viewpoint_in_screen)}});
     }

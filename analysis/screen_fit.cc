@@ -68,7 +68,7 @@ void RadiusFromCurvature(const Setup& setup, const ModelWork& w, ModelFit* fit) 
   }
   for (size_t p = 0; p < fit->cameras.size(); ++p) {
     CameraEstimate& cam = fit->cameras[p];
-    cam.position_in_screen_mm = cam.centre_from_cam.translation;
+    cam.position_in_screen_mm = cam.position_in_centre_mm;
     cam.position_in_screen_sigma_mm = cam.position_in_centre_sigma_mm;
     if (!fit->radius_mm) continue;
     // z_screen = c_z - R with R = 1/k: dR/dk = -1/k^2, so var = var(c_z) + var(k)/k^4 + 2 cov(c_z, k)/k^2.
@@ -134,7 +134,7 @@ void CompleteFits(const Setup& setup, std::vector<ModelWork>& work, ScreenFitRes
   ModelFit& chosen = result->candidates[static_cast<size_t>(result->chosen)];
   const ModelWork& cw = work[static_cast<size_t>(result->chosen)];
   if (cw.lin && setup.options->measure_lens_misfit) {
-    MeasureMisfitCorrelation(setup, *cw.lin, LinearizedResiduals(setup, *cw.lin, chosen), IndependentNoisePx(chosen),
+    MeasureMisfitCorrelation(setup, *cw.lin, cw.signature.residual_without, IndependentNoisePx(chosen),
                              &chosen.budget);
   }
   // On all cores: each candidate writes only its own fit; the chosen one's misfit fields, which the others copy,

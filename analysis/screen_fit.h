@@ -194,9 +194,13 @@ struct FitOptions {
 };
 
 struct CameraEstimate {
-  // The camera in the centre frame: its translation is the camera centre there (mm), with its sigma (mm, per
-  // axis, from the pose's covariance scaled by the model's noise_px).
+  // The camera in the centre frame as fitted: the pose that reproduces the residuals (its translation the camera
+  // centre there, mm, before the pixel-locking correction).
   Pose centre_from_cam;
+  // The camera centre in the centre frame (mm): the pose's translation corrected for the fitted pixel-locking
+  // signature (UncertaintyBudget::pixel_locking_correction_*), with its sigma (per axis: the pose's covariance
+  // scaled by the model's noise_px, then the budget's combined uncertainty).
+  Eigen::Vector3d position_in_centre_mm = Eigen::Vector3d::Zero();
   Eigen::Vector3d position_in_centre_sigma_mm = Eigen::Vector3d::Zero();
   // In the architecture's screen frame: origin on the fitted axis (centre frame shifted by -R in z); the centre
   // frame itself when the radius is not a number (flat within its interval). Its sigma is this frame's: x and y
@@ -232,8 +236,10 @@ struct BudgetComponent {
 // (the sampling) and 2 px (a Bayer colour filter array repeats every 2 px, and its demosaicing error with it;
 // measured 0.05 px with the CFA on, 0.004 px without, docs/bench/validity_bench.txt 2026-12-05). The coefficients
 // reach the residuals through the refit as P sin, P cos (P = I - J (J^T J)^+ J^T), so they are fitted to the
-// residuals on those projected shapes (screen_fit_internal.h EstimatePixelLockingThroughFit): unbiased where the fit
-// absorbs part of the signature (a frontal view of a regular board, whose phases beat slowly across the image).
+// residuals on those projected shapes (screen_fit_internal.h FitPixelLocking): unbiased where the fit absorbs part
+// of the signature (a frontal view of a regular board, whose phases beat slowly across the image). The budget
+// corrects the curvature and the camera positions for the fitted signature (UncertaintyBudget::
+// pixel_locking_correction_*).
 inline constexpr int kPixelLockingTerms = 2;
 inline constexpr std::array<double, kPixelLockingTerms> kPixelLockingPeriods = {1.0, 2.0};  // px
 struct ResidualPixelLocking {
@@ -243,7 +249,7 @@ struct ResidualPixelLocking {
   int observations = 0;
   // The residuals' RMS per coordinate once the fitted signature is removed (over 2n - parameters - 4 degrees of
   // freedom): the independent detection noise, which the detection-noise row propagates (the fit's noise_px holds
-  // the signature's power too, which the detector-systematic row propagates in its own shape). NaN: not measured.
+  // the signature's power too, which the correction removes). NaN: not measured.
   double noise_px = std::numeric_limits<double>::quiet_NaN();
 };
 
@@ -272,8 +278,15 @@ struct UncertaintyBudget {
   ResidualPixelLocking pixel_locking;
   double systematic_bound_px = 0;  // b: the stated smooth bias, RMS per coordinate of the fields
   std::string systematic_bound_reason;
-  // The detector-systematic row's two parts, u(k) (1/mm): the smooth fields and the pixel-locking signature.
+  // The detector-systematic row's two parts, u(k) (1/mm): the smooth fields and the pixel-locking correction's
+  // uncertainty.
   double smooth_share_curvature_per_mm = 0, pixel_locking_share_curvature_per_mm = 0;
+  // The correction applied for the fitted pixel-locking signature (-G S b, the linearized fit with its coefficients
+  // as nuisance parameters): to the curvature (1/mm; the reported one includes it) and to the first camera's
+  // position (centre frame, mm; the reported positions include it). 0 when the signature was not fitted. The fitted
+  // surface, the rotations and the deviations are the uncorrected fit's.
+  double pixel_locking_correction_curvature_per_mm = 0;
+  Eigen::Vector3d pixel_locking_correction_position_mm = Eigen::Vector3d::Zero();
   // The lens-model-misfit row: the neighbour statistic (mean over neighbour pairs of r_i . r_j / 2, px^2), the
   // independent noise's expected share of it, the fraction kappa of a unit-RMS misfit field that the statistic
   // sees after the fit, and the field's RMS estimate and upper bound (estimate + 2 sigma of the statistic under

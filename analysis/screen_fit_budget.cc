@@ -289,30 +289,6 @@ QuantityVariance SystematicVariance(const Setup& setup, const Linearization& lin
   return QuantityVariance::FromCovariance(cov / o.systematic_field_draws, setup.photos);
 }
 
-// Pixel-locking itself, propagated in its own shape: per coordinate c and period T (kPixelLockingPeriods) a bias
-// A sin(2 pi phi_i + psi) with phi_i the detection's phase in that period (frac(q / T)), A^2 its expectation given
-// the estimate (estimate^2 + sigma^2: a standard uncertainty, not the 95% bound estimate + 2 sigma, which stated
-// as one inflated the row 1.3-2x in variance) and the phase offset psi unknown (uniform):
-// dq = A (G s cos psi + G c sin psi), s = sin 2 pi phi, c = cos 2 pi phi, whose covariance over psi is
-// A^2 / 2 (G s s^T G^T + G c c^T G^T); the four terms (two coordinates, two periods) add. On a regular board the
-// phases beat across the image, so this field is correlated in a way that low-order smooth fields do not represent.
-QuantityVariance PixelLockingVariance(const Setup& setup, const Linearization& lin, const ResidualPixelLocking& pl,
-                                      const Eigen::VectorXd& residual) {
-  const int nq = static_cast<int>(lin.g.rows());
-  const Eigen::MatrixXd shapes = PixelLockingShapes(setup, lin, residual);
-  Eigen::MatrixXd cov = Eigen::MatrixXd::Zero(nq, nq);
-  for (int c = 0; c < 2; ++c) {
-    for (int t = 0; t < kPixelLockingTerms; ++t) {
-      const double bound = std::hypot(pl.amplitude_px(c, t), pl.sigma_px(c, t));
-      if (!std::isfinite(bound) || !(bound > 0)) continue;
-      const long col = PixelLockingColumn(c, t);
-      const Eigen::VectorXd gs = lin.g * shapes.col(col), gc = lin.g * shapes.col(col + 1);
-      cov += 0.5 * bound * bound * (gs * gs.transpose() + gc * gc.transpose());
-    }
-  }
-  return QuantityVariance::FromCovariance(cov, setup.photos);
-}
-
 // Lens calibration: dq/d(intrinsics) by central differences of the residuals at the fitted parameters (the
 // linearized refit), then S Sigma S^T.
 QuantityVariance LensVariance(const Setup& setup, const ModelWork& w, const Linearization& lin) {
@@ -373,14 +349,31 @@ void Budget(const Setup& setup, ModelWork& w, int n_residuals, ModelFit* fit) {
   std::vector<QuantityVariance>& vars = w.budget_vars;
   vars.clear();
   const std::optional<Linearization>& lin = w.lin;  // FitFinal's (Linearize)
-  // The detector's pixel-locking signature, fitted through the fit (row 2 propagates it); what the residuals hold
-  // besides it is the independent noise of row 1.
-  if (lin && o.measure_pixel_locking) {
-    bud.pixel_locking =
-        EstimatePixelLockingThroughFit(setup, *lin, LinearizedResiduals(setup, *lin, *fit), fit->parameters);
-  } else {
-    bud.pixel_locking.amplitude_px.setConstant(std::numeric_limits<double>::quiet_NaN());
-    bud.pixel_locking.sigma_px = bud.pixel_locking.amplitude_px;
+  // The detector's pixel-locking signature, fitted through the fit; what the residuals hold besides it is the
+  // independent noise of row 1. The quantities of interest are corrected for it (GUM 3.2.4: a recognized systematic
+  // effect is corrected, and the correction's uncertainty is a component), row 2 holds that uncertainty. Carried
+  // instead as an uncertainty of unknown phase (A^2 = estimate^2 + sigma^2, until 2026-12-05) it left the estimate
+  // biased by the signature and counted the estimate's own noise as locking (the intervals at quarter
+  // resolution covered 98-99%).
+  w.signature = PixelLockingSignature{};
+  if (lin) {
+    std::vector<Eigen::Vector2d> res = LinearizedResiduals(setup, *lin, *fit);
+    if (o.measure_pixel_locking) {
+      w.signature = FitPixelLocking(setup, *lin, res, fit->parameters);
+    } else {
+      w.signature.residual_without = std::move(res);
+    }
+  }
+  bud.pixel_locking = PixelLockingAmplitudes(w.signature);
+  const PixelLockingCorrection correction = lin ? CorrectionFor(*lin, w.signature) : PixelLockingCorrection{};
+  if (correction.ok) {
+    bud.pixel_locking_correction_curvature_per_mm = correction.dq[0];
+    fit->curvature_per_mm += correction.dq[0];
+    for (int p = 0; p < setup.photos && static_cast<size_t>(p) < fit->cameras.size(); ++p) {
+      const Eigen::Vector3d d = correction.dq.segment<3>(1 + 3 * p);
+      fit->cameras[static_cast<size_t>(p)].position_in_centre_mm += d;
+      if (p == 0) bud.pixel_locking_correction_position_mm = d;
+    }
   }
   const ResidualPixelLocking& pl = bud.pixel_locking;
   // 1. Detection noise: the covariance (Covariances, scaled by the fit's residual noise) rescaled to the noise
@@ -408,49 +401,55 @@ void Budget(const Setup& setup, ModelWork& w, int n_residuals, ModelFit* fit) {
   bud.components.push_back(c_noise);
   vars.push_back(noise);
 
-  // 2. Detector systematic (pixel-locking and other detector bias).
+  // 2. Detector systematic: the smooth detector bias (stated) and the pixel-locking correction's uncertainty.
   {
-    double upper = 0;
-    for (int c = 0; c < 2; ++c) {
-      for (int t = 0; t < kPixelLockingTerms; ++t) {
-        const double b = std::hypot(pl.amplitude_px(c, t), pl.sigma_px(c, t));
-        if (std::isfinite(b)) upper = std::max(upper, b);
-      }
-    }
     bud.systematic_bound_px = o.smooth_bias_px;
-    bud.systematic_bound_reason = fmt::format(
-        "the stated smooth detector bias FitOptions::smooth_bias_px (type B, not measured); the pixel-locking "
-        "signature's RMS amplitude sqrt(estimate^2 + sigma^2), at most {:.4f} px (period 1 px: x {:.4f} +- {:.4f}, "
-        "y {:.4f} +- {:.4f} px; period 2 px, a colour filter array's: x {:.4f} +- {:.4f}, y {:.4f} +- {:.4f} px)",
-        upper, pl.amplitude_px(0, 0), pl.sigma_px(0, 0), pl.amplitude_px(1, 0), pl.sigma_px(1, 0),
-        pl.amplitude_px(0, 1), pl.sigma_px(0, 1), pl.amplitude_px(1, 1), pl.sigma_px(1, 1));
+    bud.systematic_bound_reason =
+        "the stated smooth detector bias FitOptions::smooth_bias_px (type B, not measured)";
     BudgetComponent c;
     c.name = "detector systematic";
     c.type = "B";
+    const std::string signature =
+        correction.ok
+            ? fmt::format(
+                  "the pixel-locking signature, fitted and corrected for: amplitudes in period 1 px x {:.4f} +- "
+                  "{:.4f}, y {:.4f} +- {:.4f} px; in period 2 px (a colour filter array's) x {:.4f} +- {:.4f}, y "
+                  "{:.4f} +- {:.4f} px; the correction moved the curvature by {:.3g} 1/mm and the first camera by "
+                  "({:.3f}, {:.3f}, {:.3f}) mm, and its uncertainty (G S) C (G S)^T (type A, the coefficients' "
+                  "covariance C over {} degrees of freedom) is this row's second part",
+                  pl.amplitude_px(0, 0), pl.sigma_px(0, 0), pl.amplitude_px(1, 0), pl.sigma_px(1, 0),
+                  pl.amplitude_px(0, 1), pl.sigma_px(0, 1), pl.amplitude_px(1, 1), pl.sigma_px(1, 1),
+                  bud.pixel_locking_correction_curvature_per_mm, bud.pixel_locking_correction_position_mm.x(),
+                  bud.pixel_locking_correction_position_mm.y(), bud.pixel_locking_correction_position_mm.z(),
+                  w.signature.dof)
+            : std::string(o.measure_pixel_locking ? "the pixel-locking signature could not be fitted (too few "
+                                                    "residuals, or a shape absorbed whole by the fit): not corrected"
+                                                  : "the pixel-locking signature not fitted "
+                                                    "(FitOptions::measure_pixel_locking off)");
     c.source = fmt::format(
-        "a bias field of RMS b = {:.4f} px per coordinate (b = {}), propagated through the fit's linearization",
-        bud.systematic_bound_px, bud.systematic_bound_reason);
+        "a bias field of RMS b = {:.4f} px per coordinate ({}), propagated through the fit's linearization; plus {}",
+        bud.systematic_bound_px, bud.systematic_bound_reason, signature);
     c.assumption = fmt::format(
-        "the detector's bias (pixel-locking, moire, corner shape) is smooth across the image and common to every "
-        "photo: Legendre fields of total degree <= {} with independent N(0,1) coefficients per coordinate, each "
-        "scaled to RMS b ({} seeded draws); its standard uncertainty is the RMS effect. Correlated across features, "
-        "unlike the noise row (independent per-feature errors are in that row already); plus, in quadrature, the "
-        "pixel-locking signature in its own shape: A sin(2 pi phase + psi) per coordinate at each detection's "
-        "phase in periods of 1 px and 2 px (a colour filter array's demosaicing repeats every 2 px), A^2 = "
-        "estimate^2 + sigma^2 (its expectation), psi uniform (on a regular board the phases beat across the "
-        "image: a correlated field that smooth fields do not represent)",
+        "the detector's bias other than pixel-locking (moire, corner shape) is smooth across the image and common "
+        "to every photo: Legendre fields of total degree <= {} with independent N(0,1) coefficients per "
+        "coordinate, each scaled to RMS b ({} seeded draws); its standard uncertainty is the RMS effect. "
+        "Pixel-locking is a bias a sin 2 pi phi + b cos 2 pi phi per coordinate, phi the phase of the fit's "
+        "prediction in periods of 1 px and 2 px (a colour filter array's demosaicing repeats every 2 px); its eight "
+        "coefficients fitted on the shapes' refit projections, the curvature and the camera positions corrected by "
+        "-G S b (the linearized fit with the coefficients as nuisance parameters: Frisch-Waugh-Lovell); higher "
+        "harmonics and other periods are not modelled",
         o.systematic_field_degree, o.systematic_field_draws);
     bud.components.push_back(c);
     QuantityVariance v(setup.photos);
-    if (lin && (bud.systematic_bound_px > 0 || upper > 0)) {
-      // Two parts in quadrature: smooth bias fields of RMS b, and the pixel-locking signature in its own shape.
-      const QuantityVariance smooth = SystematicVariance(
-          setup, *lin, bud.systematic_bound_px,
-          LegendreFieldBasis(DetectedPoints(setup, *lin), setup.camera->width, setup.camera->height,
-                             o.systematic_field_degree));
-      const std::vector<Eigen::Vector2d> res = LinearizedResiduals(setup, *lin, *fit);
-      const QuantityVariance locking =
-          PixelLockingVariance(setup, *lin, pl, Eigen::Map<const Eigen::VectorXd>(res.data()->data(), 2 * static_cast<long>(res.size())));
+    if (lin) {
+      const QuantityVariance smooth =
+          bud.systematic_bound_px > 0
+              ? SystematicVariance(setup, *lin, bud.systematic_bound_px,
+                                   LegendreFieldBasis(DetectedPoints(setup, *lin), setup.camera->width,
+                                                      setup.camera->height, o.systematic_field_degree))
+              : QuantityVariance(setup.photos);
+      const QuantityVariance locking = correction.ok ? QuantityVariance::FromCovariance(correction.covariance, setup.photos)
+                                                     : QuantityVariance(setup.photos);
       v.var_k = smooth.var_k + locking.var_k;
       for (int p = 0; p < setup.photos; ++p) {
         v.var_pos[static_cast<size_t>(p)] = smooth.var_pos[static_cast<size_t>(p)] + locking.var_pos[static_cast<size_t>(p)];
@@ -496,7 +495,7 @@ void Budget(const Setup& setup, ModelWork& w, int n_residuals, ModelFit* fit) {
     c.name = "lens model misfit";
     c.type = "A";
     if (lin && o.measure_lens_misfit) {
-      EstimateMisfit(setup, *lin, LinearizedResiduals(setup, *lin, *fit), noise_px, &bud, &w.lens_field);
+      EstimateMisfit(setup, *lin, w.signature.residual_without, noise_px, &bud, &w.lens_field);
     }
     static_assert(kMisfitRow == 3, "the lens model misfit is the budget's fourth row");
     bud.components.push_back(c);
@@ -509,7 +508,7 @@ void Budget(const Setup& setup, ModelWork& w, int n_residuals, ModelFit* fit) {
     const double k = fit->curvature_per_mm;
     v.var_k = k * k * u * u;
     for (int p = 0; p < setup.photos && static_cast<size_t>(p) < fit->cameras.size(); ++p) {
-      const Eigen::Vector3d c = fit->cameras[static_cast<size_t>(p)].centre_from_cam.translation;
+      const Eigen::Vector3d c = fit->cameras[static_cast<size_t>(p)].position_in_centre_mm;
       v.var_pos[static_cast<size_t>(p)] = c.cwiseAbs2() * u * u;
       v.cov_pos_k[static_cast<size_t>(p)] = -c * k * u * u;
     }

@@ -142,6 +142,24 @@ struct Linearization {
   int dropped_directions = 0;  // directions of the equilibrated J^T J cut from the pseudo-inverse (rank deficiency)
 };
 
+// The pixel-locking signature fitted once per candidate (Budget; ModelWork::signature): the coefficients b of the
+// shapes S (PixelLockingShapes) fitted by least squares to the residuals on the shapes' refit projections P S
+// (P = I - J (J^T J)^+ J^T), their covariance C = s^2 (S^T P S)^-1 with s^2 the regression's residual variance over
+// dof = 2n - parameters - 4 kPixelLockingTerms (noise_px = s: the independent noise), and the residuals less the
+// fitted P S b (the misfit statistics take these). ok = false (and residual_without the residuals) when the
+// residuals are not finite, a shape is absorbed whole (its projection below 1e-9 n) or dof < 2. Regressing on the
+// unprojected shapes (until 2026-12-05) recovered only the part the fit left: 0.043 px where the projected fit gives
+// 0.053 px (median over both coordinates of 180 frontal trials from 3 m at quarter resolution; period 1 alone).
+struct PixelLockingSignature {
+  bool ok = false;
+  int observations = 0, dof = 0;
+  Eigen::MatrixXd shapes;        // S, 2n x 4 kPixelLockingTerms
+  Eigen::VectorXd coefficients;  // b, in S's column order
+  Eigen::MatrixXd covariance;    // C
+  double noise_px = std::numeric_limits<double>::quiet_NaN();
+  std::vector<Eigen::Vector2d> residual_without;
+};
+
 // Everything about one model's fit that the selection and the deviations need beyond ModelFit.
 struct ModelWork {
   ScreenModelKind kind;
@@ -160,6 +178,7 @@ struct ModelWork {
   // the rows combined by CompleteBudget once the model is chosen.
   std::optional<Linearization> lin;
   std::vector<QuantityVariance> budget_vars;
+  PixelLockingSignature signature;  // Budget's, on the final fit's residuals
 };
 
 // screen_fit_problem.cc: one candidate's Ceres problem.
@@ -184,26 +203,21 @@ std::vector<Eigen::Vector2d> DetectedPoints(const Setup& setup, const Linearizat
 Eigen::MatrixXd PixelLockingShapes(const Setup& setup, const Linearization& lin, const Eigen::VectorXd& residual);
 // The column of the sin shape of coordinate c in period kPixelLockingPeriods[t] (the cos shape is the next).
 inline long PixelLockingColumn(int c, int t) { return 2 * (kPixelLockingTerms * c + t); }
-// The pixel-locking coefficients (PixelLockingShapes' columns) fitted by least squares to the residuals (2n, interleaved x, y)
-// on the shapes' refit projections P sin, P cos (P = I - J (J^T J)^+ J^T; `projected`, as the shapes). ok = false when
-// the residuals are not finite or a shape is absorbed whole (its projection below 1e-9 n).
-struct PixelLockingRegression {
+// Residuals (one Vector2d per observation) as one vector, interleaved x, y.
+Eigen::VectorXd Stacked(const std::vector<Eigen::Vector2d>& residual);
+PixelLockingSignature FitPixelLocking(const Setup& setup, const Linearization& lin,
+                                      const std::vector<Eigen::Vector2d>& residual_px, int parameters);
+// Per coordinate and period the amplitude sqrt(a^2 + b^2) and its standard uncertainty (delta method along the
+// estimate's direction; near zero amplitude the coefficients' RMS sigma); NaN when !ok.
+ResidualPixelLocking PixelLockingAmplitudes(const PixelLockingSignature& signature);
+// The correction of q = (k, c_1, ..., c_P) for the fitted signature, dq = -G S b, and its covariance
+// (G S) C (G S)^T (QuantityVariance's q and G).
+struct PixelLockingCorrection {
   bool ok = false;
-  Eigen::MatrixXd projected;
-  Eigen::MatrixXd normal;  // projected^T projected
-  Eigen::VectorXd coefficients;  // in PixelLockingShapes' column order
+  Eigen::VectorXd dq;
+  Eigen::MatrixXd covariance;
 };
-PixelLockingRegression FitPixelLocking(const Setup& setup, const Linearization& lin, const Eigen::VectorXd& residual);
-// EstimatePixelLockingThroughFit: those coefficients, their covariance s^2 (X^T X)^-1 with s^2 the regression's
-// residual variance over 2n - parameters - 4 kPixelLockingTerms degrees of freedom (ResidualPixelLocking::noise_px);
-// per coordinate and period the amplitude sqrt(a^2 + b^2) and its standard uncertainty (delta method along the
-// estimate's direction; near zero amplitude the coefficients' RMS sigma). NaN when the shapes are absorbed whole or
-// too few residuals remain. Regressing the residuals on the unprojected shapes (until 2026-12-05) recovered only the
-// part the fit left: 0.043 px where the projected fit gives 0.053 px (median over both coordinates of 180 frontal
-// trials from 3 m at quarter resolution; period 1 alone), and the radius's 95% coverage there was 158/180 instead
-// of 173/180.
-ResidualPixelLocking EstimatePixelLockingThroughFit(const Setup& setup, const Linearization& lin,
-                                                    const std::vector<Eigen::Vector2d>& residual_px, int parameters);
+PixelLockingCorrection CorrectionFor(const Linearization& lin, const PixelLockingSignature& signature);
 // The fit's independent detection noise per coordinate: its residual noise without the pixel-locking signature
 // (budget.pixel_locking.noise_px) once Budget has measured it, else noise_px.
 double IndependentNoisePx(const ModelFit& fit);

@@ -117,27 +117,6 @@ std::vector<std::pair<int, int>> NeighbourPairs(const Setup& setup, const Linear
   return pairs;
 }
 
-// The residuals without the detector's pixel-locking signature, which the detector systematic row propagates: per
-// coordinate c and period (1 px, 2 px) the bias a sin 2 pi phi + b cos 2 pi phi (phi the detection's phase in that
-// period) reaches the residuals through the refit as P s, P c (P = I - J (J^T J)^+ J^T), so the coefficients are
-// fitted to the residuals on those eight projected shapes (FitPixelLocking) and the fitted part is removed. Left in, the signature (a beat across
-// a regular board) is measured again as a correlated field here: counted twice. Subtracting the unprojected shape
-// instead would put back the part the refit absorbed, a smooth field with the wrong sign (it was tried: the row
-// grew).
-std::vector<Eigen::Vector2d> WithoutPixelLocking(const Setup& setup, const Linearization& lin,
-                                                 const std::vector<Eigen::Vector2d>& residual) {
-  if (!setup.options->measure_pixel_locking) return residual;
-  const int n = static_cast<int>(lin.obs.size());
-  Eigen::VectorXd r(2 * n);
-  for (int i = 0; i < n; ++i) r.segment<2>(2 * i) = residual[static_cast<size_t>(i)];
-  const PixelLockingRegression f = FitPixelLocking(setup, lin, r);
-  if (!f.ok) return residual;
-  const Eigen::VectorXd fitted = f.projected * f.coefficients;
-  std::vector<Eigen::Vector2d> out(residual.size());
-  for (int i = 0; i < n; ++i) out[static_cast<size_t>(i)] = residual[static_cast<size_t>(i)] - fitted.segment<2>(2 * i);
-  return out;
-}
-
 // The covariance of the lag statistics S_j = mean over bin j's pairs of r_a . r_b / 2, for Gaussian residuals of
 // covariance C per coordinate (independent coordinates): by Isserlis' theorem cov(x_a x_b, x_c x_d) = C_ac C_bd +
 // C_ad C_bc, so cov(S_j, S_k) = sum over the pairs (a, b) of j and (c, d) of k of (C_ac C_bd + C_ad C_bc) /
@@ -492,7 +471,8 @@ QuantityVariance FieldVariance(const Setup& setup, const Linearization& lin,
       component.variance_px2 / variance * (mx * mx.transpose() + my * my.transpose()), setup.photos);
 }
 
-// The lens model misfit's RMS, measured from the residuals (UncertaintyBudget::misfit_*). Each detection is paired
+// The lens model misfit's RMS, measured from the residuals without the pixel-locking signature (as
+// MeasureMisfitCorrelation's; UncertaintyBudget::misfit_*). Each detection is paired
 // with its nearest neighbour in the same photo; the statistic S is the mean of r_i . r_j / 2 over the pairs. A
 // field smooth on the scale of the feature spacing is nearly equal at both, independent noise is not, so
 // E[S] = s^2 kappa + sigma^2 nu: kappa is the mean of S over unit-RMS fields of the assumed family after the
@@ -500,12 +480,11 @@ QuantityVariance FieldVariance(const Setup& setup, const Linearization& lin,
 // pairs of -(J (J^T J)^+ J^T)_ij (the refit correlates the residuals slightly). Under noise alone S has a standard
 // deviation of about sigma^2 / sqrt(pairs) (products of independent Gaussians, pairs counted once); the bound
 // is (S - sigma^2 nu + 2 sd) / kappa.
-void EstimateMisfit(const Setup& setup, const Linearization& lin, const std::vector<Eigen::Vector2d>& fit_residual,
+void EstimateMisfit(const Setup& setup, const Linearization& lin, const std::vector<Eigen::Vector2d>& residual,
                     double sigma_px, UncertaintyBudget* bud, LensFieldProjection* projection) {
   const FitOptions& o = *setup.options;
   const int n = static_cast<int>(lin.obs.size());
-  if (n < 8 || static_cast<int>(fit_residual.size()) != n) return;
-  const std::vector<Eigen::Vector2d> residual = WithoutPixelLocking(setup, lin, fit_residual);
+  if (n < 8 || static_cast<int>(residual.size()) != n) return;
   const std::vector<std::pair<int, int>> pairs = NeighbourPairs(setup, lin);
   if (pairs.size() < 8) return;
   const double np = static_cast<double>(pairs.size());
@@ -527,8 +506,7 @@ void EstimateMisfit(const Setup& setup, const Linearization& lin, const std::vec
   {
     Eigen::MatrixXd projected_basis(2 * n, 2 * terms);
     projected_basis << rx, ry;
-    Eigen::VectorXd r(2 * n);
-    for (int i = 0; i < n; ++i) r.segment<2>(2 * i) = residual[static_cast<size_t>(i)];
+    const Eigen::VectorXd r = Stacked(residual);
     if (r.allFinite()) {
       projection->gram = projected_basis.transpose() * projected_basis;
       projection->projected = projected_basis.transpose() * r;
@@ -576,15 +554,17 @@ void EstimateMisfit(const Setup& setup, const Linearization& lin, const std::vec
   bud->misfit_bound_px = std::sqrt(std::max(0.0, stat - noise_share + 2 * sd_stat) / kappa);
 }
 
-// The misfit field's components (EstimateMisfitCorrelation) from one model's residuals, the pixel-locking
-// signature removed and each observation paired with its nearest neighbour as in EstimateMisfit. Called once per
-// fit, on the chosen model (CompleteFits in screen_fit.cc); nothing when EstimateMisfit found the family invisible.
+// The misfit field's components (EstimateMisfitCorrelation) from one model's residuals without the pixel-locking
+// signature (ModelWork::signature; left in, the signature, a beat across a regular board, would be measured again
+// here as a correlated field: counted twice; subtracting its unprojected shape instead would put back the part the
+// refit absorbed, a smooth field with the wrong sign: tried, the row grew), each observation paired with its
+// nearest neighbour as in EstimateMisfit. Called once per fit, on the chosen model (CompleteFits in screen_fit.cc);
+// nothing when EstimateMisfit found the family invisible.
 void MeasureMisfitCorrelation(const Setup& setup, const Linearization& lin,
-                              const std::vector<Eigen::Vector2d>& fit_residual, double sigma_px,
+                              const std::vector<Eigen::Vector2d>& residual, double sigma_px,
                               UncertaintyBudget* bud) {
-  if (lin.obs.size() < 8 || fit_residual.size() != lin.obs.size() || !(bud->misfit_kappa > 1e-6)) return;
-  EstimateMisfitCorrelation(setup, lin, WithoutPixelLocking(setup, lin, fit_residual), sigma_px,
-                            NeighbourPairs(setup, lin), bud);
+  if (lin.obs.size() < 8 || residual.size() != lin.obs.size() || !(bud->misfit_kappa > 1e-6)) return;
+  EstimateMisfitCorrelation(setup, lin, residual, sigma_px, NeighbourPairs(setup, lin), bud);
 }
 
 }  // namespace curvecheck::screen_fit_internal

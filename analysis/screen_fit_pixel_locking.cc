@@ -1,7 +1,8 @@
 // The detector's pixel-locking signature measured through the screen fit (analysis/screen_fit_internal.h): its
-// shapes at the fit's predictions, its coefficients fitted on their refit projections, and the independent noise
-// that remains once it is removed. The budget (screen_fit_budget.cc) propagates it; the lens-model-misfit
-// statistics (screen_fit_misfit.cc) remove it first.
+// shapes at the fit's predictions, its coefficients fitted on their refit projections, the independent noise that
+// remains once it is removed, and the correction of the quantities of interest for it. The budget
+// (screen_fit_budget.cc) applies the correction and propagates its uncertainty; the lens-model-misfit statistics
+// (screen_fit_misfit.cc) take the residuals without it.
 #include <Eigen/Dense>
 #include <cmath>
 #include <limits>
@@ -12,6 +13,12 @@
 #include "core/error.h"
 
 namespace curvecheck::screen_fit_internal {
+
+Eigen::VectorXd Stacked(const std::vector<Eigen::Vector2d>& residual) {
+  Eigen::VectorXd r(2 * static_cast<long>(residual.size()));
+  for (size_t i = 0; i < residual.size(); ++i) r.segment<2>(2 * static_cast<long>(i)) = residual[i];
+  return r;
+}
 
 // The pixel-locking signature's shapes at the active observations (2n x 4 kPixelLockingTerms, rows interleaved x,
 // y): columns PixelLockingColumn(c, t) and the next hold sin and cos of 2 pi x the phase of coordinate c in period
@@ -37,46 +44,44 @@ Eigen::MatrixXd PixelLockingShapes(const Setup& setup, const Linearization& lin,
   return shapes;
 }
 
-PixelLockingRegression FitPixelLocking(const Setup& setup, const Linearization& lin, const Eigen::VectorXd& residual) {
-  PixelLockingRegression f;
-  const Eigen::MatrixXd shapes = PixelLockingShapes(setup, lin, residual);
-  f.projected = shapes - JTimes(lin, lin.normal_pinv * JtTimes(lin, shapes));
-  f.normal = f.projected.transpose() * f.projected;
-  const double n = static_cast<double>(lin.obs.size());
-  f.ok = residual.size() == f.projected.rows() && residual.allFinite() && f.normal.diagonal().minCoeff() > 1e-9 * n;
-  if (f.ok) f.coefficients = f.normal.ldlt().solve(f.projected.transpose() * residual);
-  return f;
-}
-
-double IndependentNoisePx(const ModelFit& fit) {
-  const double n = fit.budget.pixel_locking.noise_px;
-  return std::isfinite(n) && n > 0 && fit.noise_px > 0 ? n : fit.noise_px;
-}
-
-ResidualPixelLocking EstimatePixelLockingThroughFit(const Setup& setup, const Linearization& lin,
-                                                    const std::vector<Eigen::Vector2d>& residual_px,
-                                                    int parameters) {
-  ResidualPixelLocking out;
+PixelLockingSignature FitPixelLocking(const Setup& setup, const Linearization& lin,
+                                      const std::vector<Eigen::Vector2d>& residual_px, int parameters) {
+  PixelLockingSignature s;
+  s.residual_without = residual_px;
   const int n = static_cast<int>(lin.obs.size());
-  out.observations = n;
-  out.amplitude_px.setConstant(std::numeric_limits<double>::quiet_NaN());
-  out.sigma_px = out.amplitude_px;
   if (static_cast<int>(residual_px.size()) != n) {
     throw Error("pixel-locking estimate", "residuals and linearization differ in number", "");
   }
-  Eigen::VectorXd r(2 * n);
-  for (int i = 0; i < n; ++i) r.segment<2>(2 * i) = residual_px[static_cast<size_t>(i)];
-  const int dof = 2 * n - parameters - 4 * kPixelLockingTerms;
-  const PixelLockingRegression f = FitPixelLocking(setup, lin, r);
-  if (dof < 2 || !f.ok) return out;
-  const double s2 = (r - f.projected * f.coefficients).squaredNorm() / dof;
-  out.noise_px = std::sqrt(s2);
-  const Eigen::MatrixXd cov = s2 * f.normal.inverse();
+  s.observations = n;
+  s.dof = 2 * n - parameters - 4 * kPixelLockingTerms;
+  const Eigen::VectorXd r = Stacked(residual_px);
+  s.shapes = PixelLockingShapes(setup, lin, r);
+  const Eigen::MatrixXd projected = s.shapes - JTimes(lin, lin.normal_pinv * JtTimes(lin, s.shapes));
+  const Eigen::MatrixXd normal = projected.transpose() * projected;
+  if (s.dof < 2 || !r.allFinite() || !(normal.diagonal().minCoeff() > 1e-9 * n)) return s;
+  const Eigen::LDLT<Eigen::MatrixXd> ldlt(normal);
+  s.coefficients = ldlt.solve(projected.transpose() * r);
+  const Eigen::VectorXd fitted = projected * s.coefficients;
+  const double s2 = (r - fitted).squaredNorm() / s.dof;
+  s.noise_px = std::sqrt(s2);
+  s.covariance = s2 * ldlt.solve(Eigen::MatrixXd::Identity(normal.rows(), normal.cols()));
+  for (int i = 0; i < n; ++i) s.residual_without[static_cast<size_t>(i)] -= fitted.segment<2>(2 * i);
+  s.ok = true;
+  return s;
+}
+
+ResidualPixelLocking PixelLockingAmplitudes(const PixelLockingSignature& s) {
+  ResidualPixelLocking out;
+  out.observations = s.observations;
+  out.amplitude_px.setConstant(std::numeric_limits<double>::quiet_NaN());
+  out.sigma_px = out.amplitude_px;
+  if (!s.ok) return out;
+  out.noise_px = s.noise_px;
   for (int c = 0; c < 2; ++c) {
     for (int t = 0; t < kPixelLockingTerms; ++t) {
       const long col = PixelLockingColumn(c, t);
-      const Eigen::Vector2d ab = f.coefficients.segment<2>(col);
-      const Eigen::Matrix2d cc = cov.block<2, 2>(col, col);
+      const Eigen::Vector2d ab = s.coefficients.segment<2>(col);
+      const Eigen::Matrix2d cc = s.covariance.block<2, 2>(col, col);
       const double a = ab.norm();
       out.amplitude_px(c, t) = a;
       const double rms_sigma = std::sqrt(0.5 * cc.trace());
@@ -84,6 +89,24 @@ ResidualPixelLocking EstimatePixelLockingThroughFit(const Setup& setup, const Li
     }
   }
   return out;
+}
+
+// The signature moved the solution as a detection bias delta = S beta does: q by G delta (QuantityVariance). With
+// beta estimated (b, covariance C), the corrected q is q - G S b, of covariance (the fit with the eight
+// coefficients as nuisance parameters, by Frisch-Waugh-Lovell) the fit's own plus (G S) C (G S)^T.
+PixelLockingCorrection CorrectionFor(const Linearization& lin, const PixelLockingSignature& s) {
+  PixelLockingCorrection c;
+  if (!s.ok) return c;
+  const Eigen::MatrixXd gs = lin.g * s.shapes;
+  c.dq = -gs * s.coefficients;
+  c.covariance = gs * s.covariance * gs.transpose();
+  c.ok = c.dq.allFinite() && c.covariance.allFinite();
+  return c;
+}
+
+double IndependentNoisePx(const ModelFit& fit) {
+  const double n = fit.budget.pixel_locking.noise_px;
+  return std::isfinite(n) && n > 0 && fit.noise_px > 0 ? n : fit.noise_px;
 }
 
 }  // namespace curvecheck::screen_fit_internal

@@ -247,6 +247,7 @@ void Covariances(const Setup& setup, ModelWork& w, ModelFit* fit) {
     const PoseBlock& pose = st.poses[static_cast<size_t>(p)];
     cam.centre_from_cam = Pose(Eigen::Quaterniond(pose[3], pose[0], pose[1], pose[2]),
                                Eigen::Vector3d(pose[4], pose[5], pose[6]));
+    cam.position_in_centre_mm = cam.centre_from_cam.translation;
     cam.position_in_centre_sigma_mm.setConstant(kNaN);
     const int o = lin.pose_offset[static_cast<size_t>(p)];
     if (o < 0) continue;

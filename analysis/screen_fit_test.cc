@@ -88,9 +88,9 @@ TEST(ScreenFitTest, IdealCylinderChoosesCylinderAndRecoversTheRadius) {
   ASSERT_EQ(cyl.cameras.size(), 1u);
   const CameraEstimate& cam = cyl.cameras[0];
   for (int a = 0; a < 3; ++a) {
-    EXPECT_LT(std::abs(cam.centre_from_cam.translation[a] - Eigen::Vector3d(0, 0, 1500)[a]),
+    EXPECT_LT(std::abs(cam.position_in_centre_mm[a] - Eigen::Vector3d(0, 0, 1500)[a]),
               4 * cam.position_in_centre_sigma_mm[a])
-        << a << ": " << cam.centre_from_cam.translation.transpose() << " +- "
+        << a << ": " << cam.position_in_centre_mm.transpose() << " +- "
         << cam.position_in_centre_sigma_mm.transpose();
   }
   // In the screen frame the sigma of z is the radius's (the centre-frame z is known 50 times better).
@@ -305,7 +305,7 @@ TEST(ScreenFitTest, SeveralPhotosAreFittedJointly) {
   for (size_t p = 0; p < 3; ++p) {
     const Eigen::Vector3d truth = scenes[p].screen_from_cam.translation + Eigen::Vector3d(0, 0, 1000);
     for (int a = 0; a < 3; ++a) {
-      EXPECT_LT(std::abs(cyl.cameras[p].centre_from_cam.translation[a] - truth[a]),
+      EXPECT_LT(std::abs(cyl.cameras[p].position_in_centre_mm[a] - truth[a]),
                 4 * cyl.cameras[p].position_in_centre_sigma_mm[a])
           << p << " " << a;
       // In the screen frame, whose origin is on the true axis 1080 mm behind the centre.
@@ -609,7 +609,7 @@ Trials RadiusTrials(const SyntheticScene& scene, const std::vector<Eigen::Vector
     t.radius_sigma.push_back(NoiseRow(c).radius_mm);
     t.covered += NoiseCovers(c, r_true);
     const CameraEstimate& cam = c.cameras.at(0);
-    t.centre_z.push_back(cam.centre_from_cam.translation.z());
+    t.centre_z.push_back(cam.position_in_centre_mm.z());
     t.centre_z_sigma.push_back(NoiseRow(c).position_in_centre_mm.z());
     t.screen_z.push_back(cam.position_in_screen_mm.z());
     t.screen_z_sigma.push_back(NoiseRow(c).position_in_axis_mm.z());

@@ -300,7 +300,7 @@ std::vector<std::string> RunTrial(Bench& b, int index, std::string* line) {
           hi68 = m.radius_ci68_mm[1];
           if (!m.cameras.empty()) {
             const CameraEstimate& c = m.cameras.front();
-            estimate[0] = c.centre_from_cam.translation;
+            estimate[0] = c.position_in_centre_mm;
             estimate_sigma[0] = c.position_in_centre_sigma_mm;
             estimate[1] = c.position_in_screen_mm;
             estimate_sigma[1] = c.position_in_screen_sigma_mm;

@@ -208,10 +208,12 @@ std::vector<std::string> RunPoint(Sweep& sw, int index) {
                                std::to_string(p.features),
                                p.chosen,
                                p.fit_status,
-                               Cell(p.radius),
+                               // Radii of ~1000 mm to 1e-5 mm, as the error column beside them (6 digits
+                               // had left 0.01 mm, and radius - truth disagreeing with radius_error_mm).
+                               Cell(p.radius, 9),
                                Cell(p.sigma),
-                               Cell(p.lo),
-                               Cell(p.hi),
+                               Cell(p.lo, 9),
+                               Cell(p.hi, 9),
                                Cell(true_radius),
                                Cell(err),
                                Cell(err / p.sigma),

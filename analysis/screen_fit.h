@@ -232,7 +232,7 @@ struct BudgetComponent {
 };
 
 // The detector's pixel-locking signature measured through the fit: per coordinate c and period T a bias
-// a sin 2 pi phi + b cos 2 pi phi, phi the detected coordinate's phase in that period (frac(q / T)); periods 1 px
+// a sin 2 pi phi + b cos 2 pi phi, phi the phase of the fit's prediction q in that period (frac(q / T)); periods 1 px
 // (the sampling) and 2 px (a Bayer colour filter array repeats every 2 px, and its demosaicing error with it;
 // measured 0.05 px with the CFA on, 0.004 px without, docs/bench/validity_bench.txt 2026-12-05). The coefficients
 // reach the residuals through the refit as P sin, P cos (P = I - J (J^T J)^+ J^T), so they are fitted to the
@@ -247,7 +247,7 @@ struct ResidualPixelLocking {
   Eigen::Matrix2d amplitude_px = Eigen::Matrix2d::Zero();
   Eigen::Matrix2d sigma_px = Eigen::Matrix2d::Zero();  // its standard uncertainty
   int observations = 0;
-  // The residuals' RMS per coordinate once the fitted signature is removed (over 2n - parameters - 4 degrees of
+  // The residuals' RMS per coordinate once the fitted signature is removed (over 2n - parameters - 8 degrees of
   // freedom): the independent detection noise, which the detection-noise row propagates (the fit's noise_px holds
   // the signature's power too, which the correction removes). NaN: not measured.
   double noise_px = std::numeric_limits<double>::quiet_NaN();
@@ -360,9 +360,11 @@ struct ModelFit {
   double chi2_p_value = 1, noise_ratio = 0;
   bool adequate = true;
   std::string adequacy_note;
-  // Curvature k = 1/R (for varying curvature: its mean over the width, k0 + k2/3) and its sigma: the combined
-  // standard uncertainty of the budget (every source); curvature_noise_sigma_per_mm is the detection noise's share
-  // alone (the covariance scaled by noise_px). radius_sigma_mm, radius_ci95_mm and the cameras' sigmas are the
+  // Curvature k = 1/R (for varying curvature: its mean over the width, k0 + k2/3), corrected for the fitted
+  // pixel-locking signature (budget.pixel_locking_correction_curvature_per_mm; `shape` and `extra` are the
+  // uncorrected fit's), and its sigma: the combined standard uncertainty of the budget (every source);
+  // curvature_noise_sigma_per_mm is the detection noise's share alone (the covariance scaled by the residual noise
+  // without the signature, budget.pixel_locking.noise_px). radius_sigma_mm, radius_ci95_mm and the cameras' sigmas are the
   // combined ones; the interval is k +- coverage_factor u_c(k), inverted.
   double curvature_per_mm = 0, curvature_sigma_per_mm = 0, curvature_noise_sigma_per_mm = 0;
   UncertaintyBudget budget;

@@ -265,7 +265,8 @@ namespace {
 // Bias fields over the image of RMS `bound_px` per coordinate (Legendre polynomials of total degree <= `degree`,
 // the same field in every photo), propagated through G; the covariance of q over seeded draws. The detector
 // systematic's smooth part and the lens model misfit.
-QuantityVariance SystematicVariance(const Setup& setup, const Linearization& lin, double bound_px,
+QuantityVariance SystematicVariance(const Setup& setup, const Linearization& lin,
+                                    const PixelLockingCorrection& correction, double bound_px,
                                     const Eigen::MatrixXd& basis) {
   const FitOptions& o = *setup.options;
   const int n = static_cast<int>(lin.obs.size()), nq = static_cast<int>(lin.g.rows());
@@ -273,7 +274,8 @@ QuantityVariance SystematicVariance(const Setup& setup, const Linearization& lin
   // A detection bias delta shifts the residual q - detected by -delta, and q by -G (-delta) = G delta.
   Eigen::MatrixXd gx(nq, n), gy(nq, n);
   for (int i = 0; i < n; ++i) gx.col(i) = lin.g.col(2 * i), gy.col(i) = lin.g.col(2 * i + 1);
-  const Eigen::MatrixXd mx = gx * basis, my = gy * basis;
+  const Eigen::MatrixXd mx = correction.Response(gx * basis, basis, 0),
+                        my = correction.Response(gy * basis, basis, 1);
   const Eigen::MatrixXd gram = basis.transpose() * basis;
   std::mt19937_64 rng(o.systematic_field_seed);
   std::normal_distribution<double> unit(0, 1);
@@ -292,6 +294,7 @@ QuantityVariance SystematicVariance(const Setup& setup, const Linearization& lin
 // Lens calibration: dq/d(intrinsics) by central differences of the residuals at the fitted parameters (the
 // linearized refit), then S Sigma S^T.
 QuantityVariance LensVariance(const Setup& setup, const ModelWork& w, const Linearization& lin) {
+  // d has one column per intrinsic; the corrected q answers it through PixelLockingCorrection::Response.
   const Eigen::MatrixXd& sigma = setup.options->intrinsics_covariance;
   const int ni = static_cast<int>(setup.camera->intrinsics.size()), n = static_cast<int>(lin.obs.size());
   Eigen::MatrixXd s(lin.g.rows(), ni);
@@ -314,7 +317,7 @@ QuantityVariance LensVariance(const Setup& setup, const ModelWork& w, const Line
       dd[2 * i] = v.allFinite() ? v.x() : 0;
       dd[2 * i + 1] = v.allFinite() ? v.y() : 0;
     }
-    s.col(k) = lin.g * dd;
+    s.col(k) = w.correction.Response(lin.g * dd, dd);
   }
   return QuantityVariance::FromCovariance(s * sigma * s.transpose(), setup.photos);
 }
@@ -365,7 +368,8 @@ void Budget(const Setup& setup, ModelWork& w, int n_residuals, ModelFit* fit) {
     }
   }
   bud.pixel_locking = PixelLockingAmplitudes(w.signature);
-  const PixelLockingCorrection correction = lin ? CorrectionFor(*lin, w.signature) : PixelLockingCorrection{};
+  w.correction = lin ? CorrectionFor(*lin, w.signature) : PixelLockingCorrection{};
+  const PixelLockingCorrection& correction = w.correction;
   if (correction.ok) {
     bud.pixel_locking_correction_curvature_per_mm = correction.dq[0];
     fit->curvature_per_mm += correction.dq[0];
@@ -415,8 +419,9 @@ void Budget(const Setup& setup, ModelWork& w, int n_residuals, ModelFit* fit) {
                   "the pixel-locking signature, fitted and corrected for: amplitudes in period 1 px x {:.4f} +- "
                   "{:.4f}, y {:.4f} +- {:.4f} px; in period 2 px (a colour filter array's) x {:.4f} +- {:.4f}, y "
                   "{:.4f} +- {:.4f} px; the correction moved the curvature by {:.3g} 1/mm and the first camera by "
-                  "({:.3f}, {:.3f}, {:.3f}) mm, and its uncertainty (G S) C (G S)^T (type A, the coefficients' "
-                  "covariance C over {} degrees of freedom) is this row's second part",
+                  "({:.3f}, {:.3f}, {:.3f}) mm, and its uncertainty (G S) C (G S)^T (the coefficients' covariance C "
+                  "from the residuals over {} degrees of freedom, counted here with the row's infinite ones) is this "
+                  "row's second part",
                   pl.amplitude_px(0, 0), pl.sigma_px(0, 0), pl.amplitude_px(1, 0), pl.sigma_px(1, 0),
                   pl.amplitude_px(0, 1), pl.sigma_px(0, 1), pl.amplitude_px(1, 1), pl.sigma_px(1, 1),
                   bud.pixel_locking_correction_curvature_per_mm, bud.pixel_locking_correction_position_mm.x(),
@@ -444,7 +449,7 @@ void Budget(const Setup& setup, ModelWork& w, int n_residuals, ModelFit* fit) {
     if (lin) {
       const QuantityVariance smooth =
           bud.systematic_bound_px > 0
-              ? SystematicVariance(setup, *lin, bud.systematic_bound_px,
+              ? SystematicVariance(setup, *lin, correction, bud.systematic_bound_px,
                                    LegendreFieldBasis(DetectedPoints(setup, *lin), setup.camera->width,
                                                       setup.camera->height, o.systematic_field_degree))
               : QuantityVariance(setup.photos);
@@ -565,7 +570,7 @@ std::vector<QuantityVariance> CompleteBudget(const Setup& setup, ModelWork& w, c
                            std::sqrt(f.variance_px2), f.variance_px2, f.variance_sd_px2,
                            ring ? "period" : "correlation length", f.length_px);
       if (!(f.variance_px2 > 0)) continue;
-      const QuantityVariance part = FieldVariance(setup, *lin, f);
+      const QuantityVariance part = FieldVariance(setup, *lin, w.correction, f);
       misfit.var_k += part.var_k;
       for (int p = 0; p < setup.photos; ++p) {
         misfit.var_pos[static_cast<size_t>(p)] += part.var_pos[static_cast<size_t>(p)];
@@ -599,7 +604,7 @@ std::vector<QuantityVariance> CompleteBudget(const Setup& setup, ModelWork& w, c
     const UncertaintyBudget::FieldComponent stated{UncertaintyBudget::FieldFamily::kGaussian,
                                                    o.stated_lens_misfit_length_px,
                                                    o.stated_lens_misfit_px * o.stated_lens_misfit_px, 0};
-    const QuantityVariance part = FieldVariance(setup, *lin, stated);
+    const QuantityVariance part = FieldVariance(setup, *lin, w.correction, stated);
     bud.stated_misfit_share_curvature_per_mm = std::sqrt(std::max(0.0, part.var_k));
     const std::string field = fmt::format(
         "a Gaussian field of RMS {:.4f} px per coordinate at a correlation length of {:.0f} px ({})",

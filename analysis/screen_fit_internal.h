@@ -156,8 +156,29 @@ struct PixelLockingSignature {
   Eigen::MatrixXd shapes;        // S, 2n x 4 kPixelLockingTerms
   Eigen::VectorXd coefficients;  // b, in S's column order
   Eigen::MatrixXd covariance;    // C
+  Eigen::MatrixXd solve;         // M = (S^T P S)^-1 (P S)^T, 4 kPixelLockingTerms x 2n: b = M r
   double noise_px = std::numeric_limits<double>::quiet_NaN();
   std::vector<Eigen::Vector2d> residual_without;
+};
+
+// The correction of q = (k, c_1, ..., c_P) for the fitted signature, dq = -G S b, and its covariance
+// (G S) C (G S)^T (QuantityVariance's q and G). The corrected q answers a perturbation dr of the detections by
+// (G - G S M) dr, not G dr: b moves by M dr. Every row that propagates a perturbation through G takes that part
+// off (Response). Measured small for smooth fields: on a frontal board from near 3 m at quarter resolution, where
+// the shapes' projections are smoothest, degree-3 Legendre fields move the corrected radius by 3.17 mm RMS and the
+// uncorrected one by 3.21 mm (UncertaintyBudgetTest.SmoothRowFollowsTheCorrectedEstimateWhereTheSignatureIsSmooth).
+struct PixelLockingCorrection {
+  bool ok = false;
+  Eigen::VectorXd dq;
+  Eigen::MatrixXd covariance;
+  Eigen::MatrixXd gs;     // G S, (1 + 3 P) x 4 kPixelLockingTerms
+  Eigen::MatrixXd solve;  // M (PixelLockingSignature::solve)
+  // G x - G S M x for perturbations x (2n x m, interleaved x, y), given gx = G x.
+  Eigen::MatrixXd Response(const Eigen::MatrixXd& gx, const Eigen::MatrixXd& x) const;
+  // The same for a field on coordinate c's rows only: x's rows 2i + c = field's row i, the others 0.
+  Eigen::MatrixXd Response(const Eigen::MatrixXd& gx, const Eigen::MatrixXd& field, int c) const;
+  // M's columns of coordinate c (4 kPixelLockingTerms x n): M x for such a field is SolveColumns(c) field.
+  Eigen::MatrixXd SolveColumns(int c) const;
 };
 
 // Everything about one model's fit that the selection and the deviations need beyond ModelFit.
@@ -178,7 +199,8 @@ struct ModelWork {
   // the rows combined by CompleteBudget once the model is chosen.
   std::optional<Linearization> lin;
   std::vector<QuantityVariance> budget_vars;
-  PixelLockingSignature signature;  // Budget's, on the final fit's residuals
+  PixelLockingSignature signature;    // Budget's, on the final fit's residuals
+  PixelLockingCorrection correction;  // Budget's, from `signature`
 };
 
 // screen_fit_problem.cc: one candidate's Ceres problem.
@@ -210,13 +232,6 @@ PixelLockingSignature FitPixelLocking(const Setup& setup, const Linearization& l
 // Per coordinate and period the amplitude sqrt(a^2 + b^2) and its standard uncertainty (delta method along the
 // estimate's direction; near zero amplitude the coefficients' RMS sigma); NaN when !ok.
 ResidualPixelLocking PixelLockingAmplitudes(const PixelLockingSignature& signature);
-// The correction of q = (k, c_1, ..., c_P) for the fitted signature, dq = -G S b, and its covariance
-// (G S) C (G S)^T (QuantityVariance's q and G).
-struct PixelLockingCorrection {
-  bool ok = false;
-  Eigen::VectorXd dq;
-  Eigen::MatrixXd covariance;
-};
 PixelLockingCorrection CorrectionFor(const Linearization& lin, const PixelLockingSignature& signature);
 // The fit's independent detection noise per coordinate: its residual noise without the pixel-locking signature
 // (budget.pixel_locking.noise_px) once Budget has measured it, else noise_px.
@@ -229,7 +244,7 @@ std::vector<QuantityVariance> CompleteBudget(const Setup& setup, ModelWork& w, c
 void FinishBudget(const std::vector<QuantityVariance>& vars, ModelFit* fit);
 
 // screen_fit_misfit.cc: the lens-model-misfit row.
-QuantityVariance FieldVariance(const Setup& setup, const Linearization& lin,
+QuantityVariance FieldVariance(const Setup& setup, const Linearization& lin, const PixelLockingCorrection& correction,
                                const UncertaintyBudget::FieldComponent& component);
 void EstimateMisfit(const Setup& setup, const Linearization& lin, const std::vector<Eigen::Vector2d>& residual,
                     double sigma_px, UncertaintyBudget* bud, LensFieldProjection* projection);

@@ -78,19 +78,29 @@ double FeatureSpacing(const Setup& setup) {
 
 // J_f^T Phi for both coordinates f (t x D each), Phi the basis of `features` at the active observations, summed
 // photo by photo over the dense blocks (a photo's rows of Phi evaluated at a time, into *phi); and the sum of Phi's
-// squares.
+// squares. With `solve` (PixelLockingCorrection::solve, 4 kPixelLockingTerms x 2n) also M_f Phi into *m_phi.
 std::array<RowMajor, 2> JacobianTimesBasis(const Linearization& lin, const std::vector<PhotoBlock>& blocks,
-                                           const FieldFeatures& features, RowMajor* phi, double* phi_squared) {
+                                           const FieldFeatures& features, RowMajor* phi, double* phi_squared,
+                                           const Eigen::MatrixXd* solve = nullptr,
+                                           std::array<Eigen::MatrixXd, 2>* m_phi = nullptr) {
   const long t = lin.j_obs.cols(), d = features.omega.rows();
   std::array<RowMajor, 2> jtp = {RowMajor::Zero(t, d), RowMajor::Zero(t, d)};
+  if (solve) *m_phi = {Eigen::MatrixXd::Zero(solve->rows(), d), Eigen::MatrixXd::Zero(solve->rows(), d)};
   *phi_squared = 0;
   RowMajor part;
+  Eigen::MatrixXd m_block;
   for (const PhotoBlock& block : blocks) {
     features.Evaluate(block.points, phi);
     *phi_squared += phi->squaredNorm();
     for (size_t f = 0; f < 2; ++f) {
       part.noalias() = block.j[f].transpose() * *phi;
       for (size_t c = 0; c < block.cols.size(); ++c) jtp[f].row(block.cols[c]) += part.row(static_cast<long>(c));
+      if (!solve) continue;
+      m_block.resize(solve->rows(), static_cast<long>(block.rows.size()));
+      for (size_t r = 0; r < block.rows.size(); ++r) {
+        m_block.col(static_cast<long>(r)) = solve->col(2L * block.rows[r] + static_cast<long>(f));
+      }
+      (*m_phi)[f].noalias() += m_block * *phi;
     }
   }
   return jtp;
@@ -454,18 +464,21 @@ void EstimateMisfitCorrelation(const Setup& setup, const Linearization& lin,
 
 // A stationary field of one component's family and variance, common to every photo, propagated through G exactly
 // from its random-feature basis: cov(q) = s2 / v (G_x Phi Phi^T G_x^T + G_y Phi Phi^T G_y^T), v the basis's mean
-// variance at the points.
-QuantityVariance FieldVariance(const Setup& setup, const Linearization& lin,
+// variance at the points; G_f less G S M_f where the estimate is corrected for the pixel-locking signature.
+QuantityVariance FieldVariance(const Setup& setup, const Linearization& lin, const PixelLockingCorrection& correction,
                                const UncertaintyBudget::FieldComponent& component) {
   const int n = static_cast<int>(lin.obs.size());
   // G_f Phi = sel (J^T J)^+ (J_f^T Phi), J_f^T Phi photo by photo (a photo's rows of J touch its pose and the
   // shared columns only): a quarter of the products of the dense G_f Phi at ten photos.
   double phi_squared = 0;
   RowMajor phi;
-  const std::array<RowMajor, 2> jtp = JacobianTimesBasis(lin, PhotoBlocks(setup, lin),
-                                                         MisfitComponentFeatures(component, *setup.options), &phi,
-                                                         &phi_squared);
-  const Eigen::MatrixXd mx = lin.sel_pinv * jtp[0], my = lin.sel_pinv * jtp[1];
+  std::array<Eigen::MatrixXd, 2> m_phi;
+  const std::array<RowMajor, 2> jtp = JacobianTimesBasis(
+      lin, PhotoBlocks(setup, lin), MisfitComponentFeatures(component, *setup.options), &phi, &phi_squared,
+      correction.ok ? &correction.solve : nullptr, &m_phi);
+  // The corrected q answers the field through G - G S M (PixelLockingCorrection::Response).
+  Eigen::MatrixXd mx = lin.sel_pinv * jtp[0], my = lin.sel_pinv * jtp[1];
+  if (correction.ok) mx -= correction.gs * m_phi[0], my -= correction.gs * m_phi[1];
   const double variance = phi_squared / n;
   return QuantityVariance::FromCovariance(
       component.variance_px2 / variance * (mx * mx.transpose() + my * my.transpose()), setup.photos);

@@ -60,7 +60,11 @@ PixelLockingSignature FitPixelLocking(const Setup& setup, const Linearization& l
   const Eigen::MatrixXd normal = projected.transpose() * projected;
   if (s.dof < 2 || !r.allFinite() || !(normal.diagonal().minCoeff() > 1e-9 * n)) return s;
   const Eigen::LDLT<Eigen::MatrixXd> ldlt(normal);
-  s.coefficients = ldlt.solve(projected.transpose() * r);
+  // Two shapes nearly collinear after the refit would pass the diagonal test and give a huge C and a meaningless
+  // correction.
+  if (ldlt.info() != Eigen::Success || !(ldlt.rcond() > 1e-10)) return s;
+  s.solve = ldlt.solve(projected.transpose());
+  s.coefficients = s.solve * r;
   const Eigen::VectorXd fitted = projected * s.coefficients;
   const double s2 = (r - fitted).squaredNorm() / s.dof;
   s.noise_px = std::sqrt(s2);
@@ -97,11 +101,25 @@ ResidualPixelLocking PixelLockingAmplitudes(const PixelLockingSignature& s) {
 PixelLockingCorrection CorrectionFor(const Linearization& lin, const PixelLockingSignature& s) {
   PixelLockingCorrection c;
   if (!s.ok) return c;
-  const Eigen::MatrixXd gs = lin.g * s.shapes;
-  c.dq = -gs * s.coefficients;
-  c.covariance = gs * s.covariance * gs.transpose();
+  c.gs = lin.g * s.shapes;
+  c.solve = s.solve;
+  c.dq = -c.gs * s.coefficients;
+  c.covariance = c.gs * s.covariance * c.gs.transpose();
   c.ok = c.dq.allFinite() && c.covariance.allFinite();
   return c;
+}
+
+Eigen::MatrixXd PixelLockingCorrection::Response(const Eigen::MatrixXd& gx, const Eigen::MatrixXd& x) const {
+  return ok ? Eigen::MatrixXd(gx - gs * (solve * x)) : gx;
+}
+
+Eigen::MatrixXd PixelLockingCorrection::SolveColumns(int c) const {
+  return solve(Eigen::all, Eigen::seq(c, Eigen::last, 2));
+}
+
+Eigen::MatrixXd PixelLockingCorrection::Response(const Eigen::MatrixXd& gx, const Eigen::MatrixXd& field,
+                                                 int c) const {
+  return ok ? Eigen::MatrixXd(gx - gs * (SolveColumns(c) * field)) : gx;
 }
 
 double IndependentNoisePx(const ModelFit& fit) {

@@ -1,7 +1,8 @@
 // The intrinsics' uncertainty budget of a calibration from the screen (from_screen.h FromScreenIntrinsicsBudget):
 // the screen fit's own budget rows (analysis/screen_fit_budget.cc: detector systematic, lens model misfit), which it
 // propagates to the curvature and the camera positions only, propagated here to the intrinsics through the same
-// linearized refit.
+// linearized refit. The screen fit corrects the curvature and the camera positions for its fitted pixel-locking
+// signature; the intrinsics are not corrected, so here the signature stays an uncertainty (its bound, unknown phase).
 //
 // The linearization is rebuilt from the fit's public result, not from its Ceres problem: the residual of
 // observation i of photo p is r_i = d_i - P(theta, T_p X_i), X_i the fitted surface point (FittedSurfacePointsInCamera,
@@ -138,8 +139,9 @@ FromScreenIntrinsicsBudget IntrinsicsBudgetFromScreen(const std::vector<PhotoObs
                              m.noise_px);
   out.rows.push_back(noise);
 
-  // 2. Detector systematic: the screen fit's row (UncertaintyBudget: smooth Legendre bias fields of RMS b, plus
-  //    the pixel-locking signature at its bound), propagated to the intrinsics.
+  // 2. Detector systematic: the screen fit's smooth Legendre bias fields of RMS b, plus the pixel-locking signature
+  //    at its bound (estimate + 2 sigma, phase unknown: the intrinsics are not corrected for it), propagated to the
+  //    intrinsics.
   {
     const UncertaintyBudget& bud = m.budget;
     FromScreenIntrinsicsBudget::Row row;
@@ -179,10 +181,10 @@ FromScreenIntrinsicsBudget IntrinsicsBudgetFromScreen(const std::vector<PhotoObs
       }
     }
     row.source = fmt::format(
-        "the screen fit's detector-systematic row propagated to the intrinsics: Legendre bias fields of total degree "
+        "the screen fit's detector systematic propagated to the intrinsics: Legendre bias fields of total degree "
         "<= {} and RMS b = {:.4f} px per coordinate (the stated FitOptions::smooth_bias_px), plus the pixel-locking "
-        "signature at its bound (estimate + 2 sigma; period 1 px: x {:.4f}, y {:.4f} px; period 2 px: x {:.4f}, "
-        "y {:.4f} px)",
+        "signature, which the intrinsics are not corrected for, at its bound (estimate + 2 sigma, phase unknown; "
+        "period 1 px: x {:.4f}, y {:.4f} px; period 2 px: x {:.4f}, y {:.4f} px)",
         options.systematic_field_degree, b, bound(0, 0), bound(1, 0), bound(0, 1), bound(1, 1));
     out.rows.push_back(row);
   }

@@ -230,6 +230,24 @@ std::vector<Eigen::Vector2d> Field(const CameraModel& cam, const std::vector<Eig
   return out;
 }
 
+// Fits of the photo with each of `fields` smooth bias fields of the row's family (RMS b_px, drawn from rng) added.
+std::vector<ModelFit> FitsWithInjectedFields(const SyntheticScene& scene, const PhotoObservations& photo,
+                                             const FitOptions& o, double b_px, int fields, std::mt19937_64& rng) {
+  std::vector<ModelFit> out;
+  for (int d = 0; d < fields; ++d) {
+    PhotoObservations biased = photo;
+    const auto field = Field(scene.camera, photo.detected_px, o.systematic_field_degree, b_px, rng);
+    for (size_t i = 0; i < field.size(); ++i) biased.detected_px[i] += field[i];
+    out.push_back(FitScreen(scene.monitor, scene.camera, {biased}, o).Chosen());
+  }
+  return out;
+}
+
+// The radius before the pixel-locking correction (the reported one less it).
+double UncorrectedRadiusMm(const ModelFit& f) {
+  return 1 / (f.curvature_per_mm - f.budget.pixel_locking_correction_curvature_per_mm);
+}
+
 TEST(UncertaintyBudgetTest, SystematicRowMatchesTheRadiusShiftOfInjectedFields) {
   const SyntheticScene scene = DefaultScene();
   const PhotoObservations photo = Clean(scene);
@@ -242,11 +260,7 @@ TEST(UncertaintyBudgetTest, SystematicRowMatchesTheRadiusShiftOfInjectedFields) 
   std::mt19937_64 rng(99);  // not the row's seed
   double sum2 = 0, worst = 0;
   constexpr int kFields = 30;
-  for (int d = 0; d < kFields; ++d) {
-    PhotoObservations biased = photo;
-    const auto field = Field(scene.camera, photo.detected_px, o.systematic_field_degree, kBiasPx, rng);
-    for (size_t i = 0; i < field.size(); ++i) biased.detected_px[i] += field[i];
-    const ModelFit g = FitScreen(scene.monitor, scene.camera, {biased}, o).Chosen();
+  for (const ModelFit& g : FitsWithInjectedFields(scene, photo, o, kBiasPx, kFields, rng)) {
     const double shift = *g.radius_mm - *f.radius_mm;
     sum2 += shift * shift;
     worst = std::max(worst, std::abs(shift));
@@ -320,19 +334,12 @@ TEST(UncertaintyBudgetTest, SmoothRowFollowsTheCorrectedEstimateWhereTheSignatur
   const ModelFit f = FitScreen(scene.monitor, scene.camera, {photo}, o).Chosen();
   const double k2 = f.curvature_per_mm * f.curvature_per_mm;
   const double share_mm = f.budget.smooth_share_curvature_per_mm / k2;
-  const auto uncorrected_mm = [](const ModelFit& g) {
-    return 1 / (g.curvature_per_mm - g.budget.pixel_locking_correction_curvature_per_mm);
-  };
   std::mt19937_64 rng(99);
   double sum2 = 0, sum2_uncorrected = 0;
   constexpr int kFields = 30;
-  for (int d = 0; d < kFields; ++d) {
-    PhotoObservations biased = photo;
-    const auto field = Field(scene.camera, photo.detected_px, o.systematic_field_degree, kBiasPx, rng);
-    for (size_t i = 0; i < field.size(); ++i) biased.detected_px[i] += field[i];
-    const ModelFit g = FitScreen(scene.monitor, scene.camera, {biased}, o).Chosen();
+  for (const ModelFit& g : FitsWithInjectedFields(scene, photo, o, kBiasPx, kFields, rng)) {
     sum2 += std::pow(*g.radius_mm - *f.radius_mm, 2) / kFields;
-    sum2_uncorrected += std::pow(uncorrected_mm(g) - uncorrected_mm(f), 2) / kFields;
+    sum2_uncorrected += std::pow(UncorrectedRadiusMm(g) - UncorrectedRadiusMm(f), 2) / kFields;
   }
   std::cout << "smooth share of u(R) " << share_mm << " mm; injected fields move the corrected R by "
             << std::sqrt(sum2) << " mm RMS, the uncorrected R by " << std::sqrt(sum2_uncorrected) << " mm\n";
@@ -681,9 +688,6 @@ TEST(UncertaintyBudgetTest, PixelLockingCorrectionRemovesTheRadiusShiftItCauses)
   const PhotoObservations clean = Clean(scene);
   FitOptions o = CylinderOnly();
   const double r0 = *FitScreen(scene.monitor, scene.camera, {clean}, o).Chosen().radius_mm;
-  const auto uncorrected_mm = [](const ModelFit& f) {
-    return 1 / (f.curvature_per_mm - f.budget.pixel_locking_correction_curvature_per_mm);
-  };
   constexpr double kA = 0.03;
   for (double period : {1.0, 2.0}) {
     double sum2 = 0, sum2_uncorrected = 0;
@@ -695,7 +699,7 @@ TEST(UncertaintyBudgetTest, PixelLockingCorrectionRemovesTheRadiusShiftItCauses)
       }
       const ModelFit f = FitScreen(scene.monitor, scene.camera, {photo}, o).Chosen();
       sum2 += (*f.radius_mm - r0) * (*f.radius_mm - r0) / 4;
-      sum2_uncorrected += (uncorrected_mm(f) - r0) * (uncorrected_mm(f) - r0) / 4;
+      sum2_uncorrected += (UncorrectedRadiusMm(f) - r0) * (UncorrectedRadiusMm(f) - r0) / 4;
     }
     std::cout << "period " << period << " px: the injected signature moves R by " << std::sqrt(sum2_uncorrected)
               << " mm RMS over 4 phase offsets uncorrected, " << std::sqrt(sum2) << " mm corrected\n";
@@ -707,7 +711,7 @@ TEST(UncertaintyBudgetTest, PixelLockingCorrectionRemovesTheRadiusShiftItCauses)
   for (int seed = 1; seed <= kSeeds; ++seed) {
     const ModelFit f = FitScreen(scene.monitor, scene.camera, {Clean(scene, 0.02, static_cast<uint64_t>(seed))}, o)
                            .Chosen();
-    correction2 += std::pow(*f.radius_mm - uncorrected_mm(f), 2) / kSeeds;
+    correction2 += std::pow(*f.radius_mm - UncorrectedRadiusMm(f), 2) / kSeeds;
     share += f.budget.pixel_locking_share_curvature_per_mm / (f.curvature_per_mm * f.curvature_per_mm) / kSeeds;
   }
   std::cout << "noise alone: correction RMS " << std::sqrt(correction2) << " mm over " << kSeeds

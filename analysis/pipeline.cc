@@ -225,8 +225,15 @@ nlohmann::json BudgetJson(const ModelFit& f, const std::string& first_photo) {
         {"radius_mm", Num(f.radius_mm ? *f.radius_mm - 1 / (f.curvature_per_mm -
                                                                   b.pixel_locking_correction_curvature_per_mm)
                                       : kNaNJson)},
+        {"curvature_sigma_per_mm", Num(b.pixel_locking_share_curvature_per_mm)},
+        {"radius_sigma_mm", Num(f.radius_mm ? b.pixel_locking_share_curvature_per_mm /
+                                                  (f.curvature_per_mm * f.curvature_per_mm)
+                                            : kNaNJson)},
         {"first_camera_position_in_centre_mm", Vec(b.pixel_locking_correction_position_mm)},
-        {"note", "added to the fit's values (reported ones include it); the fitted surface, the rotations and the "
+        {"first_camera_position_sigma_in_centre_mm", Vec(b.pixel_locking_correction_sigma_position_mm)},
+        {"frame", "centre (origin at the screen's centre, the same frame as the camera's position_in_centre_mm)"},
+        {"note", "added to the fit's values (reported ones include it); each sigma is the correction's standard "
+                 "uncertainty, a part of this row (not an extra one); the fitted surface, the rotations and the "
                  "deviations are the uncorrected fit's"}}},
       {"bound_px", b.systematic_bound_px},
       {"smooth_fields_curvature_per_mm", Num(b.smooth_share_curvature_per_mm)},

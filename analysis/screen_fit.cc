@@ -404,6 +404,11 @@ void FitOptions::Check(const std::string& where) const {
   if (!(smooth_bias_px >= 0) || !std::isfinite(smooth_bias_px)) {
     throw Error(where, fmt::format("smooth_bias_px is {}, but must be 0 or a positive number", smooth_bias_px), "");
   }
+  if (!(pixel_locking_prior_px >= 0) || !std::isfinite(pixel_locking_prior_px)) {
+    throw Error(where, fmt::format("pixel_locking_prior_px is {}, but must be a positive number (or 0: no prior)",
+                                   pixel_locking_prior_px),
+                "give e.g. 0.1");
+  }
   if (!(noise_floor_px >= 0) || !std::isfinite(noise_floor_px)) {
     throw Error(where, fmt::format("noise_floor_px is {}, but must be 0 or a positive number", noise_floor_px), "");
   }

@@ -147,6 +147,13 @@ struct FitOptions {
   // detections with independent noise only, where a small patch cannot tell the signature from the curvature and
   // the row would (rightly) widen the interval on its own.
   bool measure_pixel_locking = true;
+  // The pixel-locking signature's prior: each of its eight coefficients N(0, pixel_locking_prior_px^2) before the
+  // photos (type B; 0 = none, the regression alone). It bounds the coefficients the photos cannot determine
+  // (a shape whose refit projection is nearly nothing: the fit absorbs it) instead of fitting them to the noise, and
+  // is negligible where they are determined. 0.1 px: a coefficient of 0.1 px is an amplitude of 0.14 px; the
+  // well-determined amplitudes of the validity bench's synthetic detector reach 0.13 px at quarter resolution
+  // (median 0.05 px), and pixel-locking of sub-pixel estimators on sharp, undersampled edges is a fraction of a pixel.
+  double pixel_locking_prior_px = 0.1;
   int systematic_field_draws = 2000;
   unsigned systematic_field_seed = 20261201;
   // Lens model misfit (the true lens's departure from the camera model, and any other error that is smooth over
@@ -287,6 +294,9 @@ struct UncertaintyBudget {
   // surface, the rotations and the deviations are the uncorrected fit's.
   double pixel_locking_correction_curvature_per_mm = 0;
   Eigen::Vector3d pixel_locking_correction_position_mm = Eigen::Vector3d::Zero();
+  // The correction's standard uncertainty for the first camera's position (centre frame, mm, per axis; the
+  // curvature's is pixel_locking_share_curvature_per_mm): part of the detector-systematic row.
+  Eigen::Vector3d pixel_locking_correction_sigma_position_mm = Eigen::Vector3d::Zero();
   // The lens-model-misfit row: the neighbour statistic (mean over neighbour pairs of r_i . r_j / 2, px^2), the
   // independent noise's expected share of it, the fraction kappa of a unit-RMS misfit field that the statistic
   // sees after the fit, and the field's RMS estimate and upper bound (estimate + 2 sigma of the statistic under

@@ -419,16 +419,16 @@ void Budget(const Setup& setup, ModelWork& w, int n_residuals, ModelFit* fit) {
                   "the pixel-locking signature, fitted and corrected for: amplitudes in period 1 px x {:.4f} +- "
                   "{:.4f}, y {:.4f} +- {:.4f} px; in period 2 px (a colour filter array's) x {:.4f} +- {:.4f}, y "
                   "{:.4f} +- {:.4f} px; the correction moved the curvature by {:.3g} 1/mm and the first camera by "
-                  "({:.3f}, {:.3f}, {:.3f}) mm, and its uncertainty (G S) C (G S)^T (the coefficients' covariance C "
-                  "from the residuals over {} degrees of freedom, counted here with the row's infinite ones) is this "
-                  "row's second part",
+                  "({:.3f}, {:.3f}, {:.3f}) mm, and its uncertainty (G S) C (G S)^T (the coefficients' posterior "
+                  "covariance C from the residuals over {} degrees of freedom and the prior N(0, ({} px)^2) per "
+                  "coefficient, counted here with the row's infinite ones) is this row's second part",
                   pl.amplitude_px(0, 0), pl.sigma_px(0, 0), pl.amplitude_px(1, 0), pl.sigma_px(1, 0),
                   pl.amplitude_px(0, 1), pl.sigma_px(0, 1), pl.amplitude_px(1, 1), pl.sigma_px(1, 1),
                   bud.pixel_locking_correction_curvature_per_mm, bud.pixel_locking_correction_position_mm.x(),
                   bud.pixel_locking_correction_position_mm.y(), bud.pixel_locking_correction_position_mm.z(),
-                  w.signature.dof)
+                  w.signature.dof, o.pixel_locking_prior_px)
             : std::string(o.measure_pixel_locking ? "the pixel-locking signature could not be fitted (too few "
-                                                    "residuals, or a shape absorbed whole by the fit): not corrected"
+                                                    "residuals; without a prior, a shape absorbed by the fit): not corrected"
                                                   : "the pixel-locking signature not fitted "
                                                     "(FitOptions::measure_pixel_locking off)");
     c.source = fmt::format(
@@ -440,7 +440,8 @@ void Budget(const Setup& setup, ModelWork& w, int n_residuals, ModelFit* fit) {
         "coordinate, each scaled to RMS b ({} seeded draws); its standard uncertainty is the RMS effect. "
         "Pixel-locking is a bias a sin 2 pi phi + b cos 2 pi phi per coordinate, phi the phase of the fit's "
         "prediction in periods of 1 px and 2 px (a colour filter array's demosaicing repeats every 2 px); its eight "
-        "coefficients fitted on the shapes' refit projections, the curvature and the camera positions corrected by "
+        "coefficients fitted on the shapes' refit projections with the prior N(0, sigma_b^2) each (a coefficient "
+        "the photos cannot determine stays within the prior), the curvature and the camera positions corrected by "
         "-G S b (the linearized fit with the coefficients as nuisance parameters: Frisch-Waugh-Lovell); higher "
         "harmonics and other periods are not modelled",
         o.systematic_field_degree, o.systematic_field_draws);
@@ -462,6 +463,7 @@ void Budget(const Setup& setup, ModelWork& w, int n_residuals, ModelFit* fit) {
             smooth.cov_pos_k[static_cast<size_t>(p)] + locking.cov_pos_k[static_cast<size_t>(p)];
       }
       bud.pixel_locking_share_curvature_per_mm = std::sqrt(std::max(0.0, locking.var_k));
+      if (setup.photos > 0) bud.pixel_locking_correction_sigma_position_mm = locking.var_pos[0].cwiseMax(0.0).cwiseSqrt();
       bud.smooth_share_curvature_per_mm = std::sqrt(std::max(0.0, smooth.var_k));
     }
     vars.push_back(v);

@@ -205,6 +205,10 @@ void AddBenchValidity(CLI::App& bench, std::function<int()>& run) {
       ->capture_default_str();
   cmd->add_flag("--correct-pixel-locking", o.correct_pixel_locking,
                 "Analyse with the pixel-locking removed before the fit (analyze --correct-pixel-locking)");
+  cmd->add_option("--pixel-locking-prior", o.pixel_locking_prior_px,
+                  "The analysis's prior standard deviation of each pixel-locking coefficient, px (analyze "
+                  "--pixel-locking-prior; 0: none, an ablation)")
+      ->capture_default_str();
   cmd->add_flag("--keep-results", o.keep_results,
                 "Keep every trial's result.json in OUT/results (every candidate's fit, budget and model choice)");
   cmd->add_option("--shard", a->shard, "Run only shard i of n (trials k with k mod n = i - 1)")->capture_default_str();

@@ -247,6 +247,7 @@ std::vector<std::string> RunTrial(Bench& b, int index, std::string* line) {
                                "scaled camera", [&] {
                                  AnalyzeOptions a;
                                  a.correct_pixel_locking = o.correct_pixel_locking;
+                                 a.fit.pixel_locking_prior_px = o.pixel_locking_prior_px;
                                  // The tolerance the true pitch was drawn within, as analyze --pitch-tolerance.
                                  a.fit.pitch_tolerance_relative = pitch_tolerance;
                                  // The lens's misfit as its calibration would state it (at this imager).
@@ -730,6 +731,10 @@ void BenchValidityOptions::Check() const {
                 "give 1 (the true lens's misfit, as a calibration that measured it exactly), 0 (none stated) or "
                 "a factor such as 0.5 or 2");
   }
+  if (!(pixel_locking_prior_px >= 0)) {
+    throw Error("--pixel-locking-prior", fmt::format("{:g} px is negative", pixel_locking_prior_px),
+                "give e.g. 0.1 (the analysis's default) or 0 (no prior)");
+  }
   shard.Check();
 }
 
@@ -802,6 +807,7 @@ bool RunBenchValidity(const BenchValidityOptions& o, const fs::path& out, std::o
   grid["pitch_tolerance_percent"] = o.pitch_tolerance_percent;
   grid["lens_misfit_stated"] = o.lens_misfit_stated;
   grid["correct_pixel_locking"] = o.correct_pixel_locking;
+  grid["pixel_locking_prior_px"] = o.pixel_locking_prior_px;
   grid["board"] = {o.cols, o.rows};
   json overrides = json::object();
   for (const std::string& level : o.realism) overrides[level] = RealismOverrides(level);

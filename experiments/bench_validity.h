@@ -38,6 +38,7 @@
 #include <string>
 #include <vector>
 
+#include "analysis/screen_fit.h"
 #include "experiments/shards.h"
 
 namespace curvecheck::experiments {
@@ -66,6 +67,9 @@ struct BenchValidityOptions {
   // estimate scatters (docs/bench/flat_vs_board.txt: 0.6-3x the true RMS), so run 0.5 and 2 to see what that does.
   double lens_misfit_stated = 1;
   bool correct_pixel_locking = false;  // AnalyzeOptions::correct_pixel_locking (analyze --correct-pixel-locking)
+  // The analysis's prior on each pixel-locking coefficient, px (FitOptions::pixel_locking_prior_px, analyze
+  // --pixel-locking-prior; 0: none): an ablation of the prior.
+  double pixel_locking_prior_px = FitOptions{}.pixel_locking_prior_px;
   // Keep every trial's result.json (OUT/results/trial-INDEX.result.json): every candidate's fit, budget and choice,
   // to see why a trial missed.
   bool keep_results = false;

@@ -376,16 +376,16 @@ std::vector<Eigen::Vector2d> CorrectedBoard(const SyntheticScene& scene, double 
   }
   return out;
 }
-// The pixel-locking correction where the product works: a pattern corrected for the camera's viewpoint, a regular
-// grid in the photo (CorrectedBoard), seen frontally from near 3 m at quarter resolution. The rows then share
-// nearly one phase and the fit absorbs much of the signature: a signature of 0.05 px per coefficient (drawn per
-// seed) moves the uncorrected radius by some 25-50 mm, against 3-6 mm of noise. Over 16 seeds with 0.03 px noise
-// the corrected radius's error, in units of its combined standard uncertainty, has an RMS within 0.6-1.4 and at
-// least 13 of 16 within the 95% interval (a binomial tail of 0.7% for a correct 95%): with the shapes' phases
-// taken at the fit's predictions (before 2026-12-06) the RMS was 2.15 at a spacing of 14.25 px. At a spacing of
-// 14.02 px (all rows within 0.18 of a period of one phase) the y coefficients are nearly undetermined: without
-// the prior the regression gives amplitudes of several px and the RMS was 2.45; with it the coefficients stay
-// within the prior and the interval holds.
+// The pixel-locking correction where the product works: a pattern corrected for the camera's viewpoint, a
+// regular grid in the photo (CorrectedBoard), seen frontally from near 3 m at quarter resolution. The rows then
+// share nearly one phase and the fit absorbs much of the signature: a signature of 0.05 px per coefficient (drawn
+// per seed) moves the uncorrected radius by some 20-30 mm RMS, against 3-6 mm of noise. Over 16 seeds with 0.03 px
+// noise the corrected radius's error, in units of its combined standard uncertainty, has an RMS within 0.6-1.4
+// and at least 13 of 16 within the 95% interval (a binomial tail of 0.7% for a correct 95%): with the shapes'
+// phases taken at the fit's predictions (until the twentieth session, 2026-12-05) the RMS was 2.15 at a spacing
+// of 14.25 px. At a spacing of 14.02 px (all rows within 0.18 of a period of one phase) the y coefficients are
+// nearly undetermined: without the prior the regression gives amplitudes of several px and the RMS was 2.45;
+// with it the coefficients stay within the prior and the interval holds.
 TEST(UncertaintyBudgetTest, PixelLockingCorrectionHoldsOnACorrectedBoard) {
   SyntheticScene scene = DefaultScene();
   scene.camera = ScaledCamera(scene.camera, 0.25);
@@ -780,7 +780,7 @@ TEST(UncertaintyBudgetTest, PixelLockingAmplitudeIsRecoveredThroughTheFit) {
 // period of 1 px and of 2 px (a colour filter array's): the uncorrected radius (the reported one less the
 // correction) moves by an RMS of 0.05 mm or more (0.137 mm in period 1, 0.064 mm in period 2), the corrected one by
 // less than 0.002 of that (1e-5 mm; 0.0011 mm with the shapes' phases at the fit's predictions, before
-// 2026-12-06: 0.008 of it). Under noise alone
+// the twentieth session, 2026-12-05: 0.008 of it). Under noise alone
 // (no signature, 16 seeds) the correction is the fitted noise's projection on the shapes: its RMS over the seeds is
 // the share the row reports.
 TEST(UncertaintyBudgetTest, PixelLockingCorrectionRemovesTheRadiusShiftItCauses) {

@@ -64,7 +64,7 @@ PixelLockingSignature FitPixelLocking(const Setup& setup, const Linearization& l
   // (a pattern corrected for the camera's viewpoint is a regular grid in the photo: seen frontally its rows share
   // nearly one phase, and the shape is nearly a shift the pose takes up) the coefficient is bounded by the prior
   // rather than fitted to noise (amplitudes of 0.3-1.5 px +- 0.1-0.9 px and radius corrections of 15-80 mm on such
-  // trials of the validity bench without it, 2026-12-06). s^2 is the regression's residual variance, found by fixed
+  // trials of the validity bench without it, 2026-12-05). s^2 is the regression's residual variance, found by fixed
   // point from the total.
   const double prior = setup.options->pixel_locking_prior_px;
   const bool bounded = prior > 0;  // 0: no prior

@@ -152,7 +152,8 @@ struct FitOptions {
   // (a shape whose refit projection is nearly nothing: the fit absorbs it) instead of fitting them to the noise, and
   // is negligible where they are determined. 0.1 px: a coefficient of 0.1 px is an amplitude of 0.14 px; the
   // well-determined amplitudes of the validity bench's synthetic detector reach 0.13 px at quarter resolution
-  // (median 0.05 px), and pixel-locking of sub-pixel estimators on sharp, undersampled edges is a fraction of a pixel.
+  // (median 0.05 px), and pixel-locking of sub-pixel estimators on sharp, undersampled edges is a fraction of a
+  // pixel.
   double pixel_locking_prior_px = 0.1;
   int systematic_field_draws = 2000;
   unsigned systematic_field_seed = 20261201;

@@ -428,7 +428,8 @@ void Budget(const Setup& setup, ModelWork& w, int n_residuals, ModelFit* fit) {
                   bud.pixel_locking_correction_position_mm.y(), bud.pixel_locking_correction_position_mm.z(),
                   w.signature.dof, o.pixel_locking_prior_px)
             : std::string(o.measure_pixel_locking ? "the pixel-locking signature could not be fitted (too few "
-                                                    "residuals; without a prior, a shape absorbed by the fit): not corrected"
+                                                    "residuals; without a prior, a shape absorbed by the fit): not "
+                                                    "corrected"
                                                   : "the pixel-locking signature not fitted "
                                                     "(FitOptions::measure_pixel_locking off)");
     c.source = fmt::format(
@@ -463,7 +464,9 @@ void Budget(const Setup& setup, ModelWork& w, int n_residuals, ModelFit* fit) {
             smooth.cov_pos_k[static_cast<size_t>(p)] + locking.cov_pos_k[static_cast<size_t>(p)];
       }
       bud.pixel_locking_share_curvature_per_mm = std::sqrt(std::max(0.0, locking.var_k));
-      if (setup.photos > 0) bud.pixel_locking_correction_sigma_position_mm = locking.var_pos[0].cwiseMax(0.0).cwiseSqrt();
+      if (setup.photos > 0) {
+        bud.pixel_locking_correction_sigma_position_mm = locking.var_pos[0].cwiseMax(0.0).cwiseSqrt();
+      }
       bud.smooth_share_curvature_per_mm = std::sqrt(std::max(0.0, smooth.var_k));
     }
     vars.push_back(v);

@@ -347,9 +347,9 @@ TEST(UncertaintyBudgetTest, SmoothRowFollowsTheCorrectedEstimateWhereTheSignatur
   EXPECT_LT(share_mm, 1.4 * std::sqrt(sum2));
 }
 
-// The display positions whose true images form a regular grid of kNx x kNy corners, spacing_px apart in x and y,
-// centred on the image of the screen's centre: a pattern corrected exactly for the camera's viewpoint (what curvecheck
-// checks), whose rows and columns are straight and evenly spaced in the photo. Newton steps on the display
+// The display positions whose true images form a regular grid of kNx x kNy corners, spacing_px apart in x and
+// y, centred on the image of the screen's centre: a pattern corrected exactly for the camera's viewpoint (what
+// curvecheck checks), whose rows and columns are straight and evenly spaced in the photo. Newton steps on the display
 // position of each corner (the projection's Jacobian by central differences).
 std::vector<Eigen::Vector2d> CorrectedBoard(const SyntheticScene& scene, double spacing_px) {
   const auto image_of = [&](const Eigen::Vector2d& display_px) {
@@ -395,10 +395,8 @@ TEST(UncertaintyBudgetTest, PixelLockingCorrectionHoldsOnACorrectedBoard) {
   for (double spacing : {14.25, 14.02}) {
     const std::vector<Eigen::Vector2d> board = CorrectedBoard(scene, spacing);
     std::mt19937_64 unused(1);
-    const double r0 =
-        *FitScreen(scene.monitor, scene.camera, {Observe(scene, board, 0, unused, SceneSurface(scene))}, CylinderOnly())
-             .Chosen()
-             .radius_mm;
+    const PhotoObservations exact = Observe(scene, board, 0, unused, SceneSurface(scene));
+    const double r0 = *FitScreen(scene.monitor, scene.camera, {exact}, CylinderOnly()).Chosen().radius_mm;
     EXPECT_NEAR(r0, 1 / scene.truth.curvature_per_mm, 0.01);
     for (double prior : {FitOptions{}.pixel_locking_prior_px, 0.0}) {
       if (prior == 0 && spacing != 14.02) continue;
@@ -417,7 +415,8 @@ TEST(UncertaintyBudgetTest, PixelLockingCorrectionHoldsOnACorrectedBoard) {
         for (Eigen::Vector2d& q : photo.detected_px) {
           for (int c = 0; c < 2; ++c) {
             const double p1 = 2 * kPi * (q[c] - std::floor(q[c])), p2 = 2 * kPi * (q[c] / 2 - std::floor(q[c] / 2));
-            q[c] += b(c, 0) * std::sin(p1) + b(c, 1) * std::cos(p1) + b(c, 2) * std::sin(p2) + b(c, 3) * std::cos(p2);
+            q[c] += b(c, 0) * std::sin(p1) + b(c, 1) * std::cos(p1) + b(c, 2) * std::sin(p2) +
+                    b(c, 3) * std::cos(p2);
           }
         }
         const ModelFit f = FitScreen(scene.monitor, scene.camera, {photo}, o).Chosen();

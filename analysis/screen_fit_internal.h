@@ -147,9 +147,10 @@ struct Linearization {
 // (P = I - J (J^T J)^+ J^T) with the prior N(0, sigma_b^2 I) (FitOptions::pixel_locking_prior_px): the posterior
 // b = (A + lambda I)^-1 (P S)^T r and covariance C = s^2 (A + lambda I)^-1, A = S^T P S, lambda = s^2 / sigma_b^2,
 // s^2 the regression's residual variance over dof = 2n - parameters - 4 kPixelLockingTerms (noise_px = s: the
-// independent noise); and the residuals less the fitted P S b (the misfit statistics take these). Without a prior
-// (pixel_locking_prior_px = 0) lambda = 0. ok = false (and residual_without the residuals) when the residuals are not finite,
-// dof < 2, or, without a prior, a shape is absorbed whole (its projection below 1e-9 n) or two nearly collinear.
+// independent noise); and the residuals less the fitted P S b (the misfit statistics take these). Without a
+// prior (pixel_locking_prior_px = 0) lambda = 0. ok = false (and residual_without the residuals) when the
+// residuals are not finite, dof < 2, or, without a prior, a shape is absorbed whole (its projection below 1e-9 n)
+// or two are nearly collinear.
 // Regressing on the unprojected shapes (until 2026-12-05) recovered only the part the fit left: 0.043 px where the
 // projected fit gives 0.053 px (median over both coordinates of 180 frontal trials from 3 m at quarter resolution;
 // period 1 alone).

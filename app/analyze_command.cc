@@ -64,8 +64,8 @@ void AddAnalyzeCommand(CLI::App& app, std::function<int()>& run) {
       ->capture_default_str();
   cmd->add_option("--pixel-locking-prior", args->options.fit.pixel_locking_prior_px,
                   "Prior standard deviation of each of the detector's pixel-locking coefficients, px (type B; 0: "
-                  "none, the regression alone). It bounds the signature where the photos cannot determine it (the fit absorbs it) and is "
-                  "negligible elsewhere; the curvature and camera positions are corrected for the signature")
+                  "none, the regression alone). It bounds the signature where the photos cannot determine it (the "
+                  "fit absorbs it) and is negligible elsewhere; the curvature and camera positions are corrected for the signature")
       ->capture_default_str();
   cmd->add_option("--prefilter-sigma", args->prefilter_sigma_px,
                   "Gaussian prefilter of the detector, sigma in camera px: -1 auto (default: against the moire "

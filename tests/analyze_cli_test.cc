@@ -320,8 +320,8 @@ TEST_F(AnalyzeCli, TheCalibrationsLensMisfitIsTheMisfitRowsFloor) {
 TEST_F(AnalyzeCli, TheCoverageFactorFollowsTheRowsDistributions) {
   // A 5% pitch tolerance (rectangular, u = 2.9% of R: some 31 mm against 6 mm for the other rows, the detector
   // systematic's the largest: with the rows propagated through the pixel-locking-corrected estimate, 2% left the
-  // lens-model-misfit row's few degrees of freedom a say in the camera's z factor) dominates the budget: the 95% factor falls from near 1.96 towards 0.95 sqrt(3) = 1.645 on the radius and on the camera's
-  // distance (scale moves a position in proportion to it: little near x = y = 0, where the normal rows keep
+  // lens-model-misfit row's few degrees of freedom a say in the camera's z factor) dominates the budget: the 95%
+  // factor falls from near 1.96 towards 0.95 sqrt(3) = 1.645 on the radius and on the camera's distance (scale moves a position in proportion to it: little near x = y = 0, where the normal rows keep
   // their Student's t), and the report says which row is rectangular.
   const std::string camera = (Dir() / "small.cameramodel").string(), pattern = (Dir() / "exact.json").string();
   const fs::path narrow = Dir() / "out-pitch-narrow", wide = Dir() / "out-pitch-wide";

@@ -347,6 +347,22 @@ TEST(UncertaintyBudgetTest, SmoothRowFollowsTheCorrectedEstimateWhereTheSignatur
   EXPECT_LT(share_mm, 1.4 * std::sqrt(sum2));
 }
 
+// The detector's pixel-locking signature as the budget models it, added to detections: per coordinate c,
+// b(c, 0) sin 2 pi q + b(c, 1) cos 2 pi q (the period of 1 px) + b(c, 2) sin pi q + b(c, 3) cos pi q (2 px).
+// A sin(2 pi q / T + psi) is the pair (A cos psi, A sin psi) of period T (SinCos).
+using Signature = Eigen::Matrix<double, 2, 4>;
+void AddSignature(const Signature& b, std::vector<Eigen::Vector2d>* detected_px) {
+  for (Eigen::Vector2d& q : *detected_px) {
+    for (int c = 0; c < 2; ++c) {
+      const double p1 = 2 * kPi * q[c], p2 = kPi * q[c];
+      q[c] += b(c, 0) * std::sin(p1) + b(c, 1) * std::cos(p1) + b(c, 2) * std::sin(p2) + b(c, 3) * std::cos(p2);
+    }
+  }
+}
+Eigen::RowVector2d SinCos(double amplitude, double psi) {
+  return amplitude * Eigen::RowVector2d(std::cos(psi), std::sin(psi));
+}
+
 // The display positions whose true images form a regular grid of kNx x kNy corners, spacing_px apart in x and
 // y, centred on the image of the screen's centre: a pattern corrected exactly for the camera's viewpoint (what
 // curvecheck checks), whose rows and columns are straight and evenly spaced in the photo. Newton steps on the display
@@ -384,8 +400,8 @@ std::vector<Eigen::Vector2d> CorrectedBoard(const SyntheticScene& scene, double 
 // and at least 13 of 16 within the 95% interval (a binomial tail of 0.7% for a correct 95%): with the shapes'
 // phases taken at the fit's predictions (until the twentieth session, 2026-12-05) the RMS was 2.15 at a spacing
 // of 14.25 px. At a spacing of 14.02 px (all rows within 0.18 of a period of one phase) the y coefficients are
-// nearly undetermined: without the prior the regression gives amplitudes of several px and the RMS was 2.45;
-// with it the coefficients stay within the prior and the interval holds.
+// nearly undetermined: without the prior the regression gives amplitudes of 2.5 px and an RMS of 2.95 (2.45 with
+// the phases at the predictions); with it the coefficients stay within the prior and the interval holds.
 TEST(UncertaintyBudgetTest, PixelLockingCorrectionHoldsOnACorrectedBoard) {
   SyntheticScene scene = DefaultScene();
   scene.camera = ScaledCamera(scene.camera, 0.25);
@@ -410,15 +426,9 @@ TEST(UncertaintyBudgetTest, PixelLockingCorrectionHoldsOnACorrectedBoard) {
       for (int seed = 1; seed <= kSeeds; ++seed) {
         std::mt19937_64 noise(static_cast<uint64_t>(seed));
         PhotoObservations photo = Observe(scene, board, kNoisePx, noise, SceneSurface(scene));
-        Eigen::Matrix<double, 2, 4> b;
+        Signature b;
         for (double& x : b.reshaped()) x = coefficient(rng);
-        for (Eigen::Vector2d& q : photo.detected_px) {
-          for (int c = 0; c < 2; ++c) {
-            const double p1 = 2 * kPi * (q[c] - std::floor(q[c])), p2 = 2 * kPi * (q[c] / 2 - std::floor(q[c] / 2));
-            q[c] += b(c, 0) * std::sin(p1) + b(c, 1) * std::cos(p1) + b(c, 2) * std::sin(p2) +
-                    b(c, 3) * std::cos(p2);
-          }
-        }
+        AddSignature(b, &photo.detected_px);
         const ModelFit f = FitScreen(scene.monitor, scene.camera, {photo}, o).Chosen();
         const double uc = f.budget.combined.radius_mm, z = (*f.radius_mm - r0) / uc;
         z2 += z * z / kSeeds;
@@ -741,13 +751,9 @@ TEST(UncertaintyBudgetTest, PixelLockingAmplitudeIsRecoveredThroughTheFit) {
     std::array<double, 2> unprojected{};
     for (int seed = 1; seed <= kSeeds; ++seed) {
       PhotoObservations photo = Clean(scene, kNoise, static_cast<uint64_t>(seed));
-      for (Eigen::Vector2d& q : photo.detected_px) {
-        for (int c = 0; c < 2; ++c) {
-          const double u = q[c] / 2;
-          q[c] += kA[c][0] * std::sin(2 * kPi * (q[c] - std::floor(q[c])) + kPsi[c]) +
-                  kA[c][1] * std::sin(2 * kPi * (u - std::floor(u)) + kPsi[c] + 1);
-        }
-      }
+      Signature b;
+      for (int c = 0; c < 2; ++c) b.row(c) << SinCos(kA[c][0], kPsi[c]), SinCos(kA[c][1], kPsi[c] + 1);
+      AddSignature(b, &photo.detected_px);
       const ModelFit f = FitScreen(scene.monitor, scene.camera, {photo}, o).Chosen();
       const ResidualPixelLocking& got = f.budget.pixel_locking;
       ASSERT_TRUE(got.amplitude_px.allFinite() && (got.sigma_px.array() > 0).all());
@@ -793,9 +799,9 @@ TEST(UncertaintyBudgetTest, PixelLockingCorrectionRemovesTheRadiusShiftItCauses)
     for (int j = 0; j < 4; ++j) {
       const double psi = 0.5 * kPi * j;
       PhotoObservations photo = clean;
-      for (Eigen::Vector2d& q : photo.detected_px) {
-        for (int c = 0; c < 2; ++c) q[c] += kA * std::sin(2 * kPi * (q[c] / period - std::floor(q[c] / period)) + psi);
-      }
+      Signature b = Signature::Zero();
+      for (int c = 0; c < 2; ++c) b.block<1, 2>(c, period == 1 ? 0 : 2) = SinCos(kA, psi);
+      AddSignature(b, &photo.detected_px);
       const ModelFit f = FitScreen(scene.monitor, scene.camera, {photo}, o).Chosen();
       sum2 += (*f.radius_mm - r0) * (*f.radius_mm - r0) / 4;
       sum2_uncorrected += (UncorrectedRadiusMm(f) - r0) * (UncorrectedRadiusMm(f) - r0) / 4;

@@ -209,6 +209,11 @@ void AddBenchValidity(CLI::App& bench, std::function<int()>& run) {
                   "The analysis's prior standard deviation of each pixel-locking coefficient, px (analyze "
                   "--pixel-locking-prior; 0: none, an ablation)")
       ->capture_default_str();
+  cmd->add_flag("--detector-effect", o.detector_effect,
+                "Also measure the radius shift the detector's systematic error caused: each trial photographed again "
+                "without sensor noise, its detections' errors against the truth taken from the trial's detections, "
+                "the fit repeated; validity_trials.csv sys_shift_mm beside the budget's row 2 parts "
+                "(smooth_share_mm, locking_share_mm). A second photo and two more fits per trial");
   cmd->add_flag("--keep-results", o.keep_results,
                 "Keep every trial's result.json in OUT/results (every candidate's fit, budget and model choice)");
   cmd->add_option("--shard", a->shard, "Run only shard i of n (trials k with k mod n = i - 1)")->capture_default_str();

@@ -137,42 +137,6 @@ ObservationCache ReadCache(const std::filesystem::path& path) {
   return c;
 }
 
-// Detection errors (detected - true) at the detected positions: RMS, mean, and the smooth part's RMS (the
-// least-squares Legendre field of total degree 3 per coordinate).
-Eigen::MatrixXd Stack(const std::vector<Eigen::Vector2d>& v) {
-  Eigen::MatrixXd y(static_cast<long>(v.size()), 2);
-  for (size_t i = 0; i < v.size(); ++i) y.row(static_cast<long>(i)) = v[i].transpose();
-  return y;
-}
-
-// photo: the photo of each error (for the per-photo fields).
-DetectionErrors Errors(const std::vector<Eigen::Vector2d>& at, const std::vector<Eigen::Vector2d>& err,
-                       const std::vector<int>& photo, int width, int height) {
-  DetectionErrors e;
-  e.points = static_cast<int>(err.size());
-  if (err.size() < 20 || at.size() != err.size() || photo.size() != err.size()) return e;
-  const long n = static_cast<long>(err.size());
-  const Eigen::MatrixXd y = Stack(err);
-  e.rms_px = std::sqrt(y.squaredNorm() / (2.0 * n));
-  e.mean_px = y.colwise().mean().transpose();
-  const Eigen::MatrixXd basis = LegendreFieldBasis(at, width, height, 3);
-  const Eigen::MatrixXd fitted = basis * basis.colPivHouseholderQr().solve(y);
-  e.smooth_rms_px = std::sqrt(fitted.squaredNorm() / (2.0 * n));
-  double sum = 0;
-  long count = 0;
-  for (int p = 0; p <= *std::max_element(photo.begin(), photo.end()); ++p) {
-    std::vector<Eigen::Vector2d> a, r;
-    for (size_t i = 0; i < err.size(); ++i) {
-      if (photo[i] == p) a.push_back(at[i]), r.push_back(err[i]);
-    }
-    if (a.size() < 20) continue;
-    const Eigen::MatrixXd b = LegendreFieldBasis(a, width, height, 2), yp = Stack(r);
-    sum += (b * b.colPivHouseholderQr().solve(yp)).squaredNorm();
-    count += static_cast<long>(a.size());
-  }
-  e.per_photo_smooth_rms_px = count ? std::sqrt(sum / (2.0 * count)) : kNaN;
-  return e;
-}
 }  // namespace
 
 void BenchFlatVsBoardOptions::Check() const {
@@ -321,8 +285,8 @@ FlatVsBoardTrial RunFlatVsBoardTrial(const BenchFlatVsBoardOptions& o, uint64_t 
     for (const ChessboardDetection& d : detections) {
       if (d.found) board_px.insert(board_px.end(), d.corners_px.begin(), d.corners_px.end());
     }
-    t.screen_detection = Errors(screen_px, screen_err, screen_photo, scene.camera.width, scene.camera.height);
-    t.board_detection = Errors(board_err_at, board_err, board_photo, scene.camera.width, scene.camera.height);
+    t.screen_detection = DetectionErrorsOf(screen_px, screen_err, screen_photo, scene.camera.width, scene.camera.height);
+    t.board_detection = DetectionErrorsOf(board_err_at, board_err, board_photo, scene.camera.width, scene.camera.height);
     CalibrateOptions co;
     co.lensmodels = {"LENSMODEL_OPENCV5"};
     co.cross_validate = false;

@@ -47,6 +47,7 @@
 #include <Eigen/Core>
 
 #include "calibrate/projection_compare.h"
+#include "experiments/detection_errors.h"
 
 namespace curvecheck::experiments {
 
@@ -60,15 +61,6 @@ struct BenchFlatVsBoardOptions {
   double max_x_mm = 400, max_y_mm = 250, z_min_mm = 600, z_max_mm = 900;
   int board_views = 24;
   void Check() const;  // throws Error naming the option
-};
-
-// Errors of detections against the true image positions, px.
-struct DetectionErrors {
-  int points = 0;
-  double rms_px = 0;                        // per coordinate
-  Eigen::Vector2d mean_px = Eigen::Vector2d::Zero();
-  double smooth_rms_px = 0;                 // per coordinate: the Legendre degree-3 field fitted to the errors
-  double per_photo_smooth_rms_px = 0;       // per coordinate: a Legendre degree-2 field fitted per photo
 };
 
 struct FlatVsBoardTrial {

@@ -5,11 +5,13 @@
 
 #include <Eigen/Geometry>
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 #include <map>
 #include <memory>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <random>
 
 #include "analysis/pipeline.h"
@@ -22,6 +24,7 @@
 #include "core/stats.h"
 #include "core/stopwatch.h"
 #include "datasets/dataset_files.h"
+#include "experiments/detection_errors.h"
 #include "experiments/machine_info.h"
 #include "experiments/scene_lookup.h"
 #include "experiments/sweep_table.h"
@@ -29,6 +32,7 @@
 #include "experiments/trial_outcome.h"
 #include "experiments/validity_stats.h"
 #include "synth/lens_misfit.h"
+#include "synth/true_monitor.h"
 
 namespace curvecheck::experiments {
 namespace {
@@ -152,7 +156,15 @@ std::vector<std::string> TrialColumns() {
                                 "radius_ci68_lo_mm",
                                 "radius_ci68_hi_mm",
                                 "radius_in68",
-                                "radius_in95"};
+                                "radius_in95",
+                                "det_rms_px",
+                                "det_smooth_px",
+                                "det_smooth_beyond_noise_px",
+                                "sys_rms_px",
+                                "sys_smooth_px",
+                                "sys_shift_mm",
+                                "smooth_share_mm",
+                                "locking_share_mm"};
   for (const char* f : kFrames) {
     for (const char* what :
          {"true_cam_{}_{}_mm", "cam_{}_{}_mm", "cam_{}_{}_sigma_mm", "cam_{}_{}_k95", "cam_{}_{}_k68"}) {
@@ -173,6 +185,121 @@ struct Bench {
   fs::path results;  // BenchValidityOptions::keep_results: where the trials' result.json go; empty: not kept
   std::unique_ptr<Renderer> renderer;
 };
+
+// The true image of a display position on a trial's photo: the true surface point where the display shows it,
+// through the camera model and the lens's misfit field; nullopt behind the camera.
+class TrueImages {
+ public:
+  explicit TrueImages(const SyntheticScene& scene)
+      : scene_(scene),
+        misfit_(scene.imaging, scene.camera.width, scene.camera.height),
+        cam_from_screen_(scene.screen_from_cam.Inverse()) {}
+  std::optional<Eigen::Vector2d> Of(const Eigen::Vector2d& display_px) const {
+    const Eigen::Vector3d x =
+        cam_from_screen_ * TrueSurfacePointInScreen(scene_, UvFromDisplayPx(scene_.monitor, display_px));
+    if (!(x.z() > 0)) return std::nullopt;
+    return misfit_.TrueImageOf(ProjectPoint(scene_.camera, x));
+  }
+
+ private:
+  const SyntheticScene& scene_;
+  LensMisfit misfit_;
+  Pose cam_from_screen_;
+};
+
+// The detector's errors on a trial's photo: each unflagged feature's detected position less its true image (the
+// detector's own error, without the lens's).
+DetectionErrors ErrorsAgainstTruth(const TrueImages& truth, const Pattern& pattern, const Detection& detection,
+                                   int width, int height) {
+  std::map<std::string, Eigen::Vector2d> display_px;
+  for (const Feature& f : pattern.features) {
+    if (f.display_px) display_px.emplace(f.id, *f.display_px);
+  }
+  std::vector<Eigen::Vector2d> at, err;
+  for (const DetectedFeature& f : detection.features) {
+    const auto it = display_px.find(f.id);
+    if (!f.flag.empty() || it == display_px.end()) continue;
+    if (const std::optional<Eigen::Vector2d> q = truth.Of(it->second)) {
+      at.push_back(f.px);
+      err.push_back(f.px - *q);
+    }
+  }
+  return DetectionErrorsOf(at, err, std::vector<int>(at.size(), 0), width, height);
+}
+
+// What the detector's systematic error did to the radius (BenchValidityOptions::detector_effect). The trial's
+// display is photographed again without sensor noise (everything else alike: optics, colour filter array and
+// demosaicing, JPEG, quantization) and detected as the analysis detects; each feature's error there against the
+// truth is the detector's deterministic error at that geometry: pixel-locking, smooth bias, whatever else. The
+// trial's observations as the analysis built them (analysis/pipeline.cc: the verification's features, less their
+// pixel-locking estimate under --correct-pixel-locking) are fitted as they are and less that error; the shift is
+// the chosen model's radius from the first less that from the second (after the analysis's own pixel-locking
+// correction, so what the correction leaves). The budget's row 2 (detector systematic) is to cover it: its two
+// parts, the stated smooth bias and the pixel-locking correction's uncertainty, are given beside it.
+struct DetectorEffect {
+  DetectionErrors systematic;  // of the noise-free photo's detections
+  double shift_mm = kNaN, smooth_share_mm = kNaN, locking_share_mm = kNaN;
+};
+DetectorEffect DetectorEffectOf(const SyntheticScene& scene, const TrialDisplay& display, const PhotoInput& input,
+                                const TrueImages& truth, const AnalysisResult& r, const AnalyzeOptions& a) {
+  DetectorEffect e;
+  e.systematic.rms_px = e.systematic.smooth_rms_px = e.systematic.smooth_beyond_noise_px = kNaN;
+  const PhotoAnalysis& photo = r.photos.front();
+  if (!photo.used || !r.fit) return e;
+  const ModelFit& chosen = r.fit->Chosen();
+  if (!chosen.converged || !chosen.radius_mm) return e;
+  SyntheticScene quiet = scene;
+  quiet.sensor.noise = false;
+  AnalyzeOptions detect_only = a;
+  detect_only.fit_screen = false;
+  const TrialAnalysis q = PhotographAndAnalyse(quiet, display.image, input, "scaled camera", detect_only);
+  std::map<std::string, Eigen::Vector2d> display_px, systematic;
+  for (const Feature& f : display.pattern.features) {
+    if (f.display_px) display_px.emplace(f.id, *f.display_px);
+  }
+  std::vector<Eigen::Vector2d> at, err;
+  for (const DetectedFeature& f : q.analysis.photos.front().detection.features) {
+    const auto it = display_px.find(f.id);
+    if (!f.flag.empty() || it == display_px.end()) continue;
+    if (const std::optional<Eigen::Vector2d> t = truth.Of(it->second)) {
+      systematic.emplace(f.id, f.px - *t);
+      at.push_back(f.px);
+      err.push_back(f.px - *t);
+    }
+  }
+  e.systematic = DetectionErrorsOf(at, err, std::vector<int>(at.size(), 0), scene.camera.width, scene.camera.height);
+  // Both fits on the features the noise-free photo also gave.
+  PhotoObservations obs, less;
+  obs.photo = less.photo = photo.name;
+  for (const FeatureCheck& c : photo.verification.features) {
+    const auto it = systematic.find(c.id);
+    if (it == systematic.end()) continue;
+    const Eigen::Vector2d d = a.correct_pixel_locking ? c.detected_px - c.pixel_locking_px : c.detected_px;
+    for (PhotoObservations* p : {&obs, &less}) {
+      p->ids.push_back(c.id);
+      p->display_px.push_back(c.display_px);
+      p->detected_px.push_back(p == &obs ? d : Eigen::Vector2d(d - it->second));
+    }
+  }
+  FitOptions o = a.fit;
+  o.detection_noise_px = r.fit->detection_noise_px;
+  const auto radius = [&](const PhotoObservations& p) -> std::optional<double> {
+    try {
+      const ScreenFitResult f = FitScreen(r.monitor, r.camera, {p}, o);
+      for (const ModelFit& m : f.candidates) {
+        if (m.model == chosen.model && m.converged) return m.radius_mm;
+      }
+    } catch (const Error&) {
+    }
+    return std::nullopt;
+  };
+  const std::optional<double> as_is = radius(obs), without = radius(less);
+  if (as_is && without) e.shift_mm = *as_is - *without;
+  const double k2 = chosen.curvature_per_mm * chosen.curvature_per_mm;
+  e.smooth_share_mm = chosen.budget.smooth_share_curvature_per_mm / k2;
+  e.locking_share_mm = chosen.budget.pixel_locking_share_curvature_per_mm / k2;
+  return e;
+}
 
 // One trial, as its validity_trials.csv row.
 std::vector<std::string> RunTrial(Bench& b, int index, std::string* line) {
@@ -223,6 +350,10 @@ std::vector<std::string> RunTrial(Bench& b, int index, std::string* line) {
   int features = 0;
   double render_ms = kNaN, photo_ms = kNaN, detect_ms = kNaN, fit_ms = kNaN;
   double radius = kNaN, sigma = kNaN, lo = kNaN, hi = kNaN, lo68 = kNaN, hi68 = kNaN;
+  DetectionErrors detection_errors;
+  DetectorEffect detector_effect;
+  detector_effect.systematic.rms_px = detector_effect.systematic.smooth_rms_px = kNaN;
+  detection_errors.rms_px = detection_errors.smooth_rms_px = detection_errors.smooth_beyond_noise_px = kNaN;
   Eigen::Vector3d estimate[2], estimate_sigma[2], coverage_factor[2], coverage_factor68[2];
   for (int f = 0; f < 2; ++f) {
     estimate[f] = estimate_sigma[f] = coverage_factor[f] = coverage_factor68[f] = Eigen::Vector3d::Constant(kNaN);
@@ -242,26 +373,25 @@ std::vector<std::string> RunTrial(Bench& b, int index, std::string* line) {
     }
     render_ms = render_watch.Ms();
     if (display) {
-      const TrialAnalysis t =
-          PhotographAndAnalyse(scene, display->image, {fmt::format("trial-{}", index), pattern_json},
-                               "scaled camera", [&] {
-                                 AnalyzeOptions a;
-                                 a.correct_pixel_locking = o.correct_pixel_locking;
-                                 a.fit.pixel_locking_prior_px = o.pixel_locking_prior_px;
-                                 // The tolerance the true pitch was drawn within, as analyze --pitch-tolerance.
-                                 a.fit.pitch_tolerance_relative = pitch_tolerance;
-                                 // The lens's misfit as its calibration would state it (at this imager).
-                                 const LensMisfit lens(scene.imaging, scene.camera.width, scene.camera.height);
-                                 if (o.lens_misfit_stated > 0 && lens.active()) {
-                                   a.fit.stated_lens_misfit_px = o.lens_misfit_stated * lens.rms_px();
-                                   a.fit.stated_lens_misfit_length_px =
-                                       scene.imaging.lens_misfit_length * scene.camera.width;
-                                   a.fit.stated_lens_misfit_source = fmt::format(
-                                       "the true lens's misfit x {:g}, as its calibration would state it",
-                                       o.lens_misfit_stated);
-                                 }
-                                 return a;
-                               }());
+      const AnalyzeOptions analyze_options = [&] {
+        AnalyzeOptions a;
+        a.correct_pixel_locking = o.correct_pixel_locking;
+        a.fit.pixel_locking_prior_px = o.pixel_locking_prior_px;
+        // The tolerance the true pitch was drawn within, as analyze --pitch-tolerance.
+        a.fit.pitch_tolerance_relative = pitch_tolerance;
+        // The lens's misfit as its calibration would state it (at this imager).
+        const LensMisfit lens(scene.imaging, scene.camera.width, scene.camera.height);
+        if (o.lens_misfit_stated > 0 && lens.active()) {
+          a.fit.stated_lens_misfit_px = o.lens_misfit_stated * lens.rms_px();
+          a.fit.stated_lens_misfit_length_px = scene.imaging.lens_misfit_length * scene.camera.width;
+          a.fit.stated_lens_misfit_source =
+              fmt::format("the true lens's misfit x {:g}, as its calibration would state it", o.lens_misfit_stated);
+        }
+        return a;
+      }();
+      const TrialAnalysis t = PhotographAndAnalyse(scene, display->image,
+                                                   {fmt::format("trial-{}", index), pattern_json}, "scaled camera",
+                                                   analyze_options);
       const AnalysisResult& r = t.analysis;
       if (!b.results.empty()) {
         WriteFileAtomic(b.results / fmt::format("trial-{}.result.json", index),
@@ -272,6 +402,13 @@ std::vector<std::string> RunTrial(Bench& b, int index, std::string* line) {
       detect_ms = photo.detection.time_ms;
       fit_ms = r.fit_ms;
       features = static_cast<int>(photo.detection.features.size());
+      const TrueImages truth_images(scene);
+      detection_errors =
+          ErrorsAgainstTruth(truth_images, display->pattern, photo.detection, scene.camera.width, scene.camera.height);
+      if (o.detector_effect) {
+        detector_effect = DetectorEffectOf(scene, *display, {fmt::format("trial-{}", index), pattern_json},
+                                           truth_images, r, analyze_options);
+      }
       if (!photo.used) {
         outcome = OutcomeOfRejection(photo);
         detail = photo.rejected;
@@ -340,7 +477,11 @@ std::vector<std::string> RunTrial(Bench& b, int index, std::string* line) {
        {std::string(TrialOutcomeName(outcome)), verdict, std::to_string(features), chosen,
         Cell(true_radius, kDigits), Cell(radius, kDigits), Cell(sigma, kDigits), Cell(lo, kDigits),
         Cell(hi, kDigits), Cell(lo68, kDigits), Cell(hi68, kDigits), rs.Valid() ? std::string(rs.In68() ? "1" : "0") : "",
-        rs.Valid() ? std::string(rs.In95() ? "1" : "0") : ""}) {
+        rs.Valid() ? std::string(rs.In95() ? "1" : "0") : "", Cell(detection_errors.rms_px, kDigits),
+        Cell(detection_errors.smooth_rms_px, kDigits), Cell(detection_errors.smooth_beyond_noise_px, kDigits),
+        Cell(detector_effect.systematic.rms_px, kDigits), Cell(detector_effect.systematic.smooth_rms_px, kDigits),
+        Cell(detector_effect.shift_mm, kDigits), Cell(detector_effect.smooth_share_mm, kDigits),
+        Cell(detector_effect.locking_share_mm, kDigits)}) {
     row.push_back(c);
   }
   for (int f = 0; f < 2; ++f) {
@@ -608,6 +749,54 @@ void WriteChart(const std::vector<CellStats>& cells, const ValidityRule& rule, c
                     ChartSize{std::max(900, 40 * static_cast<int>(cells.size()) + 200), 1000});
 }
 
+// The detector's errors against the truth per realism level (medians over the trials with a radius), beside the
+// smooth detector bias the budget states: the one row of the budget that no photo measures.
+std::string DetectionErrorLines(const SweepTable& trials) {
+  std::map<std::string, std::vector<double>> rms, smooth, beyond;
+  for (size_t r = 0; r < trials.rows.size(); ++r) {
+    if (!trials.Str(r, "reason").empty()) continue;
+    const double a = trials.Num(r, "det_rms_px"), b = trials.Num(r, "det_smooth_px"),
+                 c = trials.Num(r, "det_smooth_beyond_noise_px");
+    if (!std::isfinite(a) || !std::isfinite(b) || !std::isfinite(c)) continue;  // also a shard from before them
+    const std::string realism = trials.Str(r, "realism");
+    rms[realism].push_back(a), smooth[realism].push_back(b), beyond[realism].push_back(c);
+  }
+  std::string s;
+  for (auto& [realism, v] : beyond) {
+    std::sort(v.begin(), v.end());
+    s += fmt::format(
+        "detection errors against the truth, realism {} (medians over {} trials with a radius): RMS {:.4f} px; "
+        "smooth part (Legendre degree 3) {:.4f} px, beyond the noise's leak {:.4f} px (90% of the trials below "
+        "{:.4f}); the budget states a smooth detector bias of {:g} px\n",
+        realism, v.size(), Median(rms.at(realism)), Median(smooth.at(realism)), Median(v),
+        v[static_cast<size_t>(0.9 * static_cast<double>(v.size() - 1))], FitOptions{}.smooth_bias_px);
+  }
+  // --detector-effect: the shift the detector's systematic error caused and row 2's parts, in units of each
+  // trial's sigma.
+  std::map<std::string, std::array<double, 5>> effect;  // sums of squares: shift, smooth, locking, row 2; count
+  std::map<std::string, std::vector<double>> sys_smooth;
+  for (size_t r = 0; r < trials.rows.size(); ++r) {
+    const double shift = trials.Num(r, "sys_shift_mm"), smooth_share = trials.Num(r, "smooth_share_mm"),
+                 locking = trials.Num(r, "locking_share_mm"), sigma = trials.Num(r, "radius_sigma_mm");
+    if (!trials.Str(r, "reason").empty() || !std::isfinite(shift) || !(sigma > 0)) continue;
+    std::array<double, 5>& a = effect[trials.Str(r, "realism")];
+    a[0] += (shift / sigma) * (shift / sigma), a[1] += (smooth_share / sigma) * (smooth_share / sigma);
+    a[2] += (locking / sigma) * (locking / sigma);
+    a[3] += (smooth_share * smooth_share + locking * locking) / (sigma * sigma);
+    a[4] += 1;
+    sys_smooth[trials.Str(r, "realism")].push_back(trials.Num(r, "sys_smooth_px"));
+  }
+  for (const auto& [realism, a] : effect) {
+    s += fmt::format(
+        "the detector's systematic error (a noise-free photo's detections against the truth; smooth part {:.4f} "
+        "px median), realism {}: it moved the radius by {:.3f} sigma RMS over {:g} trials; the budget's row 2 is "
+        "{:.3f} sigma RMS (stated smooth bias {:.3f}, pixel-locking correction {:.3f})\n",
+        Median(sys_smooth.at(realism)), realism, std::sqrt(a[0] / a[4]), a[4], std::sqrt(a[3] / a[4]),
+        std::sqrt(a[1] / a[4]), std::sqrt(a[2] / a[4]));
+  }
+  return s;
+}
+
 // Computes the cells from the trial rows and writes every output; returns whether every cell with trials
 // meets the rule. `meta` is validity.json without the cells and the summary.
 bool WriteOutputs(const fs::path& out, SweepTable& trials, json meta, const std::string& head,
@@ -647,6 +836,7 @@ bool WriteOutputs(const fs::path& out, SweepTable& trials, json meta, const std:
   summary += fmt::format(
       "camera position (centre and axis frames, every coordinate, the same rule): {} of {} cells\n",
       camera_pass, with_trials);
+  summary += DetectionErrorLines(trials);
   log << "\n" << summary;
   meta["rule"] = {{"coverage95", {rule.coverage95_lo, rule.coverage95_hi}},
                   {"max_abs_bias_sigma", rule.max_bias_sigma},
@@ -808,6 +998,7 @@ bool RunBenchValidity(const BenchValidityOptions& o, const fs::path& out, std::o
   grid["lens_misfit_stated"] = o.lens_misfit_stated;
   grid["correct_pixel_locking"] = o.correct_pixel_locking;
   grid["pixel_locking_prior_px"] = o.pixel_locking_prior_px;
+  grid["detector_effect"] = o.detector_effect;
   grid["board"] = {o.cols, o.rows};
   json overrides = json::object();
   for (const std::string& level : o.realism) overrides[level] = RealismOverrides(level);

@@ -70,6 +70,11 @@ struct BenchValidityOptions {
   // The analysis's prior on each pixel-locking coefficient, px (FitOptions::pixel_locking_prior_px, analyze
   // --pixel-locking-prior; 0: none): an ablation of the prior.
   double pixel_locking_prior_px = FitOptions{}.pixel_locking_prior_px;
+  // Also measure what the detector's systematic error did to the radius: each trial's display photographed again
+  // without sensor noise, its detections' errors against the truth (the detector's deterministic error there)
+  // taken from the trial's observations, and the fit repeated (validity_trials.csv sys_shift_mm beside the budget's
+  // row 2 parts smooth_share_mm and locking_share_mm). A second photo and two more fits per trial.
+  bool detector_effect = false;
   // Keep every trial's result.json (OUT/results/trial-INDEX.result.json): every candidate's fit, budget and choice,
   // to see why a trial missed.
   bool keep_results = false;

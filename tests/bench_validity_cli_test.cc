@@ -5,7 +5,8 @@
 // position in both frames (a wrong frame or a wrong truth would be off by hundreds of mm); the cell
 // statistics are what the trial rows imply (the coverage counts, the bias in sigmas, the Wilson interval);
 // seeds follow the trial index; shards 1/2 and 2/2 merged give the full run's rows; the analysis's pitch row
-// follows --pitch-tolerance (none at 0); the misfit row's floor follows --lens-misfit-stated; bad options fail
+// follows --pitch-tolerance (none at 0); the misfit row's floor follows --lens-misfit-stated; the detector's errors
+// against the truth are a fraction of a pixel; bad options fail
 // with one line. Does not prove that the intervals
 // are honest (3 trials cannot): that is what the bench measures (docs/bench/validity_bench.txt).
 #include <gmock/gmock.h>
@@ -130,6 +131,13 @@ TEST_F(BenchValidityCli, TrialsMeetTheirTruthAndCellsAreWhatTheTrialsImply) {
     EXPECT_GT(Num(t, "radius_sigma_mm"), 0) << what;
     EXPECT_LT(Num(t, "radius_sigma_mm"), 10) << what;
     EXPECT_LT(Num(t, "radius_ci95_lo_mm"), Num(t, "radius_mm")) << what;
+    // The detector's errors against the true images: a fraction of a pixel (a truth in the wrong frame or without
+    // the lens's misfit would be off by tens of px or by the misfit's 0.1-1 px), the smooth part a part of it and
+    // what is beyond the noise's leak a part of that.
+    EXPECT_GT(Num(t, "det_rms_px"), 0.005) << what;
+    EXPECT_LT(Num(t, "det_rms_px"), 0.3) << what;
+    EXPECT_LE(Num(t, "det_smooth_px"), Num(t, "det_rms_px")) << what;
+    EXPECT_LE(Num(t, "det_smooth_beyond_noise_px"), Num(t, "det_smooth_px")) << what;
     EXPECT_GT(Num(t, "radius_ci95_hi_mm"), Num(t, "radius_mm")) << what;
     // The jitter moved the camera (a few mm) from 1500 mm in front of the centre: the truth knows it.
     const double jitter = std::hypot(Num(t, "jitter_x_mm"), Num(t, "jitter_y_mm"), Num(t, "jitter_z_mm"));
@@ -219,7 +227,8 @@ TEST_F(BenchValidityCli, TrialsMeetTheirTruthAndCellsAreWhatTheTrialsImply) {
   EXPECT_EQ(j["rule"]["binomial_interval"], "Wilson score, 95%");
   const std::string text = Slurp(out / "validity.txt");
   for (const char* piece : {"bench validity --scales 0.25", "cores", "cov95 [Wilson 95%]",
-                            "radius, issue 16's rule", "FAIL - 0 of 2 cells meet it", "camera position"}) {
+                            "radius, issue 16's rule", "FAIL - 0 of 2 cells meet it", "camera position",
+                            "detection errors against the truth, realism off (medians over 6 trials"}) {
     EXPECT_THAT(text, HasSubstr(piece));
   }
 }
@@ -293,6 +302,35 @@ TEST_F(BenchValidityCli, TheAnalysisIsToldTheLensMisfitItsCalibrationWouldState)
     EXPECT_EQ(misfit(i).at("row_basis"), stated > measured ? "calibration" : "residuals");
   }
   std::cout << "misfit row u(k): measured " << measured << " 1/mm, stated (F = 1) " << stated1 << " 1/mm\n";
+}
+
+// --detector-effect: the trial's display photographed again without sensor noise gives the detector's
+// deterministic error against the truth; the trial's fit is repeated less it. One clean trial (1.5 m on axis,
+// quarter resolution) with and without the option: the trial itself is the same (the measurement is beside it); the
+// noise-free errors are no larger than the noisy ones (noise adds variance); the shift they cause is a fraction of
+// the interval; the two budget parts given beside it are the detector-systematic row of result.json.
+TEST_F(BenchValidityCli, TheDetectorsSystematicErrorIsMeasuredBesideItsRow) {
+  const CliRun with = OneTrial("effect", "off", {"--detector-effect"});
+  ASSERT_EQ(with.code, 0) << with.err << with.out;
+  const CliRun without = OneTrial("no-effect", "off", {});
+  ASSERT_EQ(without.code, 0) << without.err << without.out;
+  const auto a = ReadCsv(dir_ / "effect" / "validity_trials.csv"), b = ReadCsv(dir_ / "no-effect" / "validity_trials.csv");
+  ASSERT_EQ(a.size(), 1u);
+  ASSERT_EQ(b.size(), 1u);
+  const auto& t = a[0];
+  EXPECT_EQ(t.at("radius_mm"), b[0].at("radius_mm"));
+  EXPECT_TRUE(std::isnan(Num(b[0], "sys_shift_mm")));
+  EXPECT_GT(Num(t, "sys_rms_px"), 0.001);
+  EXPECT_LT(Num(t, "sys_rms_px"), 1.2 * Num(t, "det_rms_px"));
+  EXPECT_LE(Num(t, "sys_smooth_px"), Num(t, "sys_rms_px"));
+  EXPECT_LT(std::abs(Num(t, "sys_shift_mm")), 3 * Num(t, "radius_sigma_mm"));
+  const double smooth = Num(t, "smooth_share_mm"), locking = Num(t, "locking_share_mm");
+  EXPECT_GT(smooth, 0);
+  EXPECT_GE(locking, 0);
+  EXPECT_NEAR(std::hypot(smooth, locking), RowMm(Result("effect"), "detector systematic"), 1e-3 * smooth);
+  EXPECT_THAT(with.out, HasSubstr("the detector's systematic error (a noise-free photo's detections"));
+  std::cout << "detector effect: noise-free RMS " << t.at("sys_rms_px") << " px (noisy " << t.at("det_rms_px")
+            << "), shift " << t.at("sys_shift_mm") << " mm, row 2 parts " << smooth << ", " << locking << " mm\n";
 }
 
 // A realism level may carry scene overrides after '+' (an ablation of one effect): the grid records them, the

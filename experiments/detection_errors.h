@@ -1,0 +1,34 @@
+// Errors of detections against their true image positions (synthetic truth), and the smooth part of those
+// errors: what a bench measures of the detector's bias where the budget can only state it (the detector-systematic
+// row's FitOptions::smooth_bias_px, type B). Shared by bench calibrate --flat-vs-board and bench validity.
+#pragma once
+
+#include <Eigen/Core>
+#include <vector>
+
+namespace curvecheck::experiments {
+
+// Per coordinate, px. NaN where there were too few points (fewer than 20 in all, or in every photo).
+struct DetectionErrors {
+  int points = 0;
+  double rms_px = 0;
+  Eigen::Vector2d mean_px = Eigen::Vector2d::Zero();
+  // The least-squares field of Legendre polynomials of total degree <= 3 over the image (the family the budget's
+  // smooth-bias row draws from, analysis LegendreFieldBasis), one per coordinate, fitted to all the errors: its
+  // RMS at the points. Independent noise of RMS s leaks into it by about s sqrt(10 / n); and a pixel-locking
+  // signature that beats slowly across the image (a regular grid seen frontally puts its features at nearly one
+  // phase) is in it too: no fit can tell the two apart there.
+  double smooth_rms_px = 0;
+  // The smooth part less what independent errors of the rest's variance would leak into it (its expected square
+  // s^2 k / n, k = 10 functions, s^2 the variance about the field over n - k): an estimate of the smooth bias
+  // itself; 0 when the smooth part is no larger than that leak.
+  double smooth_beyond_noise_px = 0;
+  // The same with a degree-2 field fitted per photo (photos with at least 20 points).
+  double per_photo_smooth_rms_px = 0;
+};
+
+// at: where each error was detected (image px); err: detected - true; photo: the photo of each error.
+DetectionErrors DetectionErrorsOf(const std::vector<Eigen::Vector2d>& at, const std::vector<Eigen::Vector2d>& err,
+                                  const std::vector<int>& photo, int width, int height);
+
+}  // namespace curvecheck::experiments

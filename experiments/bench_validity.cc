@@ -162,6 +162,8 @@ std::vector<std::string> TrialColumns() {
                                 "det_smooth_beyond_noise_px",
                                 "sys_rms_px",
                                 "sys_smooth_px",
+                                "sys_signature_rest_px",
+                                "sys_cell_signature_rest_px",
                                 "sys_shift_mm",
                                 "smooth_share_mm",
                                 "locking_share_mm"};
@@ -244,6 +246,7 @@ DetectorEffect DetectorEffectOf(const SyntheticScene& scene, const TrialDisplay&
                                 const TrueImages& truth, const AnalysisResult& r, const AnalyzeOptions& a) {
   DetectorEffect e;
   e.systematic.rms_px = e.systematic.smooth_rms_px = e.systematic.smooth_beyond_noise_px = kNaN;
+  e.systematic.signature_remainder_px = e.systematic.cell_signature_remainder_px = kNaN;
   const PhotoAnalysis& photo = r.photos.front();
   if (!photo.used || !r.fit) return e;
   const ModelFit& chosen = r.fit->Chosen();
@@ -353,6 +356,7 @@ std::vector<std::string> RunTrial(Bench& b, int index, std::string* line) {
   DetectionErrors detection_errors;
   DetectorEffect detector_effect;
   detector_effect.systematic.rms_px = detector_effect.systematic.smooth_rms_px = kNaN;
+  detector_effect.systematic.signature_remainder_px = detector_effect.systematic.cell_signature_remainder_px = kNaN;
   detection_errors.rms_px = detection_errors.smooth_rms_px = detection_errors.smooth_beyond_noise_px = kNaN;
   Eigen::Vector3d estimate[2], estimate_sigma[2], coverage_factor[2], coverage_factor68[2];
   for (int f = 0; f < 2; ++f) {
@@ -480,6 +484,8 @@ std::vector<std::string> RunTrial(Bench& b, int index, std::string* line) {
         rs.Valid() ? std::string(rs.In95() ? "1" : "0") : "", Cell(detection_errors.rms_px, kDigits),
         Cell(detection_errors.smooth_rms_px, kDigits), Cell(detection_errors.smooth_beyond_noise_px, kDigits),
         Cell(detector_effect.systematic.rms_px, kDigits), Cell(detector_effect.systematic.smooth_rms_px, kDigits),
+        Cell(detector_effect.systematic.signature_remainder_px, kDigits),
+        Cell(detector_effect.systematic.cell_signature_remainder_px, kDigits),
         Cell(detector_effect.shift_mm, kDigits), Cell(detector_effect.smooth_share_mm, kDigits),
         Cell(detector_effect.locking_share_mm, kDigits)}) {
     row.push_back(c);
@@ -774,7 +780,7 @@ std::string DetectionErrorLines(const SweepTable& trials) {
   // --detector-effect: the shift the detector's systematic error caused and row 2's parts, in units of each
   // trial's sigma.
   std::map<std::string, std::array<double, 5>> effect;  // sums of squares: shift, smooth, locking, row 2; count
-  std::map<std::string, std::vector<double>> sys_smooth;
+  std::map<std::string, std::vector<double>> sys_smooth, sys_rms, sys_rest, sys_cell_rest;
   for (size_t r = 0; r < trials.rows.size(); ++r) {
     const double shift = trials.Num(r, "sys_shift_mm"), smooth_share = trials.Num(r, "smooth_share_mm"),
                  locking = trials.Num(r, "locking_share_mm"), sigma = trials.Num(r, "radius_sigma_mm");
@@ -784,14 +790,20 @@ std::string DetectionErrorLines(const SweepTable& trials) {
     a[2] += (locking / sigma) * (locking / sigma);
     a[3] += (smooth_share * smooth_share + locking * locking) / (sigma * sigma);
     a[4] += 1;
-    sys_smooth[trials.Str(r, "realism")].push_back(trials.Num(r, "sys_smooth_px"));
+    const std::string realism = trials.Str(r, "realism");
+    sys_smooth[realism].push_back(trials.Num(r, "sys_smooth_px"));
+    sys_rms[realism].push_back(trials.Num(r, "sys_rms_px"));
+    sys_rest[realism].push_back(trials.Num(r, "sys_signature_rest_px"));
+    sys_cell_rest[realism].push_back(trials.Num(r, "sys_cell_signature_rest_px"));
   }
   for (const auto& [realism, a] : effect) {
     s += fmt::format(
-        "the detector's systematic error (a noise-free photo's detections against the truth; smooth part {:.4f} "
-        "px median), realism {}: it moved the radius by {:.3f} sigma RMS over {:g} trials; the budget's row 2 is "
-        "{:.3f} sigma RMS (stated smooth bias {:.3f}, pixel-locking correction {:.3f})\n",
-        Median(sys_smooth.at(realism)), realism, std::sqrt(a[0] / a[4]), a[4], std::sqrt(a[3] / a[4]),
+        "the detector's systematic error (a noise-free photo's detections against the truth, medians: RMS {:.4f} "
+        "px, smooth part {:.4f} px, left by the budget's signature model {:.4f} px, by a 2 x 2 cell's {:.4f} px), "
+        "realism {}: it moved the radius by {:.3f} sigma RMS over {:g} trials; the budget's row 2 is {:.3f} sigma "
+        "RMS (stated smooth bias {:.3f}, pixel-locking correction {:.3f})\n",
+        Median(sys_rms.at(realism)), Median(sys_smooth.at(realism)), Median(sys_rest.at(realism)),
+        Median(sys_cell_rest.at(realism)), realism, std::sqrt(a[0] / a[4]), a[4], std::sqrt(a[3] / a[4]),
         std::sqrt(a[1] / a[4]), std::sqrt(a[2] / a[4]));
   }
   return s;

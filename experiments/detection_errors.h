@@ -25,6 +25,12 @@ struct DetectionErrors {
   double smooth_beyond_noise_px = 0;
   // The same with a degree-2 field fitted per photo (photos with at least 20 points).
   double per_photo_smooth_rms_px = 0;
+  // What a periodic signature of the true position t leaves of the errors (RMS about least squares per
+  // coordinate c, a constant included): the budget's model (sin, cos of 2 pi t_c and pi t_c: periods of 1 px and
+  // of a colour filter array's 2 px, each coordinate's bias a function of its own phase), and that model plus the
+  // 2 x 2 cell's other terms (sin, cos of pi t of the other coordinate and the four products of sin, cos pi t_x
+  // with sin, cos pi t_y: a Bayer cell makes each coordinate's bias a function of both phases).
+  double signature_remainder_px = 0, cell_signature_remainder_px = 0;
 };
 
 // at: where each error was detected (image px); err: detected - true; photo: the photo of each error.

@@ -83,6 +83,26 @@ TEST(DetectionErrors, TheSmoothPartIsTheFieldsRmsAndNoiseLeaksOnlyThroughTheBasi
   EXPECT_GT(slow.smooth_rms_px, 0.5 * slow.rms_px);
 }
 
+// A bias of each coordinate that depends on both phases in a 2 x 2 cell (0.03 sin pi t_x sin pi t_y in x, 0.02
+// cos pi t_x in y... as a Bayer cell makes) with 0.005 px noise: the budget's model (own phase only) leaves most of
+// the x part, the cell's model leaves the noise. A signature of the own phase (0.05 sin 2 pi t) both models take.
+TEST(DetectionErrors, TheCellSignatureTakesWhatTheOwnPhaseModelLeaves) {
+  Sample s = Make(0, 0, 0.005, 7);
+  for (size_t i = 0; i < s.err.size(); ++i) {
+    const Eigen::Vector2d t = s.at[i] - s.err[i];
+    const Eigen::Vector2d bias(0.03 * std::sin(M_PI * t.x()) * std::sin(M_PI * t.y()),
+                               0.02 * std::cos(M_PI * t.x()));
+    s.err[i] += bias;
+    s.at[i] += bias;
+  }
+  const DetectionErrors e = Of(s);
+  EXPECT_GT(e.signature_remainder_px, 0.01);
+  EXPECT_NEAR(e.cell_signature_remainder_px, 0.005, 0.0006);
+  const DetectionErrors own = Of(Make(0, 0.05, 0.005, 8));
+  EXPECT_NEAR(own.signature_remainder_px, 0.005, 0.0006);
+  EXPECT_NEAR(own.cell_signature_remainder_px, 0.005, 0.0006);
+}
+
 TEST(DetectionErrors, TooFewPointsGiveNaNNotZero) {
   const Sample s = Make(0.1, 0, 0.1, 4);
   const std::vector<Eigen::Vector2d> at(s.at.begin(), s.at.begin() + 19), err(s.err.begin(), s.err.begin() + 19);

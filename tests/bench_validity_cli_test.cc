@@ -329,6 +329,9 @@ TEST_F(BenchValidityCli, TheDetectorsSystematicErrorIsMeasuredBesideItsRow) {
   EXPECT_GE(locking, 0);
   EXPECT_NEAR(std::hypot(smooth, locking), RowMm(Result("effect"), "detector systematic"), 1e-3 * smooth);
   EXPECT_THAT(with.out, HasSubstr("the detector's systematic error (a noise-free photo's detections"));
+  // What the signature models leave: no more than the error, the richer model no more than the budget's.
+  EXPECT_LE(Num(t, "sys_signature_rest_px"), 1.05 * Num(t, "sys_rms_px"));  // (n - 5 dof against n)
+  EXPECT_LE(Num(t, "sys_cell_signature_rest_px"), 1.05 * Num(t, "sys_signature_rest_px"));
   std::cout << "detector effect: noise-free RMS " << t.at("sys_rms_px") << " px (noisy " << t.at("det_rms_px")
             << "), shift " << t.at("sys_shift_mm") << " mm, row 2 parts " << smooth << ", " << locking << " mm\n";
 }

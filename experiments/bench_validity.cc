@@ -209,24 +209,31 @@ class TrueImages {
   Pose cam_from_screen_;
 };
 
-// The detector's errors on a trial's photo: each unflagged feature's detected position less its true image (the
-// detector's own error, without the lens's).
-DetectionErrors ErrorsAgainstTruth(const TrueImages& truth, const Pattern& pattern, const Detection& detection,
-                                   int width, int height) {
+// The detector's errors on a trial's photo: each unflagged feature's id, detected position, and that position
+// less its true image (the detector's own error, without the lens's).
+struct FeatureErrors {
+  std::vector<std::string> ids;
+  std::vector<Eigen::Vector2d> at, err;
+  DetectionErrors Summary(const SyntheticScene& scene) const {
+    return DetectionErrorsOf(at, err, std::vector<int>(at.size(), 0), scene.camera.width, scene.camera.height);
+  }
+};
+FeatureErrors ErrorsAgainstTruth(const TrueImages& truth, const Pattern& pattern, const Detection& detection) {
   std::map<std::string, Eigen::Vector2d> display_px;
   for (const Feature& f : pattern.features) {
     if (f.display_px) display_px.emplace(f.id, *f.display_px);
   }
-  std::vector<Eigen::Vector2d> at, err;
+  FeatureErrors e;
   for (const DetectedFeature& f : detection.features) {
     const auto it = display_px.find(f.id);
     if (!f.flag.empty() || it == display_px.end()) continue;
     if (const std::optional<Eigen::Vector2d> q = truth.Of(it->second)) {
-      at.push_back(f.px);
-      err.push_back(f.px - *q);
+      e.ids.push_back(f.id);
+      e.at.push_back(f.px);
+      e.err.push_back(f.px - *q);
     }
   }
-  return DetectionErrorsOf(at, err, std::vector<int>(at.size(), 0), width, height);
+  return e;
 }
 
 // What the detector's systematic error did to the radius (BenchValidityOptions::detector_effect). The trial's
@@ -245,8 +252,6 @@ struct DetectorEffect {
 DetectorEffect DetectorEffectOf(const SyntheticScene& scene, const TrialDisplay& display, const PhotoInput& input,
                                 const TrueImages& truth, const AnalysisResult& r, const AnalyzeOptions& a) {
   DetectorEffect e;
-  e.systematic.rms_px = e.systematic.smooth_rms_px = e.systematic.smooth_beyond_noise_px = kNaN;
-  e.systematic.signature_remainder_px = e.systematic.cell_signature_remainder_px = kNaN;
   const PhotoAnalysis& photo = r.photos.front();
   if (!photo.used || !r.fit) return e;
   const ModelFit& chosen = r.fit->Chosen();
@@ -256,21 +261,10 @@ DetectorEffect DetectorEffectOf(const SyntheticScene& scene, const TrialDisplay&
   AnalyzeOptions detect_only = a;
   detect_only.fit_screen = false;
   const TrialAnalysis q = PhotographAndAnalyse(quiet, display.image, input, "scaled camera", detect_only);
-  std::map<std::string, Eigen::Vector2d> display_px, systematic;
-  for (const Feature& f : display.pattern.features) {
-    if (f.display_px) display_px.emplace(f.id, *f.display_px);
-  }
-  std::vector<Eigen::Vector2d> at, err;
-  for (const DetectedFeature& f : q.analysis.photos.front().detection.features) {
-    const auto it = display_px.find(f.id);
-    if (!f.flag.empty() || it == display_px.end()) continue;
-    if (const std::optional<Eigen::Vector2d> t = truth.Of(it->second)) {
-      systematic.emplace(f.id, f.px - *t);
-      at.push_back(f.px);
-      err.push_back(f.px - *t);
-    }
-  }
-  e.systematic = DetectionErrorsOf(at, err, std::vector<int>(at.size(), 0), scene.camera.width, scene.camera.height);
+  const FeatureErrors errors = ErrorsAgainstTruth(truth, display.pattern, q.analysis.photos.front().detection);
+  e.systematic = errors.Summary(scene);
+  std::map<std::string, Eigen::Vector2d> systematic;
+  for (size_t i = 0; i < errors.ids.size(); ++i) systematic.emplace(errors.ids[i], errors.err[i]);
   // Both fits on the features the noise-free photo also gave.
   PhotoObservations obs, less;
   obs.photo = less.photo = photo.name;
@@ -355,9 +349,6 @@ std::vector<std::string> RunTrial(Bench& b, int index, std::string* line) {
   double radius = kNaN, sigma = kNaN, lo = kNaN, hi = kNaN, lo68 = kNaN, hi68 = kNaN;
   DetectionErrors detection_errors;
   DetectorEffect detector_effect;
-  detector_effect.systematic.rms_px = detector_effect.systematic.smooth_rms_px = kNaN;
-  detector_effect.systematic.signature_remainder_px = detector_effect.systematic.cell_signature_remainder_px = kNaN;
-  detection_errors.rms_px = detection_errors.smooth_rms_px = detection_errors.smooth_beyond_noise_px = kNaN;
   Eigen::Vector3d estimate[2], estimate_sigma[2], coverage_factor[2], coverage_factor68[2];
   for (int f = 0; f < 2; ++f) {
     estimate[f] = estimate_sigma[f] = coverage_factor[f] = coverage_factor68[f] = Eigen::Vector3d::Constant(kNaN);
@@ -407,8 +398,7 @@ std::vector<std::string> RunTrial(Bench& b, int index, std::string* line) {
       fit_ms = r.fit_ms;
       features = static_cast<int>(photo.detection.features.size());
       const TrueImages truth_images(scene);
-      detection_errors =
-          ErrorsAgainstTruth(truth_images, display->pattern, photo.detection, scene.camera.width, scene.camera.height);
+      detection_errors = ErrorsAgainstTruth(truth_images, display->pattern, photo.detection).Summary(scene);
       if (o.detector_effect) {
         detector_effect = DetectorEffectOf(scene, *display, {fmt::format("trial-{}", index), pattern_json},
                                            truth_images, r, analyze_options);

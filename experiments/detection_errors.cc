@@ -10,7 +10,6 @@
 namespace curvecheck::experiments {
 namespace {
 
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 constexpr size_t kMinPoints = 20;
 
 Eigen::MatrixXd Stack(const std::vector<Eigen::Vector2d>& v) {
@@ -57,9 +56,6 @@ DetectionErrors DetectionErrorsOf(const std::vector<Eigen::Vector2d>& at, const 
                                   const std::vector<int>& photo, int width, int height) {
   DetectionErrors e;
   e.points = static_cast<int>(err.size());
-  e.rms_px = e.smooth_rms_px = e.smooth_beyond_noise_px = e.per_photo_smooth_rms_px = kNaN;
-  e.signature_remainder_px = e.cell_signature_remainder_px = kNaN;
-  e.mean_px.setConstant(kNaN);
   if (err.size() < kMinPoints || at.size() != err.size() || photo.size() != err.size()) return e;
   const double n = static_cast<double>(err.size());
   const Eigen::MatrixXd y = Stack(err);

@@ -401,8 +401,16 @@ void FitOptions::Check(const std::string& where) const {
     throw Error(where, fmt::format("adequacy_noise_ratio is {}, but must be 1 or more", adequacy_noise_ratio),
                 "give e.g. 1.5");
   }
-  if (!(smooth_bias_px >= 0) || !std::isfinite(smooth_bias_px)) {
-    throw Error(where, fmt::format("smooth_bias_px is {}, but must be 0 or a positive number", smooth_bias_px), "");
+  if (smooth_bias_px && (!(*smooth_bias_px >= 0) || !std::isfinite(*smooth_bias_px))) {
+    // Named as the user sets it (analyze --smooth-bias-px).
+    throw Error("--smooth-bias-px", fmt::format("{} px is not a smooth detector bias", *smooth_bias_px),
+                "give the RMS per coordinate in px (0: none), or leave it out to take it from the detector's scatter");
+  }
+  if (!(smooth_bias_scatter_fraction >= 0) || !std::isfinite(smooth_bias_scatter_fraction)) {
+    throw Error(where,
+                fmt::format("smooth_bias_scatter_fraction is {}, but must be 0 or a positive number",
+                            smooth_bias_scatter_fraction),
+                "give e.g. 1");
   }
   if (!(pixel_locking_prior_px >= 0) || !std::isfinite(pixel_locking_prior_px)) {
     throw Error(where, fmt::format("pixel_locking_prior_px is {}, but must be a positive number (or 0: no prior)",

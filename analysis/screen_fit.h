@@ -135,13 +135,22 @@ struct FitOptions {
   // the image, independent N(0,1) coefficients per coordinate, each draw scaled to the bound's RMS) and the
   // number of seeded draws whose RMS effect is the standard uncertainty.
   int systematic_field_degree = 3;
-  // RMS of the smooth bias fields, px per coordinate: a type B value, not measured on the photos (a smooth
-  // detector bias cannot be told from the screen's shape or the pose). It is kept apart from the pixel-locking
-  // estimate, which says nothing about smooth bias. 0.02 px: on the default scene at quarter resolution (16
-  // jittered poses from 1.5 m) the noise and pixel-locking rows alone gave a combined sigma of 5.4 mm against an
-  // empirical scatter of 5.0 mm, so a smooth bias there is at most a small part; the earlier bound, the
-  // detection floor 0.05 px, added 5.4 mm that the scatter did not show (intervals of 99.9% coverage).
-  double smooth_bias_px = 0.02;
+  // RMS b of the smooth bias fields, px per coordinate (type B: a smooth detector bias cannot be told from the
+  // screen's shape or the pose, so no photo measures b itself). Unset (the default): b is taken as large as the
+  // detector's measured scatter about the fit once the pixel-locking signature is out (ResidualPixelLocking::
+  // noise_px, the noise row's), times smooth_bias_scatter_fraction; the assumption is that a detector whose
+  // errors vary little from corner to corner has little smooth error either, and that its smooth error is no
+  // larger than its corner-to-corner scatter. Set: b as stated (0: no smooth bias). Until 2026-12-05 b was a
+  // stated 0.02 px; bench validity --detector-effect measured the detector's own error's effect on the radius at
+  // 0.08-1.60 times that row across resolution, distance and imaging chain (the row's constant had the wrong
+  // shape: the detector's error grows with distance through the colour filter array's moire and shrinks with
+  // resolution), and 0.13-0.88 times the row with b = the scatter (docs/bench/validity_bench.txt,
+  // twenty-second section). A detector's smooth error measured on the truth (the noise-free photo's detections,
+  // Legendre degree 3) is 0.14-1.26 times the scatter on that bench, median 0.76; the fields of independent
+  // coefficients over-state its effect on the radius 1.2-6 times (the detector's own error is absorbed more by
+  // the poses), so b = 1 x the scatter does not under-state it in any slice.
+  std::optional<double> smooth_bias_px;
+  double smooth_bias_scatter_fraction = 1.0;
   // false: the pixel-locking signature is not fitted (no share in the detector-systematic row, the noise row
   // scaled by the whole residual noise, nothing removed before the misfit statistics): for tests of other rows on
   // detections with independent noise only, where a small patch cannot tell the signature from the curvature and
@@ -284,7 +293,7 @@ struct UncertaintyBudget {
   std::string dominant;  // the component with the largest u(k)
   std::array<std::string, 3> dominant_position;  // per axis (axis frame)
   ResidualPixelLocking pixel_locking;
-  double systematic_bound_px = 0;  // b: the stated smooth bias, RMS per coordinate of the fields
+  double systematic_bound_px = 0;  // b: the smooth bias, RMS per coordinate of the fields (stated or scaled)
   std::string systematic_bound_reason;
   // The detector-systematic row's two parts, u(k) (1/mm): the smooth fields and the pixel-locking correction's
   // uncertainty.

@@ -407,9 +407,18 @@ void Budget(const Setup& setup, ModelWork& w, int n_residuals, ModelFit* fit) {
 
   // 2. Detector systematic: the smooth detector bias (stated) and the pixel-locking correction's uncertainty.
   {
-    bud.systematic_bound_px = o.smooth_bias_px;
-    bud.systematic_bound_reason =
-        "the stated smooth detector bias FitOptions::smooth_bias_px (type B, not measured)";
+    if (o.smooth_bias_px) {
+      bud.systematic_bound_px = *o.smooth_bias_px;
+      bud.systematic_bound_reason = "the stated smooth detector bias FitOptions::smooth_bias_px (type B, not measured)";
+    } else {
+      bud.systematic_bound_px = o.smooth_bias_scatter_fraction * noise_px;
+      bud.systematic_bound_reason = fmt::format(
+          "type B, scaled by a measurement: {:g} x the detector's scatter about the fit without the pixel-locking "
+          "signature ({:.4f} px, the detection noise row's), on the assumption that a detector's smooth error is no "
+          "larger than its corner-to-corner scatter (FitOptions::smooth_bias_scatter_fraction; state b with "
+          "analyze --smooth-bias-px)",
+          o.smooth_bias_scatter_fraction, noise_px);
+    }
     BudgetComponent c;
     c.name = "detector systematic";
     c.type = "B";

@@ -153,6 +153,49 @@ TEST(UncertaintyBudgetTest, RowsArePresentAndCombineInQuadrature) {
   EXPECT_NEAR(f.cameras[0].position_in_screen_sigma_mm.z(), f.budget.combined.position_in_axis_mm.z(), 1e-9);
 }
 
+// Row 2's smooth bias b is the detector's measured scatter (without the pixel-locking signature) unless stated, and
+// the row's radius share is proportional to it.
+TEST(UncertaintyBudgetTest, SmoothBiasFollowsTheMeasuredScatterUnlessStated) {
+  const SyntheticScene scene = DefaultScene();
+  const auto fit = [&](double noise_px, const FitOptions& o) {
+    return FitScreen(scene.monitor, scene.camera, {Clean(scene, noise_px, 7)}, o).Chosen();
+  };
+  const FitOptions measured = CylinderOnly();
+  ASSERT_FALSE(measured.smooth_bias_px.has_value());
+  const ModelFit a = fit(0.05, measured), b = fit(0.1, measured);
+  ASSERT_TRUE(a.budget.computed && b.budget.computed);
+  for (const ModelFit* f : {&a, &b}) {
+    // b is the noise row's scatter (the residuals without the signature), exactly.
+    EXPECT_DOUBLE_EQ(f->budget.systematic_bound_px, f->budget.pixel_locking.noise_px);
+    EXPECT_NE(f->budget.systematic_bound_reason.find("scatter"), std::string::npos);
+    EXPECT_NE(Row(*f, "detector systematic").source.find(f->budget.systematic_bound_reason), std::string::npos);
+  }
+  // The scatter measures the injected noise (0.05 px per coordinate, ~500 residuals: +-3%), and doubles with it.
+  EXPECT_NEAR(a.budget.systematic_bound_px, 0.05, 0.005);
+  EXPECT_NEAR(b.budget.systematic_bound_px / a.budget.systematic_bound_px, 2.0, 0.15);
+  // The smooth share is linear in b: the same scene, so the ratio of the shares is that of the b's.
+  EXPECT_NEAR((b.budget.smooth_share_curvature_per_mm / a.budget.smooth_share_curvature_per_mm) /
+                  (b.budget.systematic_bound_px / a.budget.systematic_bound_px),
+              1.0, 0.05);
+  // A fraction scales it; a stated b replaces it (0: no smooth share).
+  FitOptions half = measured;
+  half.smooth_bias_scatter_fraction = 0.5;
+  const ModelFit h = fit(0.05, half);
+  EXPECT_NEAR(h.budget.systematic_bound_px, 0.5 * h.budget.pixel_locking.noise_px, 1e-15);
+  FitOptions stated = measured;
+  stated.smooth_bias_px = 0.02;
+  const ModelFit s = fit(0.1, stated);
+  EXPECT_EQ(s.budget.systematic_bound_px, 0.02);
+  EXPECT_NE(s.budget.systematic_bound_reason.find("stated"), std::string::npos);
+  stated.smooth_bias_px = 0;
+  EXPECT_EQ(fit(0.1, stated).budget.smooth_share_curvature_per_mm, 0);
+  // Out of range: a clear error naming the flag.
+  stated.smooth_bias_px = -0.01;
+  EXPECT_THROW(stated.Check("test"), Error);
+  half.smooth_bias_scatter_fraction = std::nan("");
+  EXPECT_THROW(half.Check("test"), Error);
+}
+
 TEST(UncertaintyBudgetTest, PixelPitchRowIsTheExactScaling) {
   const SyntheticScene scene = DefaultScene();
   const PhotoObservations photo = Clean(scene);

@@ -62,6 +62,11 @@ void AddAnalyzeCommand(CLI::App& app, std::function<int()>& run) {
                   "Tolerance of the datasheet's pixel pitch, percent (half-width of a rectangular distribution; "
                   "its u = tolerance/sqrt(3) is the budget's pixel-pitch row: u(R)/R = u(p)/p)")
       ->capture_default_str();
+  cmd->add_option("--smooth-bias-px", args->options.fit.smooth_bias_px,
+                  "The detector's smooth bias (RMS per coordinate of a field smooth across the image and common to "
+                  "the photos, px; type B, e.g. from a bench of your detector against a known target). Default: "
+                  "as large as the detector's measured scatter about the fit without the pixel-locking signature "
+                  "(the budget's detector-systematic row says which)");
   cmd->add_option("--pixel-locking-prior", args->options.fit.pixel_locking_prior_px,
                   "Prior standard deviation of each of the detector's pixel-locking coefficients, px (type B; 0: "
                   "none, the regression alone). It bounds the signature where the photos cannot determine it (the "

@@ -225,11 +225,9 @@ FlatVsBoardTrial RunFlatVsBoardTrial(const BenchFlatVsBoardOptions& o, uint64_t 
         fresh.screen.push_back(p);
       }
       // The true image of every detected feature: the true surface point through the model and its misfit field.
-      const Pose cam_from_screen = scene.screen_from_cam.Inverse();
+      const TrueImages truth(scene);
       for (size_t k = 0; k < p.detected_px.size(); ++k) {
-        const Eigen::Vector3d x =
-            cam_from_screen * TrueSurfacePointInScreen(scene, UvFromDisplayPx(scene.monitor, p.display_px[k]));
-        screen_err.push_back(p.detected_px[k] - misfit->TrueImageOf(ProjectPoint(scene.camera, x)));
+        screen_err.push_back(p.detected_px[k] - truth.ImageOf(truth.CameraPoint(p.display_px[k])));
         screen_photo.push_back(i);
       }
       screen_px.insert(screen_px.end(), p.detected_px.begin(), p.detected_px.end());

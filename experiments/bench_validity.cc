@@ -189,27 +189,6 @@ struct Bench {
   std::unique_ptr<Renderer> renderer;
 };
 
-// The true image of a display position on a trial's photo: the true surface point where the display shows it,
-// through the camera model and the lens's misfit field; nullopt behind the camera.
-class TrueImages {
- public:
-  explicit TrueImages(const SyntheticScene& scene)
-      : scene_(scene),
-        misfit_(scene.imaging, scene.camera.width, scene.camera.height),
-        cam_from_screen_(scene.screen_from_cam.Inverse()) {}
-  std::optional<Eigen::Vector2d> Of(const Eigen::Vector2d& display_px) const {
-    const Eigen::Vector3d x =
-        cam_from_screen_ * TrueSurfacePointInScreen(scene_, UvFromDisplayPx(scene_.monitor, display_px));
-    if (!(x.z() > 0)) return std::nullopt;
-    return misfit_.TrueImageOf(ProjectPoint(scene_.camera, x));
-  }
-
- private:
-  const SyntheticScene& scene_;
-  LensMisfit misfit_;
-  Pose cam_from_screen_;
-};
-
 // The detector's errors on a trial's photo: each unflagged feature's id, detected position, and that position
 // less its true image (the detector's own error, without the lens's).
 struct FeatureErrors {

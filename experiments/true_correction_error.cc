@@ -12,6 +12,7 @@
 #include "core/error.h"
 #include "core/screen_geometry.h"
 #include "core/stats.h"
+#include "synth/lens_misfit.h"
 
 namespace curvecheck::experiments {
 namespace {
@@ -20,10 +21,8 @@ using Vec8 = Eigen::Matrix<double, 8, 1>;
 
 // Where the camera sees display position p: the normalized image point of the true surface point, or nothing
 // when the point is behind the camera.
-std::optional<Eigen::Vector2d> Normalized(const SyntheticScene& scene, const Pose& cam_from_screen,
-                                          const Eigen::Vector2d& display_px) {
-  const Eigen::Vector3d x =
-      cam_from_screen * TrueSurfacePointInScreen(scene, UvFromDisplayPx(scene.monitor, display_px));
+std::optional<Eigen::Vector2d> Normalized(const TrueImages& truth, const Eigen::Vector2d& display_px) {
+  const Eigen::Vector3d x = truth.CameraPoint(display_px);
   if (!(x.z() > 1e-6)) return std::nullopt;
   return Eigen::Vector2d(x.x() / x.z(), x.y() / x.z());
 }
@@ -122,12 +121,12 @@ Vec8 Refine(Vec8 h, const std::vector<Seen>& seen) {
 }  // namespace
 
 TrueCorrectionError MeasureTrueCorrectionError(const SyntheticScene& scene, const Pattern& pattern) {
-  const Pose cam_from_screen = scene.screen_from_cam.Inverse();
+  const TrueImages truth(scene);
   std::vector<Seen> seen;
   for (const Feature& f : pattern.features) {
     if (!f.display_px || !f.visible) continue;
     const Eigen::Vector2d p = *f.display_px;
-    const std::optional<Eigen::Vector2d> n = Normalized(scene, cam_from_screen, p);
+    const std::optional<Eigen::Vector2d> n = Normalized(truth, p);
     if (!n) continue;
     const Eigen::Vector2d q = ProjectPoint(scene.camera, n->homogeneous());
     if (!(q.x() >= 0 && q.y() >= 0 && q.x() <= scene.camera.width - 1 && q.y() <= scene.camera.height - 1)) continue;
@@ -135,8 +134,8 @@ TrueCorrectionError MeasureTrueCorrectionError(const SyntheticScene& scene, cons
     bool ok = true;
     for (int axis = 0; axis < 2; ++axis) {
       const Eigen::Vector2d e = Eigen::Vector2d::Unit(axis) * 0.5;
-      const std::optional<Eigen::Vector2d> plus = Normalized(scene, cam_from_screen, p + e);
-      const std::optional<Eigen::Vector2d> minus = Normalized(scene, cam_from_screen, p - e);
+      const std::optional<Eigen::Vector2d> plus = Normalized(truth, p + e);
+      const std::optional<Eigen::Vector2d> minus = Normalized(truth, p - e);
       if (!plus || !minus) {
         ok = false;
         break;

@@ -4,7 +4,10 @@
 
 #include <cmath>
 
+#include "core/camera_model.h"
+#include "core/screen_geometry.h"
 #include "synth/random.h"
+#include "synth/true_monitor.h"
 
 namespace curvecheck {
 
@@ -60,6 +63,25 @@ Eigen::Vector2d LensMisfit::ModelPixelOf(const Eigen::Vector2d& p) const {
 std::string LensMisfit::Key() const {
   if (!active()) return "";
   return fmt::format("misfit {:a} {:a} {:a} {}", rms_px_, length_, width_, seed_);
+}
+
+TrueImages::TrueImages(const SyntheticScene& scene)
+    : scene_(scene),
+      misfit_(scene.imaging, scene.camera.width, scene.camera.height),
+      cam_from_screen_(scene.screen_from_cam.Inverse()) {}
+
+Eigen::Vector3d TrueImages::CameraPoint(const Eigen::Vector2d& display_px) const {
+  return cam_from_screen_ * TrueSurfacePointInScreen(scene_, UvFromDisplayPx(scene_.monitor, display_px));
+}
+
+Eigen::Vector2d TrueImages::ImageOf(const Eigen::Vector3d& camera_point) const {
+  return misfit_.TrueImageOf(ProjectPoint(scene_.camera, camera_point));
+}
+
+std::optional<Eigen::Vector2d> TrueImages::Of(const Eigen::Vector2d& display_px) const {
+  const Eigen::Vector3d x = CameraPoint(display_px);
+  if (!(x.z() > 0)) return std::nullopt;
+  return ImageOf(x);
 }
 
 }  // namespace curvecheck

@@ -4,9 +4,11 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <optional>
 #include <string>
 #include <vector>
 
+#include "core/pose.h"
 #include "synth/scene.h"
 
 namespace curvecheck {
@@ -41,6 +43,27 @@ class LensMisfit {
   std::vector<Mode> modes_[2];
   double amplitude_[2] = {0, 0};
   double Raw(int c, const Eigen::Vector2d& q) const;
+};
+
+// The true image of a display position on a synthetic photo: the true surface point where the display shows it
+// (TrueSurfacePointInScreen), in the camera frame, through the camera model and the true lens's misfit. truth.json's
+// image_px and the benches that measure a detector against the truth use this one copy. Holds the scene by
+// reference: it must outlive this.
+class TrueImages {
+ public:
+  explicit TrueImages(const SyntheticScene& scene);
+  const LensMisfit& misfit() const { return misfit_; }
+  // The true surface point where the display shows display_px, in the camera frame (mm).
+  Eigen::Vector3d CameraPoint(const Eigen::Vector2d& display_px) const;
+  // The true lens's image of a camera-frame point (in front of the camera): P(X) + delta(P(X)).
+  Eigen::Vector2d ImageOf(const Eigen::Vector3d& camera_point) const;
+  // Both; nullopt when the point is behind the camera.
+  std::optional<Eigen::Vector2d> Of(const Eigen::Vector2d& display_px) const;
+
+ private:
+  const SyntheticScene& scene_;
+  LensMisfit misfit_;
+  Pose cam_from_screen_;
 };
 
 }  // namespace curvecheck

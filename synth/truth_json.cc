@@ -33,7 +33,8 @@ nlohmann::json TruthJson(const SyntheticScene& s, const std::vector<Feature>& fe
                  {"position_mm", {c.x(), c.y(), c.z()}},
                  {"screen_from_cam", rot}};
   // The true lens: the model above plus this misfit (image_px below are the true lens's).
-  const LensMisfit misfit(s.imaging, s.camera.width, s.camera.height);
+  const TrueImages truth(s);
+  const LensMisfit& misfit = truth.misfit();
   j["camera"]["lens_misfit"] = {{"rms_px", misfit.rms_px()},
                                 {"length_fraction_of_width", s.imaging.lens_misfit_length},
                                 {"seed", s.imaging.lens_seed},
@@ -52,7 +53,7 @@ nlohmann::json TruthJson(const SyntheticScene& s, const std::vector<Feature>& fe
       e["point_mm"] = {p.x(), p.y(), p.z()};
       visible = visible && p_cam.z() > 0 && normal.dot(c - p) > 0;
       if (p_cam.z() > 0) {
-        const Eigen::Vector2d q = misfit.TrueImageOf(ProjectPoint(s.camera, p_cam));
+        const Eigen::Vector2d q = truth.ImageOf(p_cam);
         e["image_px"] = {q.x(), q.y()};
         visible = visible && q.x() >= -0.5 && q.y() >= -0.5 && q.x() <= s.camera.width - 0.5 &&
                   q.y() <= s.camera.height - 0.5;

@@ -458,14 +458,7 @@ AnalysisResult AnalyzeWith(const CameraModel& camera, const std::filesystem::pat
         pa.rejected = fmt::format("{}: {}", inputs[i].photo.string(), pa.verification.failure);
       } else {
         pa.used = true;
-        PhotoObservations obs;
-        obs.photo = pa.name;
-        for (const FeatureCheck& c : pa.verification.features) {
-          obs.ids.push_back(c.id);
-          obs.display_px.push_back(c.display_px);
-          // Less the detector's pixel-locking bias the verification estimated, when asked to (AnalyzeOptions).
-          obs.detected_px.push_back(options.correct_pixel_locking ? c.detected_px - c.pixel_locking_px : c.detected_px);
-        }
+        PhotoObservations obs = FitObservationsOf(pa, options);
         if (options.overlay_max_px > 0) {
           const auto [small, scale] = OverlayBase(gray, options.overlay_max_px);
           pa.overlay_gray = small;
@@ -555,6 +548,18 @@ AnalysisResult Analyze(const std::filesystem::path& camera_path, const std::vect
                        const AnalyzeOptions& options) {
   return AnalyzeWith(ReadCameraModel(camera_path), camera_path, inputs,
                      [&](size_t i) { return ReadPhotoGray(inputs[i].photo); }, options);
+}
+
+PhotoObservations FitObservationsOf(const PhotoAnalysis& photo, const AnalyzeOptions& options) {
+  PhotoObservations obs;
+  obs.photo = photo.name;
+  for (const FeatureCheck& c : photo.verification.features) {
+    obs.ids.push_back(c.id);
+    obs.display_px.push_back(c.display_px);
+    // Less the detector's pixel-locking bias the verification estimated, when asked to (AnalyzeOptions).
+    obs.detected_px.push_back(options.correct_pixel_locking ? c.detected_px - c.pixel_locking_px : c.detected_px);
+  }
+  return obs;
 }
 
 AnalysisResult AnalyzeImages(const CameraModel& camera, const std::filesystem::path& camera_path,

@@ -129,6 +129,11 @@ AnalysisResult AnalyzeImages(const CameraModel& camera, const std::filesystem::p
                              const std::vector<PhotoInput>& inputs, const std::vector<cv::Mat>& images,
                              const AnalyzeOptions& options);
 
+// The screen fit's observations of a photo the verification accepted: its verified features, each detection less
+// the pixel-locking bias the verification estimated when options.correct_pixel_locking. Analyze fits these; a
+// bench that refits a photo's observations (bench validity --detector-effect) builds them here too.
+PhotoObservations FitObservationsOf(const PhotoAnalysis& photo, const AnalyzeOptions& options);
+
 // result.json: format curvecheck.result/1 (architecture.md) with the inputs and their provenance, the
 // verification, the fit with every candidate, the deviations, and every feature.
 nlohmann::json ResultJson(const AnalysisResult& result, const std::string& command_line);

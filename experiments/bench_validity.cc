@@ -245,17 +245,17 @@ DetectorEffect DetectorEffectOf(const SyntheticScene& scene, const TrialDisplay&
   e.systematic = errors.Summary(scene);
   std::map<std::string, Eigen::Vector2d> systematic;
   for (size_t i = 0; i < errors.ids.size(); ++i) systematic.emplace(errors.ids[i], errors.err[i]);
-  // Both fits on the features the noise-free photo also gave.
+  // Both fits on the analysis's observations (FitObservationsOf) of the features the noise-free photo also gave.
+  const PhotoObservations all = FitObservationsOf(photo, a);
   PhotoObservations obs, less;
-  obs.photo = less.photo = photo.name;
-  for (const FeatureCheck& c : photo.verification.features) {
-    const auto it = systematic.find(c.id);
+  obs.photo = less.photo = all.photo;
+  for (size_t i = 0; i < all.ids.size(); ++i) {
+    const auto it = systematic.find(all.ids[i]);
     if (it == systematic.end()) continue;
-    const Eigen::Vector2d d = a.correct_pixel_locking ? c.detected_px - c.pixel_locking_px : c.detected_px;
     for (PhotoObservations* p : {&obs, &less}) {
-      p->ids.push_back(c.id);
-      p->display_px.push_back(c.display_px);
-      p->detected_px.push_back(p == &obs ? d : Eigen::Vector2d(d - it->second));
+      p->ids.push_back(all.ids[i]);
+      p->display_px.push_back(all.display_px[i]);
+      p->detected_px.push_back(p == &obs ? all.detected_px[i] : Eigen::Vector2d(all.detected_px[i] - it->second));
     }
   }
   FitOptions o = a.fit;

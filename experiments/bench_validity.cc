@@ -11,6 +11,7 @@
 #include <map>
 #include <memory>
 #include <nlohmann/json.hpp>
+#include <numeric>
 #include <optional>
 #include <random>
 
@@ -757,33 +758,58 @@ std::string DetectionErrorLines(const SweepTable& trials) {
                                             bias[realism].size()));
   }
   // --detector-effect: the shift the detector's systematic error caused and row 2's parts, in units of each
-  // trial's sigma.
-  std::map<std::string, std::array<double, 5>> effect;  // sums of squares: shift, smooth, locking, row 2; count
+  // trial's sigma, per realism level and per realism level and distance. Each RMS carries its standard error by the
+  // delta method on the mean of the squares (SE = sd(q) / sqrt(n) / (2 RMS), q the squares; no assumption on their
+  // distribution), the ratio its own from the two (their correlation ignored).
+  struct Squares {
+    std::vector<double> shift, row2, smooth, locking;
+  };
+  const auto rms_of = [](const std::vector<double>& q) {
+    const double m = std::accumulate(q.begin(), q.end(), 0.0) / static_cast<double>(q.size());
+    double v = 0;
+    for (const double x : q) v += (x - m) * (x - m);
+    v /= std::max<double>(1, static_cast<double>(q.size()) - 1);
+    const double r = std::sqrt(m);
+    return std::pair<double, double>{r, r > 0 ? std::sqrt(v / static_cast<double>(q.size())) / (2 * r) : kNaN};
+  };
+  std::map<std::pair<std::string, double>, Squares> effect;  // (realism, distance mm; -1: all distances)
   std::map<std::string, std::vector<double>> sys_smooth, sys_rms, sys_rest, sys_cell_rest;
   for (size_t r = 0; r < trials.rows.size(); ++r) {
     const double shift = trials.Num(r, "sys_shift_mm"), smooth_share = trials.Num(r, "smooth_share_mm"),
                  locking = trials.Num(r, "locking_share_mm"), sigma = trials.Num(r, "radius_sigma_mm");
     if (!trials.Str(r, "reason").empty() || !std::isfinite(shift) || !(sigma > 0)) continue;
-    std::array<double, 5>& a = effect[trials.Str(r, "realism")];
-    a[0] += (shift / sigma) * (shift / sigma), a[1] += (smooth_share / sigma) * (smooth_share / sigma);
-    a[2] += (locking / sigma) * (locking / sigma);
-    a[3] += (smooth_share * smooth_share + locking * locking) / (sigma * sigma);
-    a[4] += 1;
     const std::string realism = trials.Str(r, "realism");
+    for (const double distance : {-1.0, trials.Num(r, "distance_mm")}) {
+      Squares& q = effect[{realism, distance}];
+      q.shift.push_back((shift / sigma) * (shift / sigma));
+      q.smooth.push_back((smooth_share / sigma) * (smooth_share / sigma));
+      q.locking.push_back((locking / sigma) * (locking / sigma));
+      q.row2.push_back((smooth_share * smooth_share + locking * locking) / (sigma * sigma));
+    }
     sys_smooth[realism].push_back(trials.Num(r, "sys_smooth_px"));
     sys_rms[realism].push_back(trials.Num(r, "sys_rms_px"));
     sys_rest[realism].push_back(trials.Num(r, "sys_signature_rest_px"));
     sys_cell_rest[realism].push_back(trials.Num(r, "sys_cell_signature_rest_px"));
   }
-  for (const auto& [realism, a] : effect) {
-    s += fmt::format(
-        "the detector's systematic error (a noise-free photo's detections against the truth, medians: RMS {:.4f} "
-        "px, smooth part {:.4f} px, left by the budget's signature model {:.4f} px, by a 2 x 2 cell's {:.4f} px), "
-        "realism {}: it moved the radius by {:.3f} sigma RMS over {:g} trials; the budget's row 2 is {:.3f} sigma "
-        "RMS (smooth bias {:.3f}, pixel-locking correction {:.3f})\n",
-        Median(sys_rms.at(realism)), Median(sys_smooth.at(realism)), Median(sys_rest.at(realism)),
-        Median(sys_cell_rest.at(realism)), realism, std::sqrt(a[0] / a[4]), a[4], std::sqrt(a[3] / a[4]),
-        std::sqrt(a[1] / a[4]), std::sqrt(a[2] / a[4]));
+  for (const auto& [key, q] : effect) {
+    const auto& [realism, distance] = key;
+    const auto [e, se_e] = rms_of(q.shift);
+    const auto [r2, se_r2] = rms_of(q.row2);
+    const double ratio = e / r2, se_ratio = ratio * std::hypot(se_e / e, se_r2 / r2);
+    const std::string measured = fmt::format(
+        "it moved the radius by {:.3f} +- {:.3f} sigma RMS over {} trials; the budget's row 2 is {:.3f} +- {:.3f} "
+        "sigma RMS (smooth bias {:.3f}, pixel-locking correction {:.3f}): effect / row 2 = {:.2f} +- {:.2f}",
+        e, se_e, q.shift.size(), r2, se_r2, rms_of(q.smooth).first, rms_of(q.locking).first, ratio, se_ratio);
+    if (distance < 0) {
+      s += fmt::format(
+          "the detector's systematic error (a noise-free photo's detections against the truth, medians: RMS {:.4f} "
+          "px, smooth part {:.4f} px, left by the budget's signature model {:.4f} px, by a 2 x 2 cell's {:.4f} px), "
+          "realism {}: {}\n",
+          Median(sys_rms.at(realism)), Median(sys_smooth.at(realism)), Median(sys_rest.at(realism)),
+          Median(sys_cell_rest.at(realism)), realism, measured);
+    } else {
+      s += fmt::format("  realism {} at {:g} mm: {}\n", realism, distance, measured);
+    }
   }
   return s;
 }

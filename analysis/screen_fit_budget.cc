@@ -405,7 +405,8 @@ void Budget(const Setup& setup, ModelWork& w, int n_residuals, ModelFit* fit) {
   bud.components.push_back(c_noise);
   vars.push_back(noise);
 
-  // 2. Detector systematic: the smooth detector bias (stated) and the pixel-locking correction's uncertainty.
+  // 2. Detector systematic: the smooth detector bias (stated, or scaled by the scatter) and the pixel-locking
+  // correction's uncertainty.
   {
     if (o.smooth_bias_px) {
       bud.systematic_bound_px = *o.smooth_bias_px;

@@ -221,11 +221,11 @@ FeatureErrors ErrorsAgainstTruth(const TrueImages& truth, const Pattern& pattern
 // display is photographed again without sensor noise (everything else alike: optics, colour filter array and
 // demosaicing, JPEG, quantization) and detected as the analysis detects; each feature's error there against the
 // truth is the detector's deterministic error at that geometry: pixel-locking, smooth bias, whatever else. The
-// trial's observations as the analysis built them (analysis/pipeline.cc: the verification's features, less their
+// trial's observations as the analysis built them (FitObservationsOf: the verification's features, less their
 // pixel-locking estimate under --correct-pixel-locking) are fitted as they are and less that error; the shift is
 // the chosen model's radius from the first less that from the second (after the analysis's own pixel-locking
 // correction, so what the correction leaves). The budget's row 2 (detector systematic) is to cover it: its two
-// parts, the stated smooth bias and the pixel-locking correction's uncertainty, are given beside it.
+// parts, the smooth bias b's share and the pixel-locking correction's uncertainty, are given beside it.
 struct DetectorEffect {
   DetectionErrors systematic;  // of the noise-free photo's detections
   double shift_mm = kNaN, smooth_share_mm = kNaN, locking_share_mm = kNaN;

@@ -182,10 +182,11 @@ FromScreenIntrinsicsBudget IntrinsicsBudgetFromScreen(const std::vector<PhotoObs
     }
     row.source = fmt::format(
         "the screen fit's detector systematic propagated to the intrinsics: Legendre bias fields of total degree "
-        "<= {} and RMS b = {:.4f} px per coordinate ({}), plus the pixel-locking "
-        "signature, which the intrinsics are not corrected for, at its bound (estimate + 2 sigma, phase unknown; "
-        "period 1 px: x {:.4f}, y {:.4f} px; period 2 px: x {:.4f}, y {:.4f} px)",
-        options.systematic_field_degree, b, m.budget.systematic_bound_reason, bound(0, 0), bound(1, 0), bound(0, 1), bound(1, 1));
+        "<= {} and RMS b = {:.4f} px per coordinate ({}), plus the pixel-locking signature, which the intrinsics "
+        "are not corrected for, at its bound (estimate + 2 sigma, phase unknown; period 1 px: x {:.4f}, y {:.4f} px; "
+        "period 2 px: x {:.4f}, y {:.4f} px)",
+        options.systematic_field_degree, b, m.budget.systematic_bound_reason, bound(0, 0), bound(1, 0), bound(0, 1),
+        bound(1, 1));
     out.rows.push_back(row);
   }
 

@@ -163,8 +163,11 @@ FlatVsBoardTrial RunFlatVsBoardTrial(const BenchFlatVsBoardOptions& o, uint64_t 
   scene.monitor = LoadMonitor(o.monitor);
   if (!scene.monitor.is_flat()) throw Error("--monitor", o.monitor + " is not flat", "give a flat monitor preset");
   scene.truth = TrueMonitor{};
-  const auto misfit = std::make_shared<const LensMisfit>(scene.imaging, scene.camera.width, scene.camera.height);
-  t.true_misfit_px = misfit->rms_px();
+  // The true image of every detected feature: the true surface point through the model and its misfit field, at
+  // each photo's pose.
+  const TrueImages true_images(scene);
+  const LensMisfit& misfit = true_images.misfit();
+  t.true_misfit_px = misfit.rms_px();
   const Eigen::Vector3d centre = ScreenCentreInScreen(scene.monitor);
   const std::filesystem::path cache_file =
       cache_dir.empty() ? std::filesystem::path() : cache_dir / fmt::format("seed-{}.json", seed);
@@ -224,10 +227,8 @@ FlatVsBoardTrial RunFlatVsBoardTrial(const BenchFlatVsBoardOptions& o, uint64_t 
         p = ObserveScreenImage(PhotoToMat(photo), fmt::format("flat{}", i), *pattern, DetectOptions{});
         fresh.screen.push_back(p);
       }
-      // The true image of every detected feature: the true surface point through the model and its misfit field.
-      const TrueImages truth(scene);
       for (size_t k = 0; k < p.detected_px.size(); ++k) {
-        screen_err.push_back(p.detected_px[k] - truth.ImageOf(truth.CameraPoint(p.display_px[k])));
+        screen_err.push_back(p.detected_px[k] - true_images.ImageOf(true_images.CameraPoint(p.display_px[k])));
         screen_photo.push_back(i);
       }
       screen_px.insert(screen_px.end(), p.detected_px.begin(), p.detected_px.end());
@@ -325,8 +326,8 @@ FlatVsBoardTrial RunFlatVsBoardTrial(const BenchFlatVsBoardOptions& o, uint64_t 
                                                  bc.misfit_length_px,
                                                  bc.misfit_note.empty() ? "" : " (" + bc.misfit_note + ")");
     LensWithCovariance truth(scene.camera);
-    truth.true_image_of = [misfit](const Eigen::Vector2d& q) { return misfit->TrueImageOf(q); };
-    truth.model_pixel_of = [misfit](const Eigen::Vector2d& q) { return misfit->ModelPixelOf(q); };
+    truth.true_image_of = [&misfit](const Eigen::Vector2d& q) { return misfit.TrueImageOf(q); };
+    truth.model_pixel_of = [&misfit](const Eigen::Vector2d& q) { return misfit.ModelPixelOf(q); };
     t.screen_vs_board = CompareProjections(bl, s, grid, region);
     t.screen_vs_truth = CompareProjections(truth, s, grid, region);
     t.board_vs_truth = CompareProjections(truth, bl, grid, region);

@@ -641,6 +641,67 @@ std::string Pct(const CoverageStats& c, int k, const BinomialInterval& w) {
                      100 * w.hi);
 }
 
+const char* OutcomeText(ValidityRule::Outcome o) {
+  switch (o) {
+    case ValidityRule::Outcome::kMeets: return "ok";
+    case ValidityRule::Outcome::kConsistent: return "ok?";
+    case ValidityRule::Outcome::kFails: return "FAIL";
+  }
+  return "?";
+}
+
+// The summary's line for one quantity: its cells' classes against what a method with exactly right intervals
+// gives at the same sample counts (validity_stats.h NominalRuleReference).
+struct RuleCount {
+  int meets = 0, consistent = 0, fails = 0;
+  std::vector<int> samples;
+  void Add(const ValidityRule& rule, const CoverageStats& s) {
+    switch (rule.Classify(s)) {
+      case ValidityRule::Outcome::kMeets: ++meets; break;
+      case ValidityRule::Outcome::kConsistent: ++consistent; break;
+      case ValidityRule::Outcome::kFails: ++fails; break;
+    }
+    samples.push_back(s.n);
+  }
+  RuleReference Reference(const ValidityRule& rule) const {
+    return NominalRuleReference(samples, rule, kReferenceGrids, kReferenceSeed, meets, fails);
+  }
+  json Json(const ValidityRule& rule) const {
+    const RuleReference ref = Reference(rule);
+    return {{"meets", meets},
+            {"consistent", consistent},
+            {"fails", fails},
+            {"exact_intervals_expect",
+             {{"meets", ref.meets},
+              {"meets_p05_p95", {ref.meets_p05, ref.meets_p95}},
+              {"consistent", ref.consistent},
+              {"fails", ref.fails},
+              {"p_meets_at_most_observed", ref.p_meets_at_most},
+              {"p_fails_at_least_observed", ref.p_fails_at_least},
+              {"simulated_grids", ref.grids},
+              {"seed", kReferenceSeed}}}};
+  }
+  static constexpr int kReferenceGrids = 4000;
+  static constexpr uint64_t kReferenceSeed = 16;
+};
+
+// "meet / consistent / fail" and, from intervals exactly right at the same sample counts, the expected counts
+// (full) or only the chances of counts as extreme as these.
+std::string ReferenceText(const RuleCount& c, const ValidityRule& rule, bool full) {
+  const RuleReference ref = c.Reference(rule);
+  if (!full) {
+    return fmt::format("{} / {} / {} (exactly right intervals: P(<= {} meeting) = {:.2f}, P(>= {} failing) = {:.2f})",
+                       c.meets, c.consistent, c.fails, c.meets, ref.p_meets_at_most, c.fails,
+                       ref.p_fails_at_least);
+  }
+  return fmt::format(
+      "intervals exactly right (errors N(0, sigma^2)) would give, at these sample counts, {:.1f} meeting it "
+      "(90% of grids {}-{}; P(<= {}) = {:.2f}), {:.1f} consistent, {:.1f} failing (P(>= {}) = {:.2f}); {} "
+      "simulated grids, seed {}",
+      ref.meets, ref.meets_p05, ref.meets_p95, c.meets, ref.p_meets_at_most, ref.consistent, ref.fails, c.fails,
+      ref.p_fails_at_least, ref.grids, RuleCount::kReferenceSeed);
+}
+
 std::string TableText(const std::vector<CellStats>& cells, const ValidityRule& rule) {
   std::string s = fmt::format(
       "{:>4} {:>5} {:>6} {:>4} {:>4} {:>5} {:>6} {:>14} {:>6} {:>20} {:>20} {:>4}  {:>20} {:>20} {:>4}\n",
@@ -668,10 +729,7 @@ std::string TableText(const std::vector<CellStats>& cells, const ValidityRule& r
         r.n == 0 ? std::string("-") : fmt::format("{:+.2f} +- {:.2f}", r.bias_sigma, r.bias_sigma_se),
         std::isfinite(r.scatter_ratio) ? fmt::format("{:.2f}", r.scatter_ratio) : std::string("-"),
         Pct(r, r.k68, r.wilson68), Pct(r, r.k95, r.wilson95),
-        c.radius_pass
-            ? "ok"
-            : (c.radius_consistent && r.n > 0 && std::abs(r.bias_sigma) < rule.max_bias_sigma ? "ok?"
-                                                                                              : "FAIL"),
+        OutcomeText(rule.Classify(r)),
         cam(0), cam(1), c.camera_pass ? "ok" : "FAIL");
   }
   s += fmt::format(
@@ -826,15 +884,18 @@ bool WriteOutputs(const fs::path& out, SweepTable& trials, json meta, const std:
   SweepTable table;
   table.header = CellColumns();
   json cells_json = json::array();
-  int pass = 0, consistent = 0, camera_pass = 0, with_trials = 0, no_radius = 0;
+  int pass = 0, camera_pass = 0, with_trials = 0, no_radius = 0;
+  RuleCount radius_count, camera_count[2][3];
   for (int c = 0; c < grid.Cells(); ++c) {
     const auto it = by_cell.find(c);
     if (it == by_cell.end()) continue;  // not in this shard
     CellStats s = CellOf(trials, it->second, grid.CellAt(c), rule);
     ++with_trials;
     pass += s.radius_pass ? 1 : 0;
-    consistent +=
-        s.radius_consistent && s.radius.n > 0 && std::abs(s.radius.bias_sigma) < rule.max_bias_sigma;
+    radius_count.Add(rule, s.radius);
+    for (int f = 0; f < 2; ++f) {
+      for (int a = 0; a < 3; ++a) camera_count[f][a].Add(rule, s.camera[f][a]);
+    }
     camera_pass += s.camera_pass ? 1 : 0;
     no_radius += s.radius.n == 0 ? 1 : 0;
     table.rows.push_back(CellRow(s));
@@ -846,20 +907,36 @@ bool WriteOutputs(const fs::path& out, SweepTable& trials, json meta, const std:
   summary += fmt::format(
       "\nradius, issue 16's rule (95% coverage in {:.0f}-{:.0f}% and |bias| < {:g} sigma in every cell): {} "
       "- {} of {} "
-      "cells meet it{}; {} more are consistent with it within their Wilson interval; {} trials per cell\n",
+      "cells meet it{}; {} more are consistent with it within their Wilson interval, {} fail; {} trials per "
+      "cell\n  {}\n",
       100 * rule.coverage95_lo, 100 * rule.coverage95_hi, rule.max_bias_sigma, all ? "PASS" : "FAIL", pass,
       with_trials, no_radius > 0 ? fmt::format(" ({} without any radius)", no_radius) : std::string(),
-      consistent - pass, grid.trials);
+      radius_count.consistent, radius_count.fails, grid.trials, ReferenceText(radius_count, rule, true));
   summary += fmt::format(
-      "camera position (centre and axis frames, every coordinate, the same rule): {} of {} cells\n",
+      "camera position (centre and axis frames, every coordinate, the same rule): {} of {} cells; per "
+      "coordinate, meet / consistent / fail:\n",
       camera_pass, with_trials);
+  json camera_json;
+  for (int f = 0; f < 2; ++f) {
+    for (int a = 0; a < 3; ++a) {
+      const RuleCount& c = camera_count[f][a];
+      summary += fmt::format("  {} {}: {}\n", kFrames[f], kAxes[a], ReferenceText(c, rule, false));
+      camera_json[kFrames[f]][kAxes[a]] = c.Json(rule);
+    }
+  }
   summary += DetectionErrorLines(trials);
   log << "\n" << summary;
   meta["rule"] = {{"coverage95", {rule.coverage95_lo, rule.coverage95_hi}},
                   {"max_abs_bias_sigma", rule.max_bias_sigma},
                   {"binomial_interval", "Wilson score, 95%"}};
-  meta["summary"] = {{"cells", with_trials},       {"radius_pass", pass}, {"radius_consistent", consistent},
-                     {"camera_pass", camera_pass}, {"all_pass", all},     {"trials", trials.rows.size()}};
+  meta["summary"] = {{"cells", with_trials},
+                     {"radius_pass", pass},
+                     {"radius_consistent", radius_count.consistent + pass},
+                     {"radius_rule", radius_count.Json(rule)},
+                     {"camera_pass", camera_pass},
+                     {"camera_rule", camera_json},
+                     {"all_pass", all},
+                     {"trials", trials.rows.size()}};
   meta["cells"] = cells_json;
   WriteFileAtomic(out / "validity_trials.csv", trials.ToCsv());
   WriteFileAtomic(out / "validity.csv", table.ToCsv());

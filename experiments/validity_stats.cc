@@ -1,6 +1,8 @@
 #include "experiments/validity_stats.h"
 
+#include <algorithm>
 #include <cmath>
+#include <random>
 
 namespace curvecheck::experiments {
 
@@ -65,6 +67,50 @@ bool ValidityRule::Holds(const CoverageStats& s) const {
 
 bool ValidityRule::CoverageConsistent(const CoverageStats& s) const {
   return s.n > 0 && s.wilson95.lo <= coverage95_hi && s.wilson95.hi >= coverage95_lo;
+}
+
+ValidityRule::Outcome ValidityRule::Classify(const CoverageStats& s) const {
+  if (Holds(s)) return Outcome::kMeets;
+  if (CoverageConsistent(s) && std::abs(s.bias_sigma) < max_bias_sigma) return Outcome::kConsistent;
+  return Outcome::kFails;
+}
+
+RuleReference NominalRuleReference(const std::vector<int>& samples_per_cell, const ValidityRule& rule, int grids,
+                                   uint64_t seed, int observed_meets, int observed_fails) {
+  RuleReference r;
+  r.grids = std::max(grids, 1);
+  std::mt19937_64 rng(seed);
+  std::normal_distribution<double> unit(0, 1);
+  std::vector<int> meets;
+  int at_most = 0, at_least = 0;
+  std::vector<IntervalSample> samples;
+  for (int g = 0; g < r.grids; ++g) {
+    int m = 0, c = 0, f = 0;
+    for (int n : samples_per_cell) {
+      samples.clear();
+      for (int i = 0; i < n; ++i) samples.push_back(SymmetricSample(unit(rng), 0, 1));
+      switch (rule.Classify(SummariseCoverage(samples))) {
+        case ValidityRule::Outcome::kMeets: ++m; break;
+        case ValidityRule::Outcome::kConsistent: ++c; break;
+        case ValidityRule::Outcome::kFails: ++f; break;
+      }
+    }
+    r.meets += m;
+    r.consistent += c;
+    r.fails += f;
+    meets.push_back(m);
+    at_most += observed_meets >= 0 && m <= observed_meets ? 1 : 0;
+    at_least += observed_fails >= 0 && f >= observed_fails ? 1 : 0;
+  }
+  r.meets /= r.grids;
+  r.consistent /= r.grids;
+  r.fails /= r.grids;
+  std::sort(meets.begin(), meets.end());
+  r.meets_p05 = meets[static_cast<size_t>(0.05 * (r.grids - 1))];
+  r.meets_p95 = meets[static_cast<size_t>(0.95 * (r.grids - 1))];
+  if (observed_meets >= 0) r.p_meets_at_most = static_cast<double>(at_most) / r.grids;
+  if (observed_fails >= 0) r.p_fails_at_least = static_cast<double>(at_least) / r.grids;
+  return r;
 }
 
 }  // namespace curvecheck::experiments

@@ -132,6 +132,51 @@ TEST(ValidityStats, RuleOnPointEstimatesAndOnTheWilsonInterval) {
   EXPECT_FALSE(rule.Holds(s));
   EXPECT_FALSE(rule.CoverageConsistent(s));
   EXPECT_NEAR(s.wilson95.hi, 0.88814, 1e-5);
+  EXPECT_EQ(rule.Classify(cell(19, 20)), ValidityRule::Outcome::kMeets);
+  EXPECT_EQ(rule.Classify(cell(20, 20)), ValidityRule::Outcome::kConsistent);
+  EXPECT_EQ(rule.Classify(cell(15, 20)), ValidityRule::Outcome::kFails);
+  // Consistent coverage but a bias beyond the bound on its point estimate: fails.
+  std::vector<IntervalSample> biased;
+  for (int i = 0; i < 20; ++i) biased.push_back(SymmetricSample(100.6 + (i % 2 ? 0.3 : -0.3), 100, 1));
+  EXPECT_EQ(rule.Classify(SummariseCoverage(biased)), ValidityRule::Outcome::kFails);
+}
+
+TEST(ValidityStats, ExactIntervalsMeetTheRuleOnlyAsOftenAsTheSampleCountAllows) {
+  // Reference values from an independent simulation (numpy, 400000 cells per count, other generator): a cell
+  // of N(0, 1) errors with +- 1.96 intervals meets the rule with probability 0.5492 at 20 samples, is consistent
+  // without meeting it 0.4232, fails 0.0276; at 9 samples it cannot meet it (8/9 = 89%, 9/9 = 100%) and fails
+  // 0.1392 (|mean z| >= 0.5, or 6 or fewer covered); at 5, fails 0.2739. Standard errors here: about 0.0035 at
+  // 20000 cells, 0.0049 at 5000.
+  const ValidityRule rule;
+  RuleReference r = NominalRuleReference(std::vector<int>(20, 20), rule, 1000, 7);
+  EXPECT_EQ(r.grids, 1000);
+  EXPECT_NEAR(r.meets / 20, 0.5492, 0.012);
+  EXPECT_NEAR(r.consistent / 20, 0.4232, 0.012);
+  EXPECT_NEAR(r.fails / 20, 0.0276, 0.005);
+  EXPECT_NEAR(r.meets + r.consistent + r.fails, 20, 1e-9);
+  // The spread of the count over grids: binomial(20, 0.55) has its 5th and 95th percentiles at 7 and 14.
+  EXPECT_GE(r.meets_p05, 6);
+  EXPECT_LE(r.meets_p05, 8);
+  EXPECT_GE(r.meets_p95, 13);
+  EXPECT_LE(r.meets_p95, 15);
+  r = NominalRuleReference({9, 9, 9, 9, 9}, rule, 1000, 8);
+  EXPECT_EQ(r.meets, 0);
+  EXPECT_NEAR(r.fails / 5, 0.1392, 0.015);
+  r = NominalRuleReference({5}, rule, 5000, 9);
+  EXPECT_NEAR(r.fails, 0.2739, 0.02);
+  // A cell without samples fails, as in the bench.
+  r = NominalRuleReference({0, 20}, rule, 200, 10);
+  EXPECT_GE(r.fails, 1);
+  // One-sided p-values of observed counts: at most 20 of 20 meeting is certain; at least 0 failing too; at
+  // most 0 meeting of twenty 20-sample cells has probability 0.45^20, never seen in 1000 grids.
+  r = NominalRuleReference(std::vector<int>(20, 20), rule, 1000, 11, 20, 0);
+  EXPECT_EQ(r.p_meets_at_most, 1);
+  EXPECT_EQ(r.p_fails_at_least, 1);
+  r = NominalRuleReference(std::vector<int>(20, 20), rule, 1000, 11, 0, 20);
+  EXPECT_EQ(r.p_meets_at_most, 0);
+  EXPECT_EQ(r.p_fails_at_least, 0);
+  // Seeded: the same seed gives the same reference.
+  EXPECT_EQ(NominalRuleReference({20, 9}, rule, 300, 12).meets, NominalRuleReference({20, 9}, rule, 300, 12).meets);
 }
 
 }  // namespace

@@ -66,12 +66,10 @@ std::string LensMisfit::Key() const {
 }
 
 TrueImages::TrueImages(const SyntheticScene& scene)
-    : scene_(scene),
-      misfit_(scene.imaging, scene.camera.width, scene.camera.height),
-      cam_from_screen_(scene.screen_from_cam.Inverse()) {}
+    : scene_(scene), misfit_(scene.imaging, scene.camera.width, scene.camera.height) {}
 
 Eigen::Vector3d TrueImages::CameraPoint(const Eigen::Vector2d& display_px) const {
-  return cam_from_screen_ * TrueSurfacePointInScreen(scene_, UvFromDisplayPx(scene_.monitor, display_px));
+  return scene_.screen_from_cam.Inverse() * TrueSurfacePointInScreen(scene_, UvFromDisplayPx(scene_.monitor, display_px));
 }
 
 Eigen::Vector2d TrueImages::ImageOf(const Eigen::Vector3d& camera_point) const {

@@ -23,6 +23,7 @@
 #include <string>
 #include <vector>
 
+#include "core/stats.h"
 #include "tests/cli_test_util.h"
 
 namespace curvecheck {
@@ -226,9 +227,22 @@ TEST_F(BenchValidityCli, TrialsMeetTheirTruthAndCellsAreWhatTheTrialsImply) {
   EXPECT_EQ(j["summary"]["trials"], 6);
   EXPECT_EQ(j["summary"]["all_pass"], false);
   EXPECT_EQ(j["rule"]["binomial_interval"], "Wilson score, 95%");
+  // Each cell in one class, and beside the counts what intervals exactly right would give at these 3-trial
+  // cells: they can never meet the rule (3/3 = 100%), and fail when |mean z| >= 0.5 (P(|N(0, 1/3)| >= 0.5) =
+  // 0.39) or when 1 or 0 of 3 is covered (0.007).
+  const nlohmann::json& rule = j["summary"]["radius_rule"];
+  EXPECT_EQ(rule["meets"].get<int>() + rule["consistent"].get<int>() + rule["fails"].get<int>(), 2);
+  EXPECT_EQ(rule["meets"], 0);
+  const nlohmann::json& exact = rule["exact_intervals_expect"];
+  EXPECT_EQ(exact["meets"], 0.0);
+  EXPECT_NEAR(exact["fails"].get<double>(), 2 * 0.39, 0.06);
+  EXPECT_NEAR(exact["meets"].get<double>() + exact["consistent"].get<double>() + exact["fails"].get<double>(), 2,
+              1e-9);
+  EXPECT_EQ(j["summary"]["camera_rule"]["axis"]["y"]["meets"], 0);
   const std::string text = Slurp(out / "validity.txt");
   for (const char* piece : {"bench validity --scales 0.25", "cores", "cov95 [Wilson 95%]",
-                            "radius, issue 16's rule", "FAIL - 0 of 2 cells meet it", "camera position",
+                            "radius, issue 16's rule", "FAIL - 0 of 2 cells meet it", "intervals exactly right",
+                            "camera position", "axis y: 0 / ",
                             "detection errors against the truth, realism off (medians over 6 trials"}) {
     EXPECT_THAT(text, HasSubstr(piece));
   }
@@ -369,16 +383,12 @@ TEST_F(BenchValidityCli, RowTwoFollowsTheDetectorAcrossDistance) {
     EXPECT_NEAR(Num(t, "smooth_bias_px"), systematic.at("bound_px").get<double>(), 1e-9);
     EXPECT_EQ(systematic.at("bound_px").get<double>(), systematic.at("noise_without_signature_px").get<double>());
   }
-  const auto median = [](std::vector<double> v) {
-    std::sort(v.begin(), v.end());
-    return 0.5 * (v[(v.size() - 1) / 2] + v[v.size() / 2]);
-  };
   const auto rms = [](const std::vector<double>& squares) {
     return std::sqrt(std::accumulate(squares.begin(), squares.end(), 0.0) / static_cast<double>(squares.size()));
   };
-  EXPECT_GT(median(b["3000"]), 1.5 * median(b["1000"]));
+  EXPECT_GT(Median(b["3000"]), 1.5 * Median(b["1000"]));
   const double near = rms(effect2["1000"]) / rms(row2["1000"]), far = rms(effect2["3000"]) / rms(row2["3000"]);
-  std::cout << "b medians " << median(b["1000"]) << ", " << median(b["3000"]) << " px; effect / row 2: " << near
+  std::cout << "b medians " << Median(b["1000"]) << ", " << Median(b["3000"]) << " px; effect / row 2: " << near
             << " at 1 m, " << far << " at 3 m\n";
   EXPECT_LT(near, 1.0);
   EXPECT_GT(far, 0.4);  // not over-stated beyond use where the detector's error matters

@@ -666,8 +666,7 @@ struct RuleCount {
   RuleReference Reference(const ValidityRule& rule) const {
     return NominalRuleReference(samples, rule, kReferenceGrids, kReferenceSeed, meets, fails);
   }
-  json Json(const ValidityRule& rule) const {
-    const RuleReference ref = Reference(rule);
+  json Json(const RuleReference& ref) const {
     return {{"meets", meets},
             {"consistent", consistent},
             {"fails", fails},
@@ -687,8 +686,7 @@ struct RuleCount {
 
 // "meet / consistent / fail" and, from intervals exactly right at the same sample counts, the expected counts
 // (full) or only the chances of counts as extreme as these.
-std::string ReferenceText(const RuleCount& c, const ValidityRule& rule, bool full) {
-  const RuleReference ref = c.Reference(rule);
+std::string ReferenceText(const RuleCount& c, const RuleReference& ref, bool full) {
   if (!full) {
     return fmt::format("{} / {} / {} (exactly right intervals: P(<= {} meeting) = {:.2f}, P(>= {} failing) = {:.2f})",
                        c.meets, c.consistent, c.fails, c.meets, ref.p_meets_at_most, c.fails,
@@ -903,6 +901,7 @@ bool WriteOutputs(const fs::path& out, SweepTable& trials, json meta, const std:
     cells.push_back(std::move(s));
   }
   const bool all = with_trials > 0 && pass == with_trials;
+  const RuleReference radius_ref = radius_count.Reference(rule);
   std::string summary = TableText(cells, rule);
   summary += fmt::format(
       "\nradius, issue 16's rule (95% coverage in {:.0f}-{:.0f}% and |bias| < {:g} sigma in every cell): {} "
@@ -911,7 +910,7 @@ bool WriteOutputs(const fs::path& out, SweepTable& trials, json meta, const std:
       "cell\n  {}\n",
       100 * rule.coverage95_lo, 100 * rule.coverage95_hi, rule.max_bias_sigma, all ? "PASS" : "FAIL", pass,
       with_trials, no_radius > 0 ? fmt::format(" ({} without any radius)", no_radius) : std::string(),
-      radius_count.consistent, radius_count.fails, grid.trials, ReferenceText(radius_count, rule, true));
+      radius_count.consistent, radius_count.fails, grid.trials, ReferenceText(radius_count, radius_ref, true));
   summary += fmt::format(
       "camera position (centre and axis frames, every coordinate, the same rule): {} of {} cells; per "
       "coordinate, meet / consistent / fail:\n",
@@ -920,8 +919,9 @@ bool WriteOutputs(const fs::path& out, SweepTable& trials, json meta, const std:
   for (int f = 0; f < 2; ++f) {
     for (int a = 0; a < 3; ++a) {
       const RuleCount& c = camera_count[f][a];
-      summary += fmt::format("  {} {}: {}\n", kFrames[f], kAxes[a], ReferenceText(c, rule, false));
-      camera_json[kFrames[f]][kAxes[a]] = c.Json(rule);
+      const RuleReference ref = c.Reference(rule);
+      summary += fmt::format("  {} {}: {}\n", kFrames[f], kAxes[a], ReferenceText(c, ref, false));
+      camera_json[kFrames[f]][kAxes[a]] = c.Json(ref);
     }
   }
   summary += DetectionErrorLines(trials);
@@ -932,7 +932,7 @@ bool WriteOutputs(const fs::path& out, SweepTable& trials, json meta, const std:
   meta["summary"] = {{"cells", with_trials},
                      {"radius_pass", pass},
                      {"radius_consistent", radius_count.consistent + pass},
-                     {"radius_rule", radius_count.Json(rule)},
+                     {"radius_rule", radius_count.Json(radius_ref)},
                      {"camera_pass", camera_pass},
                      {"camera_rule", camera_json},
                      {"all_pass", all},

@@ -163,8 +163,8 @@ FlatVsBoardTrial RunFlatVsBoardTrial(const BenchFlatVsBoardOptions& o, uint64_t 
   scene.monitor = LoadMonitor(o.monitor);
   if (!scene.monitor.is_flat()) throw Error("--monitor", o.monitor + " is not flat", "give a flat monitor preset");
   scene.truth = TrueMonitor{};
-  // The true image of every detected feature: the true surface point through the model and its misfit field, at
-  // each photo's pose.
+  // The true image of every detected feature: the true surface point through the model and its misfit field,
+  // at each photo's pose.
   const TrueImages true_images(scene);
   const LensMisfit& misfit = true_images.misfit();
   t.true_misfit_px = misfit.rms_px();
@@ -228,7 +228,8 @@ FlatVsBoardTrial RunFlatVsBoardTrial(const BenchFlatVsBoardOptions& o, uint64_t 
         fresh.screen.push_back(p);
       }
       for (size_t k = 0; k < p.detected_px.size(); ++k) {
-        screen_err.push_back(p.detected_px[k] - true_images.ImageOf(true_images.CameraPoint(p.display_px[k])));
+        screen_err.push_back(p.detected_px[k] -
+                             true_images.ImageOf(true_images.CameraPoint(p.display_px[k])));
         screen_photo.push_back(i);
       }
       screen_px.insert(screen_px.end(), p.detected_px.begin(), p.detected_px.end());

@@ -643,24 +643,22 @@ std::string Pct(const CoverageStats& c, int k, const BinomialInterval& w) {
 
 const char* OutcomeText(ValidityRule::Outcome o) {
   switch (o) {
-    case ValidityRule::Outcome::kMeets: return "ok";
-    case ValidityRule::Outcome::kConsistent: return "ok?";
-    case ValidityRule::Outcome::kFails: return "FAIL";
+    case ValidityRule::Outcome::kMeets:
+      return "ok";
+    case ValidityRule::Outcome::kConsistent:
+      return "ok?";
+    case ValidityRule::Outcome::kFails:
+      return "FAIL";
   }
   return "?";
 }
 
 // The summary's line for one quantity: its cells' classes against what a method with exactly right intervals
 // gives at the same sample counts (validity_stats.h NominalRuleReference).
-struct RuleCount {
-  int meets = 0, consistent = 0, fails = 0;
+struct RuleCount : OutcomeCounts {
   std::vector<int> samples;
   void Add(const ValidityRule& rule, const CoverageStats& s) {
-    switch (rule.Classify(s)) {
-      case ValidityRule::Outcome::kMeets: ++meets; break;
-      case ValidityRule::Outcome::kConsistent: ++consistent; break;
-      case ValidityRule::Outcome::kFails: ++fails; break;
-    }
+    OutcomeCounts::Add(rule.Classify(s));
     samples.push_back(s.n);
   }
   RuleReference Reference(const ValidityRule& rule) const {
@@ -688,16 +686,16 @@ struct RuleCount {
 // (full) or only the chances of counts as extreme as these.
 std::string ReferenceText(const RuleCount& c, const RuleReference& ref, bool full) {
   if (!full) {
-    return fmt::format("{} / {} / {} (exactly right intervals: P(<= {} meeting) = {:.2f}, P(>= {} failing) = {:.2f})",
-                       c.meets, c.consistent, c.fails, c.meets, ref.p_meets_at_most, c.fails,
-                       ref.p_fails_at_least);
+    return fmt::format(
+        "{} / {} / {} (exactly right intervals: P(<= {} meeting) = {:.2f}, P(>= {} failing) = {:.2f})",
+        c.meets, c.consistent, c.fails, c.meets, ref.p_meets_at_most, c.fails, ref.p_fails_at_least);
   }
   return fmt::format(
       "intervals exactly right (errors N(0, sigma^2)) would give, at these sample counts, {:.1f} meeting it "
       "(90% of grids {}-{}; P(<= {}) = {:.2f}), {:.1f} consistent, {:.1f} failing (P(>= {}) = {:.2f}); {} "
       "simulated grids, seed {}",
-      ref.meets, ref.meets_p05, ref.meets_p95, c.meets, ref.p_meets_at_most, ref.consistent, ref.fails, c.fails,
-      ref.p_fails_at_least, ref.grids, RuleCount::kReferenceSeed);
+      ref.meets, ref.meets_p05, ref.meets_p95, c.meets, ref.p_meets_at_most, ref.consistent, ref.fails,
+      c.fails, ref.p_fails_at_least, ref.grids, RuleCount::kReferenceSeed);
 }
 
 std::string TableText(const std::vector<CellStats>& cells, const ValidityRule& rule) {
@@ -726,9 +724,8 @@ std::string TableText(const std::vector<CellStats>& cells, const ValidityRule& r
         fmt::format("{}/{}", c.ok, c.trials),
         r.n == 0 ? std::string("-") : fmt::format("{:+.2f} +- {:.2f}", r.bias_sigma, r.bias_sigma_se),
         std::isfinite(r.scatter_ratio) ? fmt::format("{:.2f}", r.scatter_ratio) : std::string("-"),
-        Pct(r, r.k68, r.wilson68), Pct(r, r.k95, r.wilson95),
-        OutcomeText(rule.Classify(r)),
-        cam(0), cam(1), c.camera_pass ? "ok" : "FAIL");
+        Pct(r, r.k68, r.wilson68), Pct(r, r.k95, r.wilson95), OutcomeText(rule.Classify(r)), cam(0), cam(1),
+        c.camera_pass ? "ok" : "FAIL");
   }
   s += fmt::format(
       "(cell: scale/distance mm/yaw deg/realism/true radius factor in validity.csv; ok/n: trials with a "
@@ -910,7 +907,8 @@ bool WriteOutputs(const fs::path& out, SweepTable& trials, json meta, const std:
       "cell\n  {}\n",
       100 * rule.coverage95_lo, 100 * rule.coverage95_hi, rule.max_bias_sigma, all ? "PASS" : "FAIL", pass,
       with_trials, no_radius > 0 ? fmt::format(" ({} without any radius)", no_radius) : std::string(),
-      radius_count.consistent, radius_count.fails, grid.trials, ReferenceText(radius_count, radius_ref, true));
+      radius_count.consistent, radius_count.fails, grid.trials,
+      ReferenceText(radius_count, radius_ref, true));
   summary += fmt::format(
       "camera position (centre and axis frames, every coordinate, the same rule): {} of {} cells; per "
       "coordinate, meet / consistent / fail:\n",

@@ -75,8 +75,22 @@ ValidityRule::Outcome ValidityRule::Classify(const CoverageStats& s) const {
   return Outcome::kFails;
 }
 
-RuleReference NominalRuleReference(const std::vector<int>& samples_per_cell, const ValidityRule& rule, int grids,
-                                   uint64_t seed, int observed_meets, int observed_fails) {
+void OutcomeCounts::Add(ValidityRule::Outcome o) {
+  switch (o) {
+    case ValidityRule::Outcome::kMeets:
+      ++meets;
+      break;
+    case ValidityRule::Outcome::kConsistent:
+      ++consistent;
+      break;
+    case ValidityRule::Outcome::kFails:
+      ++fails;
+      break;
+  }
+}
+
+RuleReference NominalRuleReference(const std::vector<int>& samples_per_cell, const ValidityRule& rule,
+                                   int grids, uint64_t seed, int observed_meets, int observed_fails) {
   RuleReference r;
   r.grids = std::max(grids, 1);
   std::mt19937_64 rng(seed);
@@ -85,22 +99,18 @@ RuleReference NominalRuleReference(const std::vector<int>& samples_per_cell, con
   int at_most = 0, at_least = 0;
   std::vector<IntervalSample> samples;
   for (int g = 0; g < r.grids; ++g) {
-    int m = 0, c = 0, f = 0;
+    OutcomeCounts grid;
     for (int n : samples_per_cell) {
       samples.clear();
       for (int i = 0; i < n; ++i) samples.push_back(SymmetricSample(unit(rng), 0, 1));
-      switch (rule.Classify(SummariseCoverage(samples))) {
-        case ValidityRule::Outcome::kMeets: ++m; break;
-        case ValidityRule::Outcome::kConsistent: ++c; break;
-        case ValidityRule::Outcome::kFails: ++f; break;
-      }
+      grid.Add(rule.Classify(SummariseCoverage(samples)));
     }
-    r.meets += m;
-    r.consistent += c;
-    r.fails += f;
-    meets.push_back(m);
-    at_most += observed_meets >= 0 && m <= observed_meets ? 1 : 0;
-    at_least += observed_fails >= 0 && f >= observed_fails ? 1 : 0;
+    r.meets += grid.meets;
+    r.consistent += grid.consistent;
+    r.fails += grid.fails;
+    meets.push_back(grid.meets);
+    at_most += observed_meets >= 0 && grid.meets <= observed_meets ? 1 : 0;
+    at_least += observed_fails >= 0 && grid.fails >= observed_fails ? 1 : 0;
   }
   r.meets /= r.grids;
   r.consistent /= r.grids;

@@ -70,18 +70,25 @@ struct ValidityRule {
   // perfect 95% interval give 20/20 = 100% 36% of the time).
   bool CoverageConsistent(const CoverageStats& s) const;
 
-  // The bench's three classes of a cell: meets the rule on its point estimates; fails it on its point estimates
-  // but its coverage's Wilson interval overlaps the band and |bias| is below the bound ("ok?"); fails.
+  // The bench's three classes of a cell: meets the rule on its point estimates; fails it on its point
+  // estimates but its coverage's Wilson interval overlaps the band and |bias| is below the bound ("ok?");
+  // fails.
   enum class Outcome { kMeets, kConsistent, kFails };
   Outcome Classify(const CoverageStats& s) const;
 };
 
+// How many cells fall in each of the rule's classes.
+struct OutcomeCounts {
+  int meets = 0, consistent = 0, fails = 0;
+  void Add(ValidityRule::Outcome o);
+};
+
 // What the rule gives, at the bench's own sample counts, a method whose intervals are exactly right: errors
-// N(0, sigma^2), 95% interval +- 1.959964 sigma, 68% +- sigma. At 20 samples a cell of such a method meets the
-// rule only about 55% of the time (the 95% coverage must be 18 or 19 of 20: 57%; |mean z| < 0.5: 97.5%), and
-// at 9 samples |mean z| exceeds 0.5 13% of the time. Read a bench's counts against these, not against "every
-// cell". Seeded Monte Carlo over whole grids, each cell drawn with its own count (0: a cell without samples,
-// classed kFails as the bench does).
+// N(0, sigma^2), 95% interval +- 1.959964 sigma, 68% +- sigma. At 20 samples a cell of such a method meets
+// the rule only about 55% of the time (the 95% coverage must be 18 or 19 of 20: 57%; |mean z| < 0.5: 97.5%),
+// and at 9 samples |mean z| exceeds 0.5 13% of the time. Read a bench's counts against these, not against
+// "every cell". Seeded Monte Carlo over whole grids, each cell drawn with its own count (0: a cell without
+// samples, classed kFails as the bench does).
 struct RuleReference {
   int grids = 0;
   double meets = 0, consistent = 0, fails = 0;  // expected number of cells of each class
@@ -90,7 +97,8 @@ struct RuleReference {
   // p-values of the bench's counts under the exact method; 1 when not asked).
   double p_meets_at_most = 1, p_fails_at_least = 1;
 };
-RuleReference NominalRuleReference(const std::vector<int>& samples_per_cell, const ValidityRule& rule, int grids,
-                                   uint64_t seed, int observed_meets = -1, int observed_fails = -1);
+RuleReference NominalRuleReference(const std::vector<int>& samples_per_cell, const ValidityRule& rule,
+                                   int grids, uint64_t seed, int observed_meets = -1,
+                                   int observed_fails = -1);
 
 }  // namespace curvecheck::experiments

@@ -143,10 +143,10 @@ TEST(ValidityStats, RuleOnPointEstimatesAndOnTheWilsonInterval) {
 
 TEST(ValidityStats, ExactIntervalsMeetTheRuleOnlyAsOftenAsTheSampleCountAllows) {
   // Reference values from an independent simulation (numpy, 400000 cells per count, other generator): a cell
-  // of N(0, 1) errors with +- 1.96 intervals meets the rule with probability 0.5492 at 20 samples, is consistent
-  // without meeting it 0.4232, fails 0.0276; at 9 samples it cannot meet it (8/9 = 89%, 9/9 = 100%) and fails
-  // 0.1392 (|mean z| >= 0.5, or 6 or fewer covered); at 5, fails 0.2739. Standard errors here: about 0.0035 at
-  // 20000 cells, 0.0049 at 5000.
+  // of N(0, 1) errors with +- 1.96 intervals meets the rule with probability 0.5492 at 20 samples, is
+  // consistent without meeting it 0.4232, fails 0.0276; at 9 samples it cannot meet it (8/9 = 89%, 9/9 =
+  // 100%) and fails 0.1392 (|mean z| >= 0.5, or 6 or fewer covered); at 5, fails 0.2739. Standard errors
+  // here: about 0.0035 at 20000 cells, 0.0049 at 5000.
   const ValidityRule rule;
   RuleReference r = NominalRuleReference(std::vector<int>(20, 20), rule, 1000, 7);
   EXPECT_EQ(r.grids, 1000);
@@ -176,7 +176,8 @@ TEST(ValidityStats, ExactIntervalsMeetTheRuleOnlyAsOftenAsTheSampleCountAllows) 
   EXPECT_EQ(r.p_meets_at_most, 0);
   EXPECT_EQ(r.p_fails_at_least, 0);
   // Seeded: the same seed gives the same reference.
-  EXPECT_EQ(NominalRuleReference({20, 9}, rule, 300, 12).meets, NominalRuleReference({20, 9}, rule, 300, 12).meets);
+  EXPECT_EQ(NominalRuleReference({20, 9}, rule, 300, 12).meets,
+            NominalRuleReference({20, 9}, rule, 300, 12).meets);
 }
 
 }  // namespace

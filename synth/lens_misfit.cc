@@ -69,7 +69,8 @@ TrueImages::TrueImages(const SyntheticScene& scene)
     : scene_(scene), misfit_(scene.imaging, scene.camera.width, scene.camera.height) {}
 
 Eigen::Vector3d TrueImages::CameraPoint(const Eigen::Vector2d& display_px) const {
-  return scene_.screen_from_cam.Inverse() * TrueSurfacePointInScreen(scene_, UvFromDisplayPx(scene_.monitor, display_px));
+  return scene_.screen_from_cam.Inverse() *
+         TrueSurfacePointInScreen(scene_, UvFromDisplayPx(scene_.monitor, display_px));
 }
 
 Eigen::Vector2d TrueImages::ImageOf(const Eigen::Vector3d& camera_point) const {

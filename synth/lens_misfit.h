@@ -45,11 +45,12 @@ class LensMisfit {
   double Raw(int c, const Eigen::Vector2d& q) const;
 };
 
-// The true image of a display position on a synthetic photo: the true surface point where the display shows it
-// (TrueSurfacePointInScreen), in the camera frame, through the camera model and the true lens's misfit. truth.json's
-// image_px and the benches that measure a detector against the truth use this one copy. Holds the scene by
-// reference: it must outlive this, and each call follows the scene's current camera pose (a bench that moves the
-// camera from photo to photo keeps one TrueImages). The misfit field depends on the imager and the lens seed only.
+// The true image of a display position on a synthetic photo: the true surface point where the display shows
+// it (TrueSurfacePointInScreen), in the camera frame, through the camera model and the true lens's misfit.
+// truth.json's image_px and the benches that measure a detector against the truth use this one copy. Holds
+// the scene by reference: it must outlive this, and each call follows the scene's current camera pose (a
+// bench that moves the camera from photo to photo keeps one TrueImages). The misfit field depends on the
+// imager and the lens seed only.
 class TrueImages {
  public:
   explicit TrueImages(const SyntheticScene& scene);

@@ -236,14 +236,14 @@ TEST_F(BenchValidityCli, TrialsMeetTheirTruthAndCellsAreWhatTheTrialsImply) {
   const nlohmann::json& exact = rule["exact_intervals_expect"];
   EXPECT_EQ(exact["meets"], 0.0);
   EXPECT_NEAR(exact["fails"].get<double>(), 2 * 0.39, 0.06);
-  EXPECT_NEAR(exact["meets"].get<double>() + exact["consistent"].get<double>() + exact["fails"].get<double>(), 2,
-              1e-9);
+  EXPECT_NEAR(exact["meets"].get<double>() + exact["consistent"].get<double>() + exact["fails"].get<double>(),
+              2, 1e-9);
   EXPECT_EQ(j["summary"]["camera_rule"]["axis"]["y"]["meets"], 0);
   const std::string text = Slurp(out / "validity.txt");
-  for (const char* piece : {"bench validity --scales 0.25", "cores", "cov95 [Wilson 95%]",
-                            "radius, issue 16's rule", "FAIL - 0 of 2 cells meet it", "intervals exactly right",
-                            "camera position", "axis y: 0 / ",
-                            "detection errors against the truth, realism off (medians over 6 trials"}) {
+  for (const char* piece :
+       {"bench validity --scales 0.25", "cores", "cov95 [Wilson 95%]", "radius, issue 16's rule",
+        "FAIL - 0 of 2 cells meet it", "intervals exactly right", "camera position", "axis y: 0 / ",
+        "detection errors against the truth, realism off (medians over 6 trials"}) {
     EXPECT_THAT(text, HasSubstr(piece));
   }
 }
@@ -388,8 +388,8 @@ TEST_F(BenchValidityCli, RowTwoFollowsTheDetectorAcrossDistance) {
   };
   EXPECT_GT(Median(b["3000"]), 1.5 * Median(b["1000"]));
   const double near = rms(effect2["1000"]) / rms(row2["1000"]), far = rms(effect2["3000"]) / rms(row2["3000"]);
-  std::cout << "b medians " << Median(b["1000"]) << ", " << Median(b["3000"]) << " px; effect / row 2: " << near
-            << " at 1 m, " << far << " at 3 m\n";
+  std::cout << "b medians " << Median(b["1000"]) << ", " << Median(b["3000"])
+            << " px; effect / row 2: " << near << " at 1 m, " << far << " at 3 m\n";
   EXPECT_LT(near, 1.0);
   EXPECT_GT(far, 0.4);  // not over-stated beyond use where the detector's error matters
   EXPECT_LT(far, 1.3);

@@ -879,14 +879,13 @@ bool WriteOutputs(const fs::path& out, SweepTable& trials, json meta, const std:
   SweepTable table;
   table.header = CellColumns();
   json cells_json = json::array();
-  int pass = 0, camera_pass = 0, with_trials = 0, no_radius = 0;
+  int camera_pass = 0, with_trials = 0, no_radius = 0;
   RuleCount radius_count, camera_count[2][3];
   for (int c = 0; c < grid.Cells(); ++c) {
     const auto it = by_cell.find(c);
     if (it == by_cell.end()) continue;  // not in this shard
     CellStats s = CellOf(trials, it->second, grid.CellAt(c), rule);
     ++with_trials;
-    pass += s.radius_pass ? 1 : 0;
     radius_count.Add(rule, s.radius);
     for (int f = 0; f < 2; ++f) {
       for (int a = 0; a < 3; ++a) camera_count[f][a].Add(rule, s.camera[f][a]);
@@ -897,6 +896,7 @@ bool WriteOutputs(const fs::path& out, SweepTable& trials, json meta, const std:
     cells_json.push_back(CellJson(s));
     cells.push_back(std::move(s));
   }
+  const int pass = radius_count.meets;  // a cell meets the rule exactly when CellStats::radius_pass
   const bool all = with_trials > 0 && pass == with_trials;
   const RuleReference radius_ref = radius_count.Reference(rule);
   std::string summary = TableText(cells, rule);

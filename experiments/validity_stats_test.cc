@@ -154,7 +154,7 @@ TEST(ValidityStats, ExactIntervalsMeetTheRuleOnlyAsOftenAsTheSampleCountAllows) 
   EXPECT_NEAR(r.consistent / 20, 0.4232, 0.012);
   EXPECT_NEAR(r.fails / 20, 0.0276, 0.005);
   EXPECT_NEAR(r.meets + r.consistent + r.fails, 20, 1e-9);
-  // The spread of the count over grids: binomial(20, 0.55) has its 5th and 95th percentiles at 7 and 14.
+  // The spread of the count over grids: binomial(20, 0.55) has its 5th and 95th percentiles at 7 and 15.
   EXPECT_GE(r.meets_p05, 6);
   EXPECT_LE(r.meets_p05, 8);
   EXPECT_GE(r.meets_p95, 13);

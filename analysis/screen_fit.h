@@ -574,6 +574,12 @@ FieldFeatures MisfitComponentFeatures(const UncertaintyBudget::FieldComponent& c
 // (kGaussian) or s^2 J0(2 pi d / P) (kRing), s^2 = variance_px2.
 double MisfitComponentCovariance(const UncertaintyBudget::FieldComponent& component, double distance_px);
 
+// The degrees of freedom of the mean square over a width x height px imager of one Gaussian field (covariance
+// s^2 exp(-|d|^2 / 2 L^2), L = length_px), as an estimate of s^2: (W H)^2 / (the double integral over the
+// imager of rho^2), Satterthwaite's for a quadratic form of a Gaussian vector (E = s^2, var = 2 s^4
+// mean(rho^2)). A lens's stated misfit RMS is such a mean square: L = W / 5 gives 6-8 on 3:2 to 16:9 imagers;
+// L -> 0 gives many, L -> oo 1.
+double FieldMeanSquareDof(double length_px, int width, int height);
 
 // A stated lens model misfit field (FitOptions::stated_lens_misfit_px, the sidecar's misfit, analyze --lens-misfit)
 // is one: an RMS in [0, 100) px and, when the RMS is not 0, a positive finite correlation length in px.

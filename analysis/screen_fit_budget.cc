@@ -8,6 +8,7 @@
 #include <Eigen/Dense>
 #include <array>
 #include <cmath>
+#include <limits>
 #include <optional>
 #include <random>
 
@@ -123,6 +124,24 @@ double MisfitComponentCovariance(const UncertaintyBudget::FieldComponent& compon
   }
   const double z = distance_px / component.length_px;
   return component.variance_px2 * std::exp(-0.5 * z * z);
+}
+
+double FieldMeanSquareDof(double length_px, int width, int height) {
+  if (!(length_px > 0) || width <= 0 || height <= 0) return std::numeric_limits<double>::infinity();
+  // rho^2 = exp(-|d|^2 / L^2) = exp(-dx^2 / L^2) exp(-dy^2 / L^2): the double integral is the product of one
+  // per axis, each the mean over a 256-point grid's pairs (spacing <= L / 4 down to L = width / 64).
+  const auto mean_rho2 = [&](double extent) {
+    constexpr int kGrid = 256;
+    double sum = 0;
+    for (int i = 0; i < kGrid; ++i) {
+      for (int j = 0; j < kGrid; ++j) {
+        const double d = (i - j) * extent / kGrid / length_px;
+        sum += std::exp(-d * d);
+      }
+    }
+    return sum / (kGrid * kGrid);
+  };
+  return 1 / (mean_rho2(width) * mean_rho2(height));
 }
 
 }  // namespace curvecheck
@@ -621,10 +640,19 @@ std::vector<QuantityVariance> CompleteBudget(const Setup& setup, ModelWork& w, c
                                                    o.stated_lens_misfit_px * o.stated_lens_misfit_px, 0};
     const QuantityVariance part = FieldVariance(setup, *lin, w.correction, stated);
     bud.stated_misfit_share_curvature_per_mm = std::sqrt(std::max(0.0, part.var_k));
+    // The stated RMS is one lens's field over one imager: as the field's variance it has the degrees of
+    // freedom of that field's mean square (FieldMeanSquareDof), few for a field as long as a fifth of the
+    // image.
+    const double stated_dof =
+        FieldMeanSquareDof(o.stated_lens_misfit_length_px, setup.camera->width, setup.camera->height);
     const std::string field = fmt::format(
-        "a Gaussian field of RMS {:.4f} px per coordinate at a correlation length of {:.0f} px ({})",
+        "a Gaussian field of RMS {:.4f} px per coordinate at a correlation length of {:.0f} px ({}; one "
+        "lens's "
+        "mean square over the {} x {} px imager, so an estimate of the field's variance with {:.1f} degrees "
+        "of freedom)",
         o.stated_lens_misfit_px, o.stated_lens_misfit_length_px,
-        o.stated_lens_misfit_source.empty() ? "stated" : o.stated_lens_misfit_source);
+        o.stated_lens_misfit_source.empty() ? "stated" : o.stated_lens_misfit_source, setup.camera->width,
+        setup.camera->height, stated_dof);
     stated_rule = "; of this field and the calibration's, the row takes the one that moves the curvature more";
     if (part.var_k > misfit.var_k) {
       c.source = fmt::format("{}, propagated through {} linearization; it moves the curvature more than the field "
@@ -633,7 +661,7 @@ std::vector<QuantityVariance> CompleteBudget(const Setup& setup, ModelWork& w, c
                              bud.stated_misfit_share_curvature_per_mm,
                              bud.measured_misfit_share_curvature_per_mm, c.source);
       c.type = "B";
-      c.dof = kInf;
+      c.dof = stated_dof;
       misfit = part;
       bud.misfit_row_basis = "calibration";
     } else {
@@ -644,16 +672,29 @@ std::vector<QuantityVariance> CompleteBudget(const Setup& setup, ModelWork& w, c
     }
   }
   c.assumption = fmt::format(
-      "the true lens departs from its model by stationary fields over the image, independent per coordinate and "
-      "common to every photo (and so to every screen model: measured once, on the chosen model's residuals): up to "
+      "the true lens departs from its model by stationary fields over the image, independent per coordinate "
+      "and "
+      "common to every photo (and so to every screen model: measured once, on the chosen model's residuals): "
+      "up to "
       "two Gaussian fields (covariance s^2 exp(-d^2 / 2 L^2)) and one ring field (band-pass, covariance "
       "s^2 J0(2 pi d / P): a beat whose correlation changes sign), each as {} random Fourier features; the "
       "variances, lengths and period are those that reproduce the residuals' correlation at 1 to 28 feature "
-      "spacings after the fit (the part the fit absorbs into the poses and the screen is inferred from the part it "
-      "leaves, in the same family), the combination chosen by AIC. Any other error correlated between features "
-      "(detector bias that varies with the image position, moire) is measured here too, so it may be counted twice "
-      "with the detector row: conservative. Degrees of freedom 2 (s^2 / u(s^2))^2{}. A calibration's measured misfit, "
-      "when given, is a Gaussian field of its RMS and length, type B with infinite degrees of freedom",
+      "spacings after the fit (the part the fit absorbs into the poses and the screen is inferred from the "
+      "part it "
+      "leaves, in the same family), the combination chosen by AIC. Any other error correlated between "
+      "features "
+      "(detector bias that varies with the image position, moire) is measured here too, so it may be counted "
+      "twice "
+      "with the detector row: conservative. Degrees of freedom 2 (s^2 / u(s^2))^2{}. A calibration's "
+      "measured misfit, "
+      "when given, is a Gaussian field of its RMS and length, type B; its RMS is one field's mean square "
+      "over the "
+      "imager, whose degrees of freedom (W H)^2 / (integral over the imager twice of rho(p - p')^2) "
+      "(Satterthwaite's, "
+      "for a quadratic form of a Gaussian field) are the row's: a quantity the fit takes from the field's "
+      "finer "
+      "structure then follows Student's t (the measured RMS scales that structure), and the coverage factor "
+      "widens",
       o.misfit_features, stated_rule);
   // Combined, fully in quadrature (the sources are independent; within a source the correlation of k with the
   // positions is kept).

@@ -462,26 +462,63 @@ void EstimateMisfitCorrelation(const Setup& setup, const Linearization& lin,
 
 }  // namespace
 
-// A stationary field of one component's family and variance, common to every photo, propagated through G exactly
-// from its random-feature basis: cov(q) = s2 / v (G_x Phi Phi^T G_x^T + G_y Phi Phi^T G_y^T), v the basis's mean
-// variance at the points; G_f less G S M_f where the estimate is corrected for the pixel-locking signature.
+// A stationary field of one component's family and variance, common to every photo, propagated through G:
+// cov(q) = A_x K A_x^T + A_y K A_y^T, K_ij = MisfitComponentCovariance(component, |p_i - p_j|) at the
+// detections p_i (every photo's: the field is the lens's), A_f = G_f less G S M_f where the estimate is
+// corrected for the pixel-locking signature. Exact up to kExactFieldPoints detections (kExactRingFieldPoints
+// for a ring: n^2 covariances, taken in column blocks); above, the family's random-feature basis Phi stands
+// in for K (cov(q) = s2 / v (A_x Phi Phi^T A_x^T + ...), v the basis's mean variance at the points), whose
+// sampling error moved single rows by up to ~10%: with the basis's 400 features, a Gaussian field of 0.2 px
+// RMS at 384 px on a 1080p camera 3 m from the screen, straight on, had the camera's lateral position's row
+// 8% below the exact one and the radius's 10% above (docs/bench/validity_bench.txt, twenty-fourth session).
 QuantityVariance FieldVariance(const Setup& setup, const Linearization& lin, const PixelLockingCorrection& correction,
                                const UncertaintyBudget::FieldComponent& component) {
   const int n = static_cast<int>(lin.obs.size());
-  // G_f Phi = sel (J^T J)^+ (J_f^T Phi), J_f^T Phi photo by photo (a photo's rows of J touch its pose and the
-  // shared columns only): a quarter of the products of the dense G_f Phi at ten photos.
-  double phi_squared = 0;
-  RowMajor phi;
-  std::array<Eigen::MatrixXd, 2> m_phi;
-  const std::array<RowMajor, 2> jtp = JacobianTimesBasis(
-      lin, PhotoBlocks(setup, lin), MisfitComponentFeatures(component, *setup.options), &phi, &phi_squared,
-      correction.ok ? &correction.solve : nullptr, &m_phi);
-  // The corrected q answers the field through G - G S M (PixelLockingCorrection::Response).
-  Eigen::MatrixXd mx = lin.sel_pinv * jtp[0], my = lin.sel_pinv * jtp[1];
-  if (correction.ok) mx -= correction.gs * m_phi[0], my -= correction.gs * m_phi[1];
-  const double variance = phi_squared / n;
-  return QuantityVariance::FromCovariance(
-      component.variance_px2 / variance * (mx * mx.transpose() + my * my.transpose()), setup.photos);
+  const bool ring = component.family == UncertaintyBudget::FieldFamily::kRing;
+  if (n > (ring ? kExactRingFieldPoints : kExactFieldPoints)) {
+    // G_f Phi = sel (J^T J)^+ (J_f^T Phi), J_f^T Phi photo by photo (a photo's rows of J touch its pose and
+    // the shared columns only): a quarter of the products of the dense G_f Phi at ten photos.
+    double phi_squared = 0;
+    RowMajor phi;
+    std::array<Eigen::MatrixXd, 2> m_phi;
+    const std::array<RowMajor, 2> jtp =
+        JacobianTimesBasis(lin, PhotoBlocks(setup, lin), MisfitComponentFeatures(component, *setup.options),
+                           &phi, &phi_squared, correction.ok ? &correction.solve : nullptr, &m_phi);
+    // The corrected q answers the field through G - G S M (PixelLockingCorrection::Response).
+    Eigen::MatrixXd mx = lin.sel_pinv * jtp[0], my = lin.sel_pinv * jtp[1];
+    if (correction.ok) mx -= correction.gs * m_phi[0], my -= correction.gs * m_phi[1];
+    const double variance = phi_squared / n;
+    return QuantityVariance::FromCovariance(
+        component.variance_px2 / variance * (mx * mx.transpose() + my * my.transpose()), setup.photos);
+  }
+  const long q = lin.sel_pinv.rows();
+  std::vector<Eigen::Vector2d> points(static_cast<size_t>(n));
+  for (int i = 0; i < n; ++i)
+    points[static_cast<size_t>(i)] = setup.obs[lin.obs[static_cast<size_t>(i)]].detected;
+  // A = [A_x; A_y], 2q x n: A_f's column i is q's response to a unit shift of detection i in coordinate f.
+  Eigen::MatrixXd a(2 * q, n);
+  for (int f = 0; f < 2; ++f) {
+    const Eigen::MatrixXd jf = lin.j_obs(Eigen::seq(f, Eigen::last, 2), Eigen::all);  // J_f, n x t
+    Eigen::MatrixXd g = lin.sel_pinv * jf.transpose();
+    if (correction.ok) g -= correction.gs * correction.SolveColumns(f);
+    a.middleRows(f * q, q) = g;
+  }
+  // A K in column blocks of K (n x 256 at a time; the candidates' budgets may already run in parallel).
+  constexpr long kBlock = 256;
+  Eigen::MatrixXd ak(2 * q, n), k;
+  for (long j0 = 0; j0 < n; j0 += kBlock) {
+    const long m = std::min<long>(kBlock, n - j0);
+    k.resize(n, m);
+    for (long j = 0; j < m; ++j) {
+      const Eigen::Vector2d& pj = points[static_cast<size_t>(j0 + j)];
+      for (long i = 0; i < n; ++i)
+        k(i, j) = MisfitComponentCovariance(component, (points[static_cast<size_t>(i)] - pj).norm());
+    }
+    ak.middleCols(j0, m).noalias() = a * k;
+  }
+  const Eigen::MatrixXd cov =
+      ak.topRows(q) * a.topRows(q).transpose() + ak.bottomRows(q) * a.bottomRows(q).transpose();
+  return QuantityVariance::FromCovariance(0.5 * (cov + cov.transpose()), setup.photos);
 }
 
 // The lens model misfit's RMS, measured from the residuals without the pixel-locking signature (as

@@ -646,10 +646,9 @@ std::vector<QuantityVariance> CompleteBudget(const Setup& setup, ModelWork& w, c
     const double stated_dof =
         FieldMeanSquareDof(o.stated_lens_misfit_length_px, setup.camera->width, setup.camera->height);
     const std::string field = fmt::format(
-        "a Gaussian field of RMS {:.4f} px per coordinate at a correlation length of {:.0f} px ({}; one "
-        "lens's "
-        "mean square over the {} x {} px imager, so an estimate of the field's variance with {:.1f} degrees "
-        "of freedom)",
+        "a Gaussian field of RMS {:.4f} px per coordinate at a correlation length of {:.0f} px ({}; one lens's "
+        "mean square over the {} x {} px imager, so an estimate of the field's variance with {:.1f} degrees of "
+        "freedom)",
         o.stated_lens_misfit_px, o.stated_lens_misfit_length_px,
         o.stated_lens_misfit_source.empty() ? "stated" : o.stated_lens_misfit_source, setup.camera->width,
         setup.camera->height, stated_dof);
@@ -673,29 +672,22 @@ std::vector<QuantityVariance> CompleteBudget(const Setup& setup, ModelWork& w, c
   }
   c.assumption = fmt::format(
       "the true lens departs from its model by stationary fields over the image, independent per coordinate "
-      "and "
-      "common to every photo (and so to every screen model: measured once, on the chosen model's residuals): "
-      "up to "
-      "two Gaussian fields (covariance s^2 exp(-d^2 / 2 L^2)) and one ring field (band-pass, covariance "
-      "s^2 J0(2 pi d / P): a beat whose correlation changes sign), each as {} random Fourier features; the "
-      "variances, lengths and period are those that reproduce the residuals' correlation at 1 to 28 feature "
-      "spacings after the fit (the part the fit absorbs into the poses and the screen is inferred from the "
-      "part it "
-      "leaves, in the same family), the combination chosen by AIC. Any other error correlated between "
-      "features "
-      "(detector bias that varies with the image position, moire) is measured here too, so it may be counted "
-      "twice "
-      "with the detector row: conservative. Degrees of freedom 2 (s^2 / u(s^2))^2{}. A calibration's "
-      "measured misfit, "
+      "and common to every photo (and so to every screen model: measured once, on the chosen model's "
+      "residuals): up to two Gaussian fields (covariance s^2 exp(-d^2 / 2 L^2)) and one ring field "
+      "(band-pass, covariance s^2 J0(2 pi d / P): a beat whose correlation changes sign), fitted through {} "
+      "random Fourier features each and propagated with their covariance between every two detections "
+      "(through the features above {} detections, {} for a ring); the variances, lengths and period are "
+      "those that reproduce the residuals' correlation at 1 to 28 feature spacings after the fit (the part "
+      "the fit absorbs into the poses and the screen is inferred from the part it leaves, in the same "
+      "family), the combination chosen by AIC. Any other error correlated between features (detector bias "
+      "that varies with the image position, moire) is measured here too, so it may be counted twice with the "
+      "detector row: conservative. Degrees of freedom 2 (s^2 / u(s^2))^2{}. A calibration's measured misfit, "
       "when given, is a Gaussian field of its RMS and length, type B; its RMS is one field's mean square "
-      "over the "
-      "imager, whose degrees of freedom (W H)^2 / (integral over the imager twice of rho(p - p')^2) "
-      "(Satterthwaite's, "
-      "for a quadratic form of a Gaussian field) are the row's: a quantity the fit takes from the field's "
-      "finer "
-      "structure then follows Student's t (the measured RMS scales that structure), and the coverage factor "
-      "widens",
-      o.misfit_features, stated_rule);
+      "over the imager, whose degrees of freedom (W H)^2 / (integral over the imager twice of rho(p - p')^2) "
+      "(Satterthwaite's, for a quadratic form of a Gaussian field) are the row's: a quantity the fit takes "
+      "from the field's finer structure then follows Student's t (the measured RMS scales that structure), "
+      "and the coverage factor widens",
+      o.misfit_features, kExactFieldPoints, kExactRingFieldPoints, stated_rule);
   // Combined, fully in quadrature (the sources are independent; within a source the correlation of k with the
   // positions is kept).
   QuantityVariance total(setup.photos);

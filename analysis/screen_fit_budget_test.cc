@@ -1000,8 +1000,8 @@ TEST(UncertaintyBudgetTest, StatedMisfitDegreesOfFreedomAreThoseOfOneFieldsMeanS
     EXPECT_NEAR(mean, 1.0, 0.05);
     EXPECT_NEAR(simulated / dof, 1.0, 0.1) << "L " << length;
   }
-  EXPECT_NEAR(FieldMeanSquareDof(480, 2400, 1600), 7.2,
-              0.1);  // (sqrt(pi) L/W - (L/W)^2 ...)^-1 per axis, by hand
+  // By hand: 1 / (mean rho^2 over each axis's pairs), sqrt(pi) L / E - (L / E)^2 per axis.
+  EXPECT_NEAR(FieldMeanSquareDof(480, 2400, 1600), 7.2, 0.1);
   EXPECT_GT(FieldMeanSquareDof(10, 2400, 1600), 5000);
   EXPECT_NEAR(FieldMeanSquareDof(1e7, 2400, 1600), 1.0, 1e-3);
   EXPECT_TRUE(std::isinf(FieldMeanSquareDof(0, 2400, 1600)));

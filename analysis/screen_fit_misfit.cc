@@ -492,9 +492,7 @@ QuantityVariance FieldVariance(const Setup& setup, const Linearization& lin, con
         component.variance_px2 / variance * (mx * mx.transpose() + my * my.transpose()), setup.photos);
   }
   const long q = lin.sel_pinv.rows();
-  std::vector<Eigen::Vector2d> points(static_cast<size_t>(n));
-  for (int i = 0; i < n; ++i)
-    points[static_cast<size_t>(i)] = setup.obs[lin.obs[static_cast<size_t>(i)]].detected;
+  const std::vector<Eigen::Vector2d> points = DetectedPoints(setup, lin);
   // A = [A_x; A_y], 2q x n: A_f's column i is q's response to a unit shift of detection i in coordinate f.
   Eigen::MatrixXd a(2 * q, n);
   for (int f = 0; f < 2; ++f) {

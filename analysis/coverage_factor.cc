@@ -1,5 +1,5 @@
 // Coverage factors of the screen fit's uncertainty budget (analysis/screen_fit.h): Student's t, and the
-// convolution of the budget's normal part with its rectangular row (CoverageFactor).
+// convolution of the budget's normal part with its rectangular row and its sampled row (CoverageFactor).
 #include <fmt/format.h>
 
 #include <algorithm>
@@ -47,22 +47,32 @@ double StudentTCoverageFactor(double p, double dof) {
 }
 
 const char* RowDistributionName(RowDistribution d) {
-  return d == RowDistribution::kRectangular ? "rectangular" : "normal";
+  switch (d) {
+    case RowDistribution::kRectangular: return "rectangular";
+    case RowDistribution::kSampled: return "sampled";
+    case RowDistribution::kNormal: break;
+  }
+  return "normal";
 }
 
 double CoverageFactor(double p, const std::vector<CoverageRow>& rows, double* normal_dof) {
   if (!(p > 0 && p < 1)) throw Error("coverage factor", fmt::format("coverage probability {} is not in (0, 1)", p), "");
-  // The largest rectangular row stays rectangular; every other row goes to the normal part.
-  const CoverageRow* rect = nullptr;
+  // The largest rectangular row stays rectangular, the largest sampled row sampled; every other row goes to the
+  // normal part.
+  const CoverageRow *rect = nullptr, *sampled = nullptr;
   for (const CoverageRow& r : rows) {
     if (!(std::isfinite(r.u) && r.u >= 0)) {
       throw Error("coverage factor", fmt::format("a row's standard uncertainty is {}", r.u), "");
     }
     if (r.distribution == RowDistribution::kRectangular && r.u > 0 && (!rect || r.u > rect->u)) rect = &r;
+    if (r.distribution == RowDistribution::kSampled && r.draws && !r.draws->empty() && r.u > 0 &&
+        (!sampled || r.u > sampled->u)) {
+      sampled = &r;
+    }
   }
   double var_n = 0, denominator = 0;
   for (const CoverageRow& r : rows) {
-    if (&r == rect) continue;
+    if (&r == rect || &r == sampled) continue;
     var_n += r.u * r.u;
     if (std::isfinite(r.dof)) denominator += std::pow(r.u, 4) / std::max(1.0, r.dof);
   }
@@ -71,18 +81,39 @@ double CoverageFactor(double p, const std::vector<CoverageRow>& rows, double* no
   if (normal_dof) *normal_dof = dof;
   const double t = StudentTCoverageFactor(p, dof);
   const double a = rect ? std::sqrt(3.0) * rect->u : 0;
-  const double uc = std::sqrt(var_n + a * a / 3);
+  const double us = sampled ? sampled->u : 0;
+  const double uc = std::sqrt(var_n + a * a / 3 + us * us);
   if (!(uc > 0)) return t;
   const double s = std::sqrt(var_n) * t / NormalQuantile(0.5 + 0.5 * p);
-  if (a <= 1e-12 * uc) return t;
-  if (s <= 1e-12 * uc) return p * a / uc;
-  // P(|X| <= c) for X = N(0, s^2) + U(-a, a): F(x) = (s / 2a) [G((x + a)/s) - G((x - a)/s)] with
-  // G(t) = t Phi(t) + phi(t) (the integral of Phi); G(-t) = G(t) - t gives P = (s/a)[G((c+a)/s) - G((c-a)/s)] - 1.
+  const bool has_rect = a > 1e-12 * uc, has_normal = s > 1e-12 * uc;
+  if (!sampled || us <= 1e-12 * uc) {
+    if (!has_rect) return t;
+    if (!has_normal) return p * a / uc;
+  }
+  // The distribution function of N(0, s^2) + U(-a, a): (s / 2a) [G((y + a)/s) - G((y - a)/s)] with
+  // G(t) = t Phi(t) + phi(t) (the integral of Phi); Phi(y / s) without the rectangle, the rectangle's without the
+  // normal part, a step without either.
   const auto G = [](double x) {
     return x * 0.5 * std::erfc(-x / std::sqrt(2.0)) + NormalDensity(x);
   };
-  const auto inside = [&](double c) { return s / a * (G((c + a) / s) - G((c - a) / s)) - 1; };
-  double lo = 0, hi = a + 10 * s;  // inside(hi) > 1 - 1e-20
+  const auto cdf = [&](double y) {
+    if (has_rect && has_normal) return s / (2 * a) * (G((y + a) / s) - G((y - a) / s));
+    if (has_rect) return std::clamp((y + a) / (2 * a), 0.0, 1.0);
+    if (has_normal) return 0.5 * std::erfc(-y / (s * std::sqrt(2.0)));
+    return y >= 0 ? 1.0 : 0.0;
+  };
+  // P(|x + Y| <= c) = F(c - x) - F(-c - x) for Y symmetric, averaged over the sampled row's draws x (the same for
+  // -x); x = 0 without one. By G(-t) = G(t) - t this is (s/a)[G((c+a)/s) - G((c-a)/s)] - 1 at x = 0.
+  const std::vector<double> zero = {0.0};
+  const std::vector<double>& draws = sampled && us > 1e-12 * uc ? *sampled->draws : zero;
+  double largest = 0;
+  for (double x : draws) largest = std::max(largest, std::abs(x));
+  const auto inside = [&](double c) {
+    double sum = 0;
+    for (double x : draws) sum += cdf(c - us * std::abs(x)) - cdf(-c - us * std::abs(x));
+    return sum / static_cast<double>(draws.size());
+  };
+  double lo = 0, hi = us * largest + a + 10 * s;  // inside(hi) > 1 - 1e-20
   for (int i = 0; i < 200 && hi - lo > 1e-13 * uc; ++i) {
     const double mid = 0.5 * (lo + hi);
     (inside(mid) < p ? lo : hi) = mid;

@@ -233,8 +233,10 @@ struct CameraEstimate {
 // first camera's position, from one source (GUM, JCGM 100:2008 section 5: rows combined in quadrature).
 // How a budget row's error is distributed: the coverage factor depends on it (JCGM 100 G.2.3: a rectangular
 // distribution of standard uncertainty u lies wholly within +- sqrt(3) u, and 95% of it within +- 1.645 u).
-enum class RowDistribution { kNormal, kRectangular };
-const char* RowDistributionName(RowDistribution d);  // "normal", "rectangular"
+// A stated lens misfit is a field scaled to its stated RMS over the imager (FitOptions::stated_lens_misfit_px):
+// its error is not normal (kSampled: drawn, DrawNormalisedField).
+enum class RowDistribution { kNormal, kRectangular, kSampled };
+const char* RowDistributionName(RowDistribution d);  // "normal", "rectangular", "sampled"
 
 struct BudgetComponent {
   std::string name;  // "detection noise", "detector systematic", "lens calibration", "pixel pitch"
@@ -518,6 +520,9 @@ struct CoverageRow {
   double u = 0;
   double dof = std::numeric_limits<double>::infinity();
   RowDistribution distribution = RowDistribution::kNormal;
+  // kSampled: the row's error is u times one of these, equally likely (magnitudes: the distribution is
+  // symmetric). Not owned.
+  const std::vector<double>* draws = nullptr;
 };
 
 // The coverage factor k of a quantity whose error is the sum of independent rows: the interval value +- k u_c,
@@ -528,7 +533,9 @@ struct CoverageRow {
 // distributions rather than the normal approximation of JCGM 100 G.6.6, which over-covers when a rectangular row
 // dominates: at p = 0.95 k goes from t_p(nu) with no rectangular row to 1.645 when it is alone); further
 // rectangular rows are pooled into the normal part. Throws Error for p outside (0, 1), a negative or non-finite
-// u. Writes the normal part's dof to *normal_dof when given.
+// u. A sampled row (the largest with draws; others join the normal part) is convolved with the normal and
+// rectangular parts by averaging their distribution function over its draws: P(|u x + N + U| <= c), the mean over
+// the draws x. Writes the normal part's dof to *normal_dof when given.
 double CoverageFactor(double p, const std::vector<CoverageRow>& rows, double* normal_dof = nullptr);
 
 // The coverage probability of +- 1 standard deviation of a normal distribution, erf(1 / sqrt 2): the level of the
@@ -580,6 +587,27 @@ double MisfitComponentCovariance(const UncertaintyBudget::FieldComponent& compon
 // mean(rho^2)). A lens's stated misfit RMS is such a mean square: L = W / 5 gives 6-8 on 3:2 to 16:9 imagers;
 // L -> 0 gives many, L -> oo 1.
 double FieldMeanSquareDof(double length_px, int width, int height);
+
+// Draws of linear responses to a lens misfit field that is scaled to RMS 1 over the imager, as a calibration's
+// stated RMS is one lens's mean square there (and as synth/lens_misfit.h scales each lens): per coordinate c an
+// independent Gaussian field f_c (covariance exp(-|d|^2 / 2 L^2)), z_c = f_c / sqrt(mean square of f_c over the
+// width x height px imager). Row r of weights[c] (rows x points) weights z_c at the points; draw d of row r is
+// sum_c weights[c].row(r) z_c. The field is expanded in the imager's Karhunen-Loeve modes (the kernel separates
+// in x and y: the products of each axis's eigenvectors on a grid of cell centres, extended to the points by
+// Nystrom's formula, modes down to 1e-6 of the largest), so the mean square is exactly sum lambda g^2 of the
+// same normal draws g. gaussian_sd: each row's standard deviation for the field without the scaling (E[draw^2]
+// differs: the scaling narrows what follows the field's mean square, the mean, and widens the finer structure,
+// like Student's t). Empty (ok false) when the imager holds too many modes (L below about width / 64, where the
+// mean square has hundreds of degrees of freedom and the scaling is negligible). Deterministic in seed.
+struct NormalisedFieldDraws {
+  bool ok = false;
+  Eigen::MatrixXd draws;        // rows x count
+  Eigen::VectorXd gaussian_sd;  // per row
+  int modes = 0;                // per coordinate
+};
+NormalisedFieldDraws DrawNormalisedField(const std::vector<Eigen::Vector2d>& points,
+                                         const std::array<Eigen::MatrixXd, 2>& weights, double length_px, int width,
+                                         int height, int count, unsigned seed);
 
 // A stated lens model misfit field (FitOptions::stated_lens_misfit_px, the sidecar's misfit, analyze --lens-misfit)
 // is one: an RMS in [0, 100) px and, when the RMS is not 0, a positive finite correlation length in px.

@@ -6,6 +6,7 @@
 #include <fmt/format.h>
 
 #include <Eigen/Dense>
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <limits>
@@ -142,6 +143,102 @@ double FieldMeanSquareDof(double length_px, int width, int height) {
     return sum / (kGrid * kGrid);
   };
   return 1 / (mean_rho2(width) * mean_rho2(height));
+}
+
+NormalisedFieldDraws DrawNormalisedField(const std::vector<Eigen::Vector2d>& points,
+                                         const std::array<Eigen::MatrixXd, 2>& weights, double length_px, int width,
+                                         int height, int count, unsigned seed) {
+  NormalisedFieldDraws out;
+  const long n = static_cast<long>(points.size()), rows = weights[0].rows();
+  if (!(length_px > 0) || width <= 0 || height <= 0 || count < 1 || weights[1].rows() != rows ||
+      weights[0].cols() != n || weights[1].cols() != n) {
+    return out;
+  }
+  // One axis's modes: the kernel's eigenvectors v (|v| = 1, K v = mu v) on a grid of g cell centres (at least 8 per
+  // length, 64 to 256), as psi = sqrt(g) v (mean square 1 over the grid) with lambda = mu / g (sum 1), extended to
+  // the points by psi(p) = sqrt(g) sum_i k(p, x_i) v_i / mu.
+  struct Axis {
+    Eigen::VectorXd lambda;
+    Eigen::MatrixXd at;  // points x modes
+  };
+  const auto axis = [&](int extent, int coordinate, double* largest) -> std::optional<Axis> {
+    const double per_length = 8.0 * extent / length_px;
+    if (per_length > 512) return std::nullopt;
+    const int g = std::clamp(static_cast<int>(std::ceil(per_length)), 64, 256);
+    Eigen::VectorXd x(g);
+    for (int i = 0; i < g; ++i) x[i] = (i + 0.5) * extent / g - 0.5;
+    const auto kernel = [&](double a, double b) {
+      const double z = (a - b) / length_px;
+      return std::exp(-0.5 * z * z);
+    };
+    Eigen::MatrixXd k(g, g);
+    for (int i = 0; i < g; ++i) {
+      for (int j = 0; j < g; ++j) k(i, j) = kernel(x[i], x[j]);
+    }
+    const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(k);
+    if (eig.info() != Eigen::Success) return std::nullopt;
+    const double top = eig.eigenvalues().maxCoeff();
+    *largest = top / g;
+    std::vector<int> keep;
+    for (int m = g - 1; m >= 0; --m) {
+      if (eig.eigenvalues()[m] >= 1e-6 * top) keep.push_back(m);
+    }
+    Axis a{Eigen::VectorXd(static_cast<long>(keep.size())), Eigen::MatrixXd(n, static_cast<long>(keep.size()))};
+    Eigen::MatrixXd kp(n, g);
+    for (long p = 0; p < n; ++p) {
+      for (int i = 0; i < g; ++i) kp(p, i) = kernel(points[static_cast<size_t>(p)][coordinate], x[i]);
+    }
+    for (size_t m = 0; m < keep.size(); ++m) {
+      const double mu = eig.eigenvalues()[keep[m]];
+      a.lambda[static_cast<long>(m)] = mu / g;
+      a.at.col(static_cast<long>(m)) = std::sqrt(static_cast<double>(g)) / mu * (kp * eig.eigenvectors().col(keep[m]));
+    }
+    return a;
+  };
+  double top_x = 0, top_y = 0;
+  const std::optional<Axis> ax = axis(width, 0, &top_x), ay = axis(height, 1, &top_y);
+  if (!ax || !ay) return out;
+  // The two-dimensional modes psi_a(x) psi_b(y) down to 1e-6 of the largest lambda_a lambda_b.
+  std::vector<std::pair<long, long>> modes;
+  for (long i = 0; i < ax->lambda.size(); ++i) {
+    for (long j = 0; j < ay->lambda.size(); ++j) {
+      if (ax->lambda[i] * ay->lambda[j] >= 1e-6 * top_x * top_y) modes.emplace_back(i, j);
+    }
+  }
+  constexpr size_t kMaxModes = 4000;
+  if (modes.size() > kMaxModes) return out;
+  const long m = static_cast<long>(modes.size());
+  Eigen::VectorXd lambda(m);
+  Eigen::MatrixXd psi(n, m);
+  for (long k = 0; k < m; ++k) {
+    lambda[k] = ax->lambda[modes[static_cast<size_t>(k)].first] * ay->lambda[modes[static_cast<size_t>(k)].second];
+    psi.col(k) = ax->at.col(modes[static_cast<size_t>(k)].first).cwiseProduct(
+        ay->at.col(modes[static_cast<size_t>(k)].second));
+  }
+  // Row r's response to coordinate c's field sum_k sqrt(lambda_k) g_k psi_k: C_c g, C_c = W_c psi sqrt(lambda).
+  const Eigen::VectorXd root = lambda.cwiseSqrt();
+  std::array<Eigen::MatrixXd, 2> c;
+  out.gaussian_sd = Eigen::VectorXd::Zero(rows);
+  for (int f = 0; f < 2; ++f) {
+    c[static_cast<size_t>(f)] = (weights[static_cast<size_t>(f)] * psi) * root.asDiagonal();
+    out.gaussian_sd += c[static_cast<size_t>(f)].rowwise().squaredNorm();
+  }
+  out.gaussian_sd = out.gaussian_sd.cwiseSqrt();
+  std::mt19937_64 rng(seed);
+  std::normal_distribution<double> unit(0, 1);
+  out.draws = Eigen::MatrixXd::Zero(rows, count);
+  Eigen::MatrixXd g(m, count);
+  for (int f = 0; f < 2; ++f) {
+    for (long d = 0; d < count; ++d) {
+      for (long k = 0; k < m; ++k) g(k, d) = unit(rng);
+    }
+    // The field's mean square over the imager: sum lambda_k g_k^2 (the modes are orthonormal there).
+    const Eigen::RowVectorXd ms = lambda.transpose() * g.cwiseAbs2();
+    out.draws += (c[static_cast<size_t>(f)] * g) * ms.cwiseSqrt().cwiseInverse().asDiagonal();
+  }
+  out.modes = static_cast<int>(m);
+  out.ok = true;
+  return out;
 }
 
 }  // namespace curvecheck
@@ -640,28 +737,40 @@ std::vector<QuantityVariance> CompleteBudget(const Setup& setup, ModelWork& w, c
                                                    o.stated_lens_misfit_px * o.stated_lens_misfit_px, 0};
     const QuantityVariance part = FieldVariance(setup, *lin, w.correction, stated);
     bud.stated_misfit_share_curvature_per_mm = std::sqrt(std::max(0.0, part.var_k));
-    // The stated RMS is one lens's field over one imager: as the field's variance it has the degrees of
-    // freedom of that field's mean square (FieldMeanSquareDof), few for a field as long as a fifth of the
-    // image.
+    // The stated RMS is one lens's field over one imager, which that RMS scales: the row's error is drawn
+    // (StatedFieldDraws) when it is the row's; the mean square's dof (FieldMeanSquareDof) where it cannot be.
     const double stated_dof =
         FieldMeanSquareDof(o.stated_lens_misfit_length_px, setup.camera->width, setup.camera->height);
     const std::string field = fmt::format(
-        "a Gaussian field of RMS {:.4f} px per coordinate at a correlation length of {:.0f} px ({}; one lens's "
-        "mean square over the {} x {} px imager, so an estimate of the field's variance with {:.1f} degrees of "
-        "freedom)",
+        "a Gaussian field of RMS {:.4f} px per coordinate at a correlation length of {:.0f} px ({}), one lens's "
+        "field scaled to that RMS over the {} x {} px imager",
         o.stated_lens_misfit_px, o.stated_lens_misfit_length_px,
         o.stated_lens_misfit_source.empty() ? "stated" : o.stated_lens_misfit_source, setup.camera->width,
-        setup.camera->height, stated_dof);
+        setup.camera->height);
+    const auto distribution = [&](bool drawn) {
+      return drawn ? fmt::format("its error distribution drawn ({} draws of the field in the imager's Karhunen-Loeve "
+                              "modes, each divided by its own RMS: the mean square's {:.1f} degrees of freedom "
+                              "are in the draws)",
+                              kStatedFieldDraws, stated_dof)
+                : fmt::format("too short a field to draw over this imager: Student's t at its mean square's {:.1f} "
+                              "degrees of freedom",
+                              stated_dof);
+    };
     stated_rule = "; of this field and the calibration's, the row takes the one that moves the curvature more";
     if (part.var_k > misfit.var_k) {
-      c.source = fmt::format("{}, propagated through {} linearization; it moves the curvature more than the field "
-                             "measured from the residuals (u(k) {:.3g} against {:.3g} 1/mm), which was: {}",
-                             field, &reference == fit ? "the fit's" : "this model's",
+      misfit = part;
+      misfit.draws = StatedFieldDraws(setup, *lin, w.correction, o.stated_lens_misfit_length_px,
+                                      fit->curvature_per_mm);
+      const bool drawn = !misfit.draws.empty();
+      c.source = fmt::format("{}, {}, propagated through {} linearization; it moves the curvature more than the "
+                             "field measured from the residuals (u(k) {:.3g} against {:.3g} 1/mm), which was: {}",
+                             field, distribution(drawn), &reference == fit ? "the fit's" : "this model's",
                              bud.stated_misfit_share_curvature_per_mm,
                              bud.measured_misfit_share_curvature_per_mm, c.source);
       c.type = "B";
-      c.dof = stated_dof;
-      misfit = part;
+      // The coverage factor averages over the draws (no dof), or Student's t at the mean square's dof.
+      c.distribution = drawn ? RowDistribution::kSampled : RowDistribution::kNormal;
+      c.dof = drawn ? kInf : stated_dof;
       bud.misfit_row_basis = "calibration";
     } else {
       c.source += fmt::format("; it moves the curvature more than the calibration's misfit, {} (u(k) {:.3g} against "
@@ -682,11 +791,13 @@ std::vector<QuantityVariance> CompleteBudget(const Setup& setup, ModelWork& w, c
       "family), the combination chosen by AIC. Any other error correlated between features (detector bias "
       "that varies with the image position, moire) is measured here too, so it may be counted twice with the "
       "detector row: conservative. Degrees of freedom 2 (s^2 / u(s^2))^2{}. A calibration's measured misfit, "
-      "when given, is a Gaussian field of its RMS and length, type B; its RMS is one field's mean square "
-      "over the imager, whose degrees of freedom (W H)^2 / (integral over the imager twice of rho(p - p')^2) "
-      "(Satterthwaite's, for a quadratic form of a Gaussian field) are the row's: a quantity the fit takes "
-      "from the field's finer structure then follows Student's t (the measured RMS scales that structure), "
-      "and the coverage factor widens",
+      "when given, is a Gaussian field of its RMS and length, type B; that RMS is one lens's over the "
+      "imager, so the field is scaled to it: what follows its mean square (the field's mean) is narrower than "
+      "normal, what follows its finer structure wider (Student's t-like). The row's distribution is therefore "
+      "drawn: the field in the imager's Karhunen-Loeve modes, each draw divided by its own RMS over the imager, "
+      "through the same response (distribution 'sampled'; the coverage factors average over the draws). Where "
+      "the field is too short to draw (below about 1/64 of the width), Student's t at the mean square's "
+      "degrees of freedom (W H)^2 / (integral over the imager twice of rho(p - p')^2)",
       o.misfit_features, kExactFieldPoints, kExactRingFieldPoints, stated_rule);
   // Combined, fully in quadrature (the sources are independent; within a source the correlation of k with the
   // positions is kept).
@@ -703,8 +814,8 @@ std::vector<QuantityVariance> CompleteBudget(const Setup& setup, ModelWork& w, c
   std::vector<CoverageRow> coverage_rows;
   for (size_t i = 0; i < vars.size(); ++i) {
     if (std::isfinite(bud.components[i].dof)) denom += vars[i].var_k * vars[i].var_k / bud.components[i].dof;
-    coverage_rows.push_back(
-        {std::sqrt(std::max(0.0, vars[i].var_k)), bud.components[i].dof, bud.components[i].distribution});
+    coverage_rows.push_back({std::sqrt(std::max(0.0, vars[i].var_k)), bud.components[i].dof,
+                             bud.components[i].distribution, vars[i].draws.empty() ? nullptr : &vars[i].draws[0]});
   }
   bud.effective_dof = denom > 0 ? total.var_k * total.var_k / denom : kInf;
   bud.coverage_factor = CoverageFactor(o.coverage_probability, coverage_rows);
@@ -752,10 +863,15 @@ void FinishBudget(const std::vector<QuantityVariance>& vars, ModelFit* fit) {
     for (const bool axis : {true, false}) {
       std::vector<CoverageRow> rows;
       bool finite = true;
-      for (const BudgetComponent& c : bud.components) {
+      // A sampled row's draws: k's, then the centre frame's x, y, z, then the axis frame's z (its x and y are the
+      // centre frame's).
+      const size_t drawn = axis && a == 2 && radius ? 4 : static_cast<size_t>(1 + a);
+      for (size_t i = 0; i < bud.components.size(); ++i) {
+        const BudgetComponent& c = bud.components[i];
         const double u = axis ? c.position_in_axis_mm[a] : c.position_in_centre_mm[a];
         finite = finite && std::isfinite(u);
-        rows.push_back({finite ? u : 0, c.dof, c.distribution});
+        rows.push_back({finite ? u : 0, c.dof, c.distribution,
+                        vars[i].draws.size() > drawn ? &vars[i].draws[drawn] : nullptr});
       }
       (axis ? bud.position_factor.axis : bud.position_factor.centre)[a] =
           finite ? CoverageFactor(bud.coverage_probability, rows) : bud.coverage_factor;

@@ -11,6 +11,7 @@
 // What it does not prove: that the real detectors' bias is smooth (the assumption the row states).
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -111,6 +112,55 @@ TEST(UncertaintyBudgetTest, CoverageFactorConvolvesTheRectangularRow) {
   EXPECT_THROW(CoverageFactor(1.0, {{1, kInf, D::kNormal}}), Error);
   EXPECT_THROW(CoverageFactor(0.95, {{-1, kInf, D::kNormal}}), Error);
   EXPECT_THROW(CoverageFactor(0.95, {{std::nan(""), kInf, D::kRectangular}}), Error);
+}
+
+// A sampled row (a stated misfit's, DrawNormalisedField) is convolved with the rest by averaging over its draws:
+// against closed forms and the unsampled rows it reproduces.
+TEST(UncertaintyBudgetTest, CoverageFactorAveragesOverASampledRow) {
+  constexpr double kInf = std::numeric_limits<double>::infinity();
+  using D = RowDistribution;
+  const auto phi = [](double x) { return 0.5 * std::erfc(-x / std::sqrt(2.0)); };
+  // A two-point row (+-u) alone: every draw lies at u, so the 95% interval is +- u.
+  const std::vector<double> one = {1.0};
+  EXPECT_NEAR(CoverageFactor(0.95, {{2, kInf, D::kSampled, &one}}), 1.0, 1e-9);
+  // With a normal row of the same u: P(|+-1 + N(0, 1)| <= c) = Phi(c - 1) - Phi(-c - 1), solved by bisection here.
+  double lo = 0, hi = 10;
+  for (int i = 0; i < 200; ++i) {
+    const double mid = 0.5 * (lo + hi);
+    (phi(mid - 1) - phi(-mid - 1) < 0.95 ? lo : hi) = mid;
+  }
+  EXPECT_NEAR(CoverageFactor(0.95, {{1, kInf, D::kNormal}, {1, kInf, D::kSampled, &one}}), lo / std::sqrt(2.0),
+              1e-9);
+  // The row's draws at the normal distribution's quantiles (magnitudes at (i + 0.5) / m): as the normal row it
+  // stands for, alone and with a rectangular row or a Student's t part (to the draws' discreteness, 1e-3).
+  std::vector<double> normal;
+  constexpr int kM = 2000;
+  for (int i = 0; i < kM; ++i) {
+    const double p = 0.5 + 0.5 * (i + 0.5) / kM;
+    double a = 0, b = 10;
+    for (int j = 0; j < 100; ++j) {
+      const double mid = 0.5 * (a + b);
+      (phi(mid) < p ? a : b) = mid;
+    }
+    normal.push_back(a);
+  }
+  for (const double p : {0.95, kCoverage68}) {
+    EXPECT_NEAR(CoverageFactor(p, {{1.5, kInf, D::kSampled, &normal}}), StudentTCoverageFactor(p, kInf), 3e-3);
+    for (const double ratio : {0.3, 1.0, 3.0}) {
+      EXPECT_NEAR(CoverageFactor(p, {{1, kInf, D::kSampled, &normal}, {ratio, kInf, D::kRectangular}}),
+                  CoverageFactor(p, {{1, kInf, D::kNormal}, {ratio, kInf, D::kRectangular}}), 1e-3)
+          << ratio;
+      // The normal part of 8 dof is widened to u t_p(8) / z_p, normal; with the row's: sqrt(z^2 + r^2 t^2) / u_c.
+      const double z = StudentTCoverageFactor(p, kInf), t = StudentTCoverageFactor(p, 8);
+      EXPECT_NEAR(CoverageFactor(p, {{1, kInf, D::kSampled, &normal}, {ratio, 8, D::kNormal}}),
+                  std::sqrt(z * z + ratio * ratio * t * t) / std::hypot(1.0, ratio), 2e-3)
+          << ratio;
+    }
+  }
+  // Without its draws a sampled row is normal; a zero row is ignored.
+  EXPECT_NEAR(CoverageFactor(0.95, {{1, kInf, D::kSampled}}), StudentTCoverageFactor(0.95, kInf), 1e-12);
+  EXPECT_NEAR(CoverageFactor(0.95, {{1, kInf, D::kNormal}, {0, kInf, D::kSampled, &one}}),
+              StudentTCoverageFactor(0.95, kInf), 1e-9);
 }
 
 TEST(UncertaintyBudgetTest, RowsArePresentAndCombineInQuadrature) {
@@ -963,6 +1013,19 @@ TEST(UncertaintyBudgetTest, CameraPositionRowsMatchInjectedFieldsFarOnAxis) {
   }
 }
 
+// The Gaussian field's correlation exp(-d^2 / 2 L^2) between every two points, plus jitter on the diagonal.
+Eigen::MatrixXd GaussianKernel(const std::vector<Eigen::Vector2d>& points, double length, double jitter) {
+  const long n = static_cast<long>(points.size());
+  Eigen::MatrixXd k(n, n);
+  for (long a = 0; a < n; ++a) {
+    for (long b = 0; b < n; ++b) {
+      const double d = (points[static_cast<size_t>(a)] - points[static_cast<size_t>(b)]).norm() / length;
+      k(a, b) = std::exp(-0.5 * d * d) + (a == b ? jitter : 0);
+    }
+  }
+  return k;
+}
+
 // A stated lens misfit's RMS is one field's mean square over the imager; FieldMeanSquareDof gives the degrees
 // of freedom of that mean square as an estimate of the field's variance. Against seeded draws of the Gaussian
 // field on a grid over the imager (Cholesky of its covariance): 2 E[ms]^2 / var(ms) over 4000 draws (relative
@@ -976,14 +1039,7 @@ TEST(UncertaintyBudgetTest, StatedMisfitDegreesOfFreedomAreThoseOfOneFieldsMeanS
       for (int i = 0; i < kGx; ++i) grid.emplace_back((i + 0.5) * kWidth / kGx, (j + 0.5) * kHeight / kGy);
     }
     const long n = static_cast<long>(grid.size());
-    Eigen::MatrixXd k(n, n);
-    for (long a = 0; a < n; ++a) {
-      for (long b = 0; b < n; ++b) {
-        const double d = (grid[static_cast<size_t>(a)] - grid[static_cast<size_t>(b)]).norm() / length;
-        k(a, b) = std::exp(-0.5 * d * d) + (a == b ? 1e-9 : 0);
-      }
-    }
-    const Eigen::MatrixXd l = Eigen::LLT<Eigen::MatrixXd>(k).matrixL();
+    const Eigen::MatrixXd l = Eigen::LLT<Eigen::MatrixXd>(GaussianKernel(grid, length, 1e-9)).matrixL();
     std::mt19937_64 rng(61);
     std::normal_distribution<double> unit(0, 1);
     double sum = 0, sum2 = 0;
@@ -1005,6 +1061,98 @@ TEST(UncertaintyBudgetTest, StatedMisfitDegreesOfFreedomAreThoseOfOneFieldsMeanS
   EXPECT_GT(FieldMeanSquareDof(10, 2400, 1600), 5000);
   EXPECT_NEAR(FieldMeanSquareDof(1e7, 2400, 1600), 1.0, 1e-3);
   EXPECT_TRUE(std::isinf(FieldMeanSquareDof(0, 2400, 1600)));
+}
+
+// DrawNormalisedField: a field scaled to RMS 1 over the imager, through linear responses. Against (1) the exact
+// standard deviation of each response to the unscaled field, sqrt(w^T K w); (2) an independent brute force: the
+// field drawn jointly on a grid over the imager and at the points (Cholesky), each draw divided by its grid RMS;
+// the responses' RMS and their 68% and 95% magnitudes agree within the draws' sampling error (4000 draws: about 3%
+// at 95%); (3) Cauchy-Schwarz: the mean of the field over the grid of cell centres is at most its RMS there, so a
+// response that is that mean never exceeds 1, and for a field ten times longer than the imager it is nearly +-1
+// (three draws in four above 0.95).
+TEST(UncertaintyBudgetTest, NormalisedFieldDrawsMatchABruteForceField) {
+  constexpr int kWidth = 2400, kHeight = 1600, kDraws = 4000;
+  constexpr double kLength = 480;
+  std::mt19937_64 rng(71);
+  std::uniform_real_distribution<double> ux(200, 1400), uy(500, 1100);
+  std::vector<Eigen::Vector2d> points;
+  for (int i = 0; i < 60; ++i) points.emplace_back(ux(rng), uy(rng));
+  const long n = static_cast<long>(points.size());
+  // Responses: the x field's mean over the points, its slope in x, the y field's curvature in y, a mixture.
+  std::array<Eigen::MatrixXd, 2> w = {Eigen::MatrixXd::Zero(4, n), Eigen::MatrixXd::Zero(4, n)};
+  for (long i = 0; i < n; ++i) {
+    const Eigen::Vector2d q = (points[static_cast<size_t>(i)] - Eigen::Vector2d(800, 800)) / 600;
+    w[0](0, i) = 1.0 / n;
+    w[0](1, i) = q.x() / n;
+    w[1](2, i) = (q.y() * q.y() - 0.1) / n;
+    w[0](3, i) = 0.5 / n, w[1](3, i) = q.x() * q.y() / n;
+  }
+  const NormalisedFieldDraws d = DrawNormalisedField(points, w, kLength, kWidth, kHeight, kDraws, 5);
+  ASSERT_TRUE(d.ok);
+  EXPECT_GT(d.modes, 20);
+  EXPECT_LT(d.modes, 1000);
+  const Eigen::MatrixXd k = GaussianKernel(points, kLength, 0);
+  // Brute force: a 36 x 24 grid of cell centres (spacing L / 7) and the points.
+  constexpr int kGx = 36, kGy = 24;
+  std::vector<Eigen::Vector2d> all;
+  for (int j = 0; j < kGy; ++j) {
+    for (int i = 0; i < kGx; ++i) all.emplace_back((i + 0.5) * kWidth / kGx - 0.5, (j + 0.5) * kHeight / kGy - 0.5);
+  }
+  const long grid = static_cast<long>(all.size());
+  all.insert(all.end(), points.begin(), points.end());
+  const long m = static_cast<long>(all.size());
+  const Eigen::MatrixXd l = Eigen::LLT<Eigen::MatrixXd>(GaussianKernel(all, kLength, 1e-8)).matrixL();
+  std::normal_distribution<double> unit(0, 1);
+  Eigen::MatrixXd brute = Eigen::MatrixXd::Zero(4, kDraws);
+  for (int f = 0; f < 2; ++f) {
+    Eigen::MatrixXd g(m, kDraws);
+    for (long i = 0; i < m; ++i) {
+      for (int j = 0; j < kDraws; ++j) g(i, j) = unit(rng);
+    }
+    const Eigen::MatrixXd field = l * g;
+    for (int j = 0; j < kDraws; ++j) {
+      const double rms = std::sqrt(field.col(j).head(grid).squaredNorm() / static_cast<double>(grid));
+      brute.col(j) += w[static_cast<size_t>(f)] * field.col(j).tail(n) / rms;
+    }
+  }
+  const auto magnitude = [](Eigen::RowVectorXd row, double p) {
+    std::vector<double> v(row.data(), row.data() + row.size());
+    for (double& x : v) x = std::abs(x);
+    std::sort(v.begin(), v.end());
+    return v[static_cast<size_t>(p * static_cast<double>(v.size()))];
+  };
+  for (long r = 0; r < 4; ++r) {
+    const double exact = std::sqrt((w[0].row(r) * k * w[0].row(r).transpose())(0, 0) +
+                                   (w[1].row(r) * k * w[1].row(r).transpose())(0, 0));
+    EXPECT_NEAR(d.gaussian_sd[r], exact, 0.01 * exact) << "row " << r;
+    const double rms = std::sqrt(d.draws.row(r).squaredNorm() / kDraws),
+                 brute_rms = std::sqrt(brute.row(r).squaredNorm() / kDraws);
+    const double q68 = magnitude(d.draws.row(r), 0.68), q95 = magnitude(d.draws.row(r), 0.95);
+    const double b68 = magnitude(brute.row(r), 0.68), b95 = magnitude(brute.row(r), 0.95);
+    std::cout << "row " << r << ": sd " << d.gaussian_sd[r] << " (exact " << exact << "); scaled RMS / sd "
+              << rms / exact << " (brute force " << brute_rms / exact << "), 95% magnitude / sd " << q95 / exact
+              << " (" << b95 / exact << "), 68% " << q68 / exact << " (" << b68 / exact << ")\n";
+    EXPECT_NEAR(rms / brute_rms, 1.0, 0.05) << "row " << r;
+    EXPECT_NEAR(q68 / b68, 1.0, 0.05) << "row " << r;
+    EXPECT_NEAR(q95 / b95, 1.0, 0.06) << "row " << r;
+  }
+  // The mean over the grid of cell centres (64 per axis at L >= width / 8): |mean| <= RMS.
+  for (const double length : {480.0, 24000.0}) {
+    std::vector<Eigen::Vector2d> cells;
+    for (int j = 0; j < 64; ++j) {
+      for (int i = 0; i < 64; ++i) cells.emplace_back((i + 0.5) * kWidth / 64 - 0.5, (j + 0.5) * kHeight / 64 - 0.5);
+    }
+    std::array<Eigen::MatrixXd, 2> mean = {Eigen::MatrixXd::Constant(1, 4096, 1.0 / 4096),
+                                           Eigen::MatrixXd::Zero(1, 4096)};
+    const NormalisedFieldDraws c = DrawNormalisedField(cells, mean, length, kWidth, kHeight, 1000, 9);
+    ASSERT_TRUE(c.ok);
+    EXPECT_LE(c.draws.cwiseAbs().maxCoeff(), 1 + 1e-9) << "L " << length;
+    if (length > kWidth) {  // nearly constant over the imager: the mean is nearly the RMS
+      EXPECT_GT(magnitude(c.draws.row(0), 0.25), 0.95);
+    }
+  }
+  // Too short a field for the imager's modes: not drawn.
+  EXPECT_FALSE(DrawNormalisedField(points, w, 2, kWidth, kHeight, 10, 1).ok);
 }
 
 }  // namespace

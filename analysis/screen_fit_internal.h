@@ -102,6 +102,9 @@ struct LensFieldProjection {
 struct QuantityVariance {
   double var_k = 0;
   std::vector<Eigen::Vector3d> var_pos, cov_pos_k;
+  // A sampled row's error distribution (RowDistribution::kSampled): StatedFieldDraws's, for k, the first camera's
+  // centre-frame x, y, z and its axis-frame z. Not summed into the combined row.
+  std::vector<std::vector<double>> draws;
 
   explicit QuantityVariance(int photos)
       : var_pos(static_cast<size_t>(photos), Eigen::Vector3d::Zero()),
@@ -255,6 +258,17 @@ constexpr int kExactFieldPoints = 3000;
 constexpr int kExactRingFieldPoints = 600;
 QuantityVariance FieldVariance(const Setup& setup, const Linearization& lin, const PixelLockingCorrection& correction,
                                const UncertaintyBudget::FieldComponent& component);
+// A stated misfit's error distribution (RowDistribution::kSampled): DrawNormalisedField of a field of RMS 1 at
+// length_px through the estimate's response (as FieldVariance's, pixel-locking correction included), for k, the
+// first camera's centre-frame x, y, z and its axis-frame z (c_z - 1/k at curvature_per_mm), kStatedFieldDraws
+// draws; per quantity the magnitudes over the unscaled field's standard deviation, sorted, in kStatedFieldGroups
+// means of consecutive ones. Empty when the field cannot be drawn (too short a length; DrawNormalisedField).
+constexpr long kStatedFieldQuantities = 5;
+constexpr int kStatedFieldDraws = 4000;
+constexpr size_t kStatedFieldGroups = 250;
+std::vector<std::vector<double>> StatedFieldDraws(const Setup& setup, const Linearization& lin,
+                                                  const PixelLockingCorrection& correction, double length_px,
+                                                  double curvature_per_mm);
 void EstimateMisfit(const Setup& setup, const Linearization& lin, const std::vector<Eigen::Vector2d>& residual,
                     double sigma_px, UncertaintyBudget* bud, LensFieldProjection* projection);
 void MeasureMisfitCorrelation(const Setup& setup, const Linearization& lin,

@@ -519,6 +519,47 @@ QuantityVariance FieldVariance(const Setup& setup, const Linearization& lin, con
   return QuantityVariance::FromCovariance(0.5 * (cov + cov.transpose()), setup.photos);
 }
 
+std::vector<std::vector<double>> StatedFieldDraws(const Setup& setup, const Linearization& lin,
+                                                  const PixelLockingCorrection& correction, double length_px,
+                                                  double curvature_per_mm) {
+  const long n = static_cast<long>(lin.obs.size());
+  if (setup.photos < 1 || lin.sel_pinv.rows() < 4) return {};
+  // Weights of k and the first camera's centre-frame position (q's rows 0-3) and of its axis-frame z,
+  // c_z - 1/k: d = dc_z + dk / k^2; per coordinate, the response A_f of the existing exact path.
+  std::array<Eigen::MatrixXd, 2> weights;
+  for (int f = 0; f < 2; ++f) {
+    const Eigen::MatrixXd jf = lin.j_obs(Eigen::seq(f, Eigen::last, 2), Eigen::all);  // J_f, n x t
+    Eigen::MatrixXd a = lin.sel_pinv.topRows(4) * jf.transpose();
+    if (correction.ok) a -= correction.gs.topRows(4) * correction.SolveColumns(f);
+    Eigen::MatrixXd& w = weights[static_cast<size_t>(f)];
+    w.resize(kStatedFieldQuantities, n);
+    w.topRows(4) = a;
+    w.row(4) = curvature_per_mm != 0 && std::isfinite(curvature_per_mm)
+                   ? Eigen::MatrixXd(a.row(3) + a.row(0) / (curvature_per_mm * curvature_per_mm))
+                   : Eigen::MatrixXd(a.row(3));
+  }
+  const NormalisedFieldDraws d =
+      DrawNormalisedField(DetectedPoints(setup, lin), weights, length_px, setup.camera->width,
+                          setup.camera->height, kStatedFieldDraws, setup.options->systematic_field_seed + 5);
+  if (!d.ok) return {};
+  // Each row's magnitudes over its unscaled field's standard deviation, sorted, as the means of groups of
+  // consecutive ones (kStatedFieldDraws / kStatedFieldGroups each): what the coverage factor averages over.
+  std::vector<std::vector<double>> out(kStatedFieldQuantities);
+  for (long r = 0; r < kStatedFieldQuantities; ++r) {
+    if (!(d.gaussian_sd[r] > 0)) return {};
+    std::vector<double> x(static_cast<size_t>(d.draws.cols()));
+    for (long i = 0; i < d.draws.cols(); ++i) x[static_cast<size_t>(i)] = std::abs(d.draws(r, i)) / d.gaussian_sd[r];
+    std::sort(x.begin(), x.end());
+    const size_t per = x.size() / kStatedFieldGroups;
+    for (size_t g = 0; g < kStatedFieldGroups; ++g) {
+      double sum = 0;
+      for (size_t i = g * per; i < (g + 1) * per; ++i) sum += x[i];
+      out[static_cast<size_t>(r)].push_back(sum / static_cast<double>(per));
+    }
+  }
+  return out;
+}
+
 // The lens model misfit's RMS, measured from the residuals without the pixel-locking signature (as
 // MeasureMisfitCorrelation's; UncertaintyBudget::misfit_*). Each detection is paired
 // with its nearest neighbour in the same photo; the statistic S is the mean of r_i . r_j / 2 over the pairs. A

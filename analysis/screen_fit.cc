@@ -137,12 +137,14 @@ void CompleteFits(const Setup& setup, std::vector<ModelWork>& work, ScreenFitRes
     MeasureMisfitCorrelation(setup, *cw.lin, cw.signature.residual_without, IndependentNoisePx(chosen),
                              &chosen.budget);
   }
+  // The stated misfit's field is the lens's: drawn once, answered by each candidate.
+  const NormalisedField stated_field = StatedField(setup);
   // On all cores: each candidate writes only its own fit; the chosen one's misfit fields, which the others copy,
   // are not written here.
   ParallelFor(static_cast<int>(work.size()), [&](int k) {
     const size_t i = static_cast<size_t>(k);
     ModelFit& fit = result->candidates[i];
-    const std::vector<QuantityVariance> vars = CompleteBudget(setup, work[i], chosen, &fit);
+    const std::vector<QuantityVariance> vars = CompleteBudget(setup, work[i], chosen, &stated_field, &fit);
     RadiusFromCurvature(setup, work[i], &fit);
     FinishBudget(vars, &fit);
   });

@@ -234,7 +234,7 @@ struct CameraEstimate {
 // How a budget row's error is distributed: the coverage factor depends on it (JCGM 100 G.2.3: a rectangular
 // distribution of standard uncertainty u lies wholly within +- sqrt(3) u, and 95% of it within +- 1.645 u).
 // A stated lens misfit is a field scaled to its stated RMS over the imager (FitOptions::stated_lens_misfit_px):
-// its error is not normal (kSampled: drawn, DrawNormalisedField).
+// its error is not normal (kSampled: drawn, NormalisedField).
 enum class RowDistribution { kNormal, kRectangular, kSampled };
 const char* RowDistributionName(RowDistribution d);  // "normal", "rectangular", "sampled"
 
@@ -588,26 +588,38 @@ double MisfitComponentCovariance(const UncertaintyBudget::FieldComponent& compon
 // L -> 0 gives many, L -> oo 1.
 double FieldMeanSquareDof(double length_px, int width, int height);
 
-// Draws of linear responses to a lens misfit field that is scaled to RMS 1 over the imager, as a calibration's
-// stated RMS is one lens's mean square there (and as synth/lens_misfit.h scales each lens): per coordinate c an
-// independent Gaussian field f_c (covariance exp(-|d|^2 / 2 L^2)), z_c = f_c / sqrt(mean square of f_c over the
-// width x height px imager). Row r of weights[c] (rows x points) weights z_c at the points; draw d of row r is
-// sum_c weights[c].row(r) z_c. The field is expanded in the imager's Karhunen-Loeve modes (the kernel separates
-// in x and y: the products of each axis's eigenvectors on a grid of cell centres, extended to the points by
-// Nystrom's formula, modes down to 1e-6 of the largest), so the mean square is exactly sum lambda g^2 of the
-// same normal draws g. gaussian_sd: each row's standard deviation for the field without the scaling (E[draw^2]
-// differs: the scaling narrows what follows the field's mean square, the mean, and widens the finer structure,
-// like Student's t). Empty (ok false) when the imager holds too many modes (L below about width / 64, where the
-// mean square has hundreds of degrees of freedom and the scaling is negligible). Deterministic in seed.
-struct NormalisedFieldDraws {
+// A lens misfit field scaled to RMS 1 over the imager, as a calibration's stated RMS is one lens's mean square
+// there (and as synth/lens_misfit.h scales each lens), drawn `count` times: per coordinate c an independent
+// Gaussian field f_c (covariance exp(-|d|^2 / 2 L^2)), z_c = f_c / sqrt(mean square of f_c over the width x height
+// px imager). The field is expanded in the imager's Karhunen-Loeve modes (the kernel separates in x and y: the
+// products of each axis's eigenvectors on a grid of cell centres, at least 8 per length and 64 to 256, extended
+// to points by Nystrom's formula; modes down to 1e-6 of the largest), so that each draw's mean square is exactly
+// sum lambda g^2 of its own normal draws g. Drawn once per fit (it is the lens's), answered per candidate model
+// (Respond). ok false when the imager holds more than kMaxModes modes (L below about width / 16, where the mean
+// square has some 70 degrees of freedom or more and the scaling matters little). Deterministic in seed.
+struct NormalisedField {
+  static constexpr size_t kMaxModes = 800;
   bool ok = false;
-  Eigen::MatrixXd draws;        // rows x count
-  Eigen::VectorXd gaussian_sd;  // per row
-  int modes = 0;                // per coordinate
+  double length_px = 0;
+  struct Axis {
+    Eigen::VectorXd grid;     // cell centres, px
+    Eigen::MatrixXd vectors;  // the kept eigenvectors (unit norm), grid x modes
+    Eigen::VectorXd mu;       // their eigenvalues of the kernel matrix
+  };
+  Axis axis[2];
+  std::vector<std::pair<long, long>> modes;  // (x mode, y mode)
+  Eigen::VectorXd lambda;                    // per mode: its share of the mean square
+  std::array<Eigen::MatrixXd, 2> normals;    // per coordinate: modes x count
+  std::array<Eigen::RowVectorXd, 2> inverse_rms;  // per coordinate and draw: 1 / sqrt(sum lambda g^2)
+
+  static NormalisedField Draw(double length_px, int width, int height, int count, unsigned seed);
+  // Draws of linear responses: row r of weights[c] (rows x points) weights z_c at the points; draw d of row r is
+  // sum_c weights[c].row(r) z_c (rows x count). gaussian_sd: each row's standard deviation for the field without
+  // the scaling (E[draw^2] differs: the scaling narrows what follows the field's mean square, the mean, and
+  // widens the finer structure, like Student's t).
+  Eigen::MatrixXd Respond(const std::vector<Eigen::Vector2d>& points, const std::array<Eigen::MatrixXd, 2>& weights,
+                          Eigen::VectorXd* gaussian_sd) const;
 };
-NormalisedFieldDraws DrawNormalisedField(const std::vector<Eigen::Vector2d>& points,
-                                         const std::array<Eigen::MatrixXd, 2>& weights, double length_px, int width,
-                                         int height, int count, unsigned seed);
 
 // A stated lens model misfit field (FitOptions::stated_lens_misfit_px, the sidecar's misfit, analyze --lens-misfit)
 // is one: an RMS in [0, 100) px and, when the RMS is not 0, a positive finite correlation length in px.

@@ -145,100 +145,110 @@ double FieldMeanSquareDof(double length_px, int width, int height) {
   return 1 / (mean_rho2(width) * mean_rho2(height));
 }
 
-NormalisedFieldDraws DrawNormalisedField(const std::vector<Eigen::Vector2d>& points,
-                                         const std::array<Eigen::MatrixXd, 2>& weights, double length_px, int width,
-                                         int height, int count, unsigned seed) {
-  NormalisedFieldDraws out;
-  const long n = static_cast<long>(points.size()), rows = weights[0].rows();
-  if (!(length_px > 0) || width <= 0 || height <= 0 || count < 1 || weights[1].rows() != rows ||
-      weights[0].cols() != n || weights[1].cols() != n) {
-    return out;
-  }
-  // One axis's modes: the kernel's eigenvectors v (|v| = 1, K v = mu v) on a grid of g cell centres (at least 8 per
-  // length, 64 to 256), as psi = sqrt(g) v (mean square 1 over the grid) with lambda = mu / g (sum 1), extended to
-  // the points by psi(p) = sqrt(g) sum_i k(p, x_i) v_i / mu.
-  struct Axis {
-    Eigen::VectorXd lambda;
-    Eigen::MatrixXd at;  // points x modes
-  };
-  const auto axis = [&](int extent, int coordinate, double* largest) -> std::optional<Axis> {
+NormalisedField NormalisedField::Draw(double length_px, int width, int height, int count, unsigned seed) {
+  NormalisedField out;
+  if (!(length_px > 0) || width <= 0 || height <= 0 || count < 1) return out;
+  out.length_px = length_px;
+  // One axis's modes: the kernel's eigenvectors v (|v| = 1, K v = mu v) on a grid of g cell centres, with
+  // lambda = mu / g (sum 1 over all of them); psi = sqrt(g) v has mean square 1 over the grid (Respond).
+  std::array<double, 2> top = {0, 0};
+  for (int c = 0; c < 2; ++c) {
+    const int extent = c == 0 ? width : height;
     const double per_length = 8.0 * extent / length_px;
-    if (per_length > 512) return std::nullopt;
+    if (per_length > 512) return out;
     const int g = std::clamp(static_cast<int>(std::ceil(per_length)), 64, 256);
-    Eigen::VectorXd x(g);
-    for (int i = 0; i < g; ++i) x[i] = (i + 0.5) * extent / g - 0.5;
-    const auto kernel = [&](double a, double b) {
-      const double z = (a - b) / length_px;
-      return std::exp(-0.5 * z * z);
-    };
+    Axis& a = out.axis[c];
+    a.grid.resize(g);
+    for (int i = 0; i < g; ++i) a.grid[i] = (i + 0.5) * extent / g - 0.5;
     Eigen::MatrixXd k(g, g);
     for (int i = 0; i < g; ++i) {
-      for (int j = 0; j < g; ++j) k(i, j) = kernel(x[i], x[j]);
+      for (int j = 0; j < g; ++j) {
+        const double z = (a.grid[i] - a.grid[j]) / length_px;
+        k(i, j) = std::exp(-0.5 * z * z);
+      }
     }
     const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(k);
-    if (eig.info() != Eigen::Success) return std::nullopt;
-    const double top = eig.eigenvalues().maxCoeff();
-    *largest = top / g;
+    if (eig.info() != Eigen::Success) return out;
+    const double largest = eig.eigenvalues().maxCoeff();
+    top[static_cast<size_t>(c)] = largest / g;
     std::vector<int> keep;
     for (int m = g - 1; m >= 0; --m) {
-      if (eig.eigenvalues()[m] >= 1e-6 * top) keep.push_back(m);
+      if (eig.eigenvalues()[m] >= 1e-6 * largest) keep.push_back(m);
     }
-    Axis a{Eigen::VectorXd(static_cast<long>(keep.size())), Eigen::MatrixXd(n, static_cast<long>(keep.size()))};
-    Eigen::MatrixXd kp(n, g);
-    for (long p = 0; p < n; ++p) {
-      for (int i = 0; i < g; ++i) kp(p, i) = kernel(points[static_cast<size_t>(p)][coordinate], x[i]);
-    }
+    a.vectors.resize(g, static_cast<long>(keep.size()));
+    a.mu.resize(static_cast<long>(keep.size()));
     for (size_t m = 0; m < keep.size(); ++m) {
-      const double mu = eig.eigenvalues()[keep[m]];
-      a.lambda[static_cast<long>(m)] = mu / g;
-      a.at.col(static_cast<long>(m)) = std::sqrt(static_cast<double>(g)) / mu * (kp * eig.eigenvectors().col(keep[m]));
+      a.vectors.col(static_cast<long>(m)) = eig.eigenvectors().col(keep[m]);
+      a.mu[static_cast<long>(m)] = eig.eigenvalues()[keep[m]];
     }
-    return a;
-  };
-  double top_x = 0, top_y = 0;
-  const std::optional<Axis> ax = axis(width, 0, &top_x), ay = axis(height, 1, &top_y);
-  if (!ax || !ay) return out;
+  }
   // The two-dimensional modes psi_a(x) psi_b(y) down to 1e-6 of the largest lambda_a lambda_b.
-  std::vector<std::pair<long, long>> modes;
-  for (long i = 0; i < ax->lambda.size(); ++i) {
-    for (long j = 0; j < ay->lambda.size(); ++j) {
-      if (ax->lambda[i] * ay->lambda[j] >= 1e-6 * top_x * top_y) modes.emplace_back(i, j);
+  const double gx = static_cast<double>(out.axis[0].grid.size()), gy = static_cast<double>(out.axis[1].grid.size());
+  for (long i = 0; i < out.axis[0].mu.size(); ++i) {
+    for (long j = 0; j < out.axis[1].mu.size(); ++j) {
+      if (out.axis[0].mu[i] / gx * out.axis[1].mu[j] / gy >= 1e-6 * top[0] * top[1]) out.modes.emplace_back(i, j);
     }
   }
-  constexpr size_t kMaxModes = 4000;
-  if (modes.size() > kMaxModes) return out;
-  const long m = static_cast<long>(modes.size());
-  Eigen::VectorXd lambda(m);
-  Eigen::MatrixXd psi(n, m);
+  if (out.modes.size() > kMaxModes) return out;
+  const long m = static_cast<long>(out.modes.size());
+  out.lambda.resize(m);
   for (long k = 0; k < m; ++k) {
-    lambda[k] = ax->lambda[modes[static_cast<size_t>(k)].first] * ay->lambda[modes[static_cast<size_t>(k)].second];
-    psi.col(k) = ax->at.col(modes[static_cast<size_t>(k)].first).cwiseProduct(
-        ay->at.col(modes[static_cast<size_t>(k)].second));
+    const auto [i, j] = out.modes[static_cast<size_t>(k)];
+    out.lambda[k] = out.axis[0].mu[i] / gx * out.axis[1].mu[j] / gy;
   }
-  // Row r's response to coordinate c's field sum_k sqrt(lambda_k) g_k psi_k: C_c g, C_c = W_c psi sqrt(lambda).
-  const Eigen::VectorXd root = lambda.cwiseSqrt();
-  std::array<Eigen::MatrixXd, 2> c;
-  out.gaussian_sd = Eigen::VectorXd::Zero(rows);
-  for (int f = 0; f < 2; ++f) {
-    c[static_cast<size_t>(f)] = (weights[static_cast<size_t>(f)] * psi) * root.asDiagonal();
-    out.gaussian_sd += c[static_cast<size_t>(f)].rowwise().squaredNorm();
-  }
-  out.gaussian_sd = out.gaussian_sd.cwiseSqrt();
   std::mt19937_64 rng(seed);
   std::normal_distribution<double> unit(0, 1);
-  out.draws = Eigen::MatrixXd::Zero(rows, count);
-  Eigen::MatrixXd g(m, count);
-  for (int f = 0; f < 2; ++f) {
+  for (size_t f = 0; f < 2; ++f) {
+    Eigen::MatrixXd& g = out.normals[f];
+    g.resize(m, count);
     for (long d = 0; d < count; ++d) {
       for (long k = 0; k < m; ++k) g(k, d) = unit(rng);
     }
     // The field's mean square over the imager: sum lambda_k g_k^2 (the modes are orthonormal there).
-    const Eigen::RowVectorXd ms = lambda.transpose() * g.cwiseAbs2();
-    out.draws += (c[static_cast<size_t>(f)] * g) * ms.cwiseSqrt().cwiseInverse().asDiagonal();
+    out.inverse_rms[f] = (out.lambda.transpose() * g.cwiseAbs2()).cwiseSqrt().cwiseInverse();
   }
-  out.modes = static_cast<int>(m);
   out.ok = true;
   return out;
+}
+
+Eigen::MatrixXd NormalisedField::Respond(const std::vector<Eigen::Vector2d>& points,
+                                         const std::array<Eigen::MatrixXd, 2>& weights,
+                                         Eigen::VectorXd* gaussian_sd) const {
+  const long n = static_cast<long>(points.size()), rows = weights[0].rows();
+  if (!ok || weights[1].rows() != rows || weights[0].cols() != n || weights[1].cols() != n) {
+    throw Error("normalised field", fmt::format("weights of {} and {} points", weights[0].cols(), n), "");
+  }
+  // Each axis's modes at the points: psi(p) = sqrt(g) sum_i k(p, x_i) v_i / mu (Nystrom; at a cell centre its v).
+  std::array<Eigen::MatrixXd, 2> at;
+  for (int c = 0; c < 2; ++c) {
+    const Axis& a = axis[c];
+    const long g = a.grid.size();
+    Eigen::MatrixXd kp(n, g);
+    for (long p = 0; p < n; ++p) {
+      for (long i = 0; i < g; ++i) {
+        const double z = (points[static_cast<size_t>(p)][c] - a.grid[i]) / length_px;
+        kp(p, i) = std::exp(-0.5 * z * z);
+      }
+    }
+    at[static_cast<size_t>(c)] =
+        std::sqrt(static_cast<double>(g)) * (kp * a.vectors) * a.mu.cwiseInverse().asDiagonal();
+  }
+  const long m = lambda.size();
+  Eigen::MatrixXd psi(n, m);
+  for (long k = 0; k < m; ++k) {
+    psi.col(k) = at[0].col(modes[static_cast<size_t>(k)].first).cwiseProduct(at[1].col(modes[static_cast<size_t>(k)].second));
+  }
+  // Row r's response to coordinate c's field sum_k sqrt(lambda_k) g_k psi_k: C_c g, C_c = W_c psi sqrt(lambda).
+  const Eigen::VectorXd root = lambda.cwiseSqrt();
+  Eigen::MatrixXd draws = Eigen::MatrixXd::Zero(rows, normals[0].cols());
+  Eigen::VectorXd sd2 = Eigen::VectorXd::Zero(rows);
+  for (size_t f = 0; f < 2; ++f) {
+    const Eigen::MatrixXd c = (weights[f] * psi) * root.asDiagonal();
+    sd2 += c.rowwise().squaredNorm();
+    draws += (c * normals[f]) * inverse_rms[f].asDiagonal();
+  }
+  if (gaussian_sd) *gaussian_sd = sd2.cwiseSqrt();
+  return draws;
 }
 
 }  // namespace curvecheck
@@ -667,8 +677,15 @@ void Budget(const Setup& setup, ModelWork& w, int n_residuals, ModelFit* fit) {
 // The misfit field is a property of the lens and the detector, common to every candidate: it is measured once, on
 // the residuals of `reference` (the chosen model; its budget holds the components), and propagated through each
 // candidate's own linearization. Returns the rows' variances, the combined last, for FinishBudget.
+NormalisedField StatedField(const Setup& setup) {
+  const FitOptions& o = *setup.options;
+  if (!(o.stated_lens_misfit_px > 0)) return {};
+  return NormalisedField::Draw(o.stated_lens_misfit_length_px, setup.camera->width, setup.camera->height,
+                               kStatedFieldDraws, o.systematic_field_seed + 5);
+}
+
 std::vector<QuantityVariance> CompleteBudget(const Setup& setup, ModelWork& w, const ModelFit& reference,
-                                             ModelFit* fit) {
+                                             const NormalisedField* stated_field, ModelFit* fit) {
   const FitOptions& o = *setup.options;
   UncertaintyBudget& bud = fit->budget;
   std::vector<QuantityVariance> vars = w.budget_vars;
@@ -759,8 +776,9 @@ std::vector<QuantityVariance> CompleteBudget(const Setup& setup, ModelWork& w, c
     stated_rule = "; of this field and the calibration's, the row takes the one that moves the curvature more";
     if (part.var_k > misfit.var_k) {
       misfit = part;
-      misfit.draws = StatedFieldDraws(setup, *lin, w.correction, o.stated_lens_misfit_length_px,
-                                      fit->curvature_per_mm);
+      if (stated_field) {
+        misfit.draws = StatedFieldDraws(setup, *lin, w.correction, *stated_field, fit->curvature_per_mm);
+      }
       const bool drawn = !misfit.draws.empty();
       c.source = fmt::format("{}, {}, propagated through {} linearization; it moves the curvature more than the "
                              "field measured from the residuals (u(k) {:.3g} against {:.3g} 1/mm), which was: {}",
@@ -860,7 +878,12 @@ void FinishBudget(const std::vector<QuantityVariance>& vars, ModelFit* fit) {
   fill(vars.back(), &bud.combined);
   // Each camera coordinate's coverage factors from its own rows (the pitch row's share differs per coordinate).
   for (int a = 0; a < 3; ++a) {
-    for (const bool axis : {true, false}) {
+    for (const bool axis : {false, true}) {
+      if (axis && a < 2) {  // the axis frame's x and y are the centre frame's: the same rows
+        bud.position_factor.axis[a] = bud.position_factor.centre[a];
+        bud.position_factor68.axis[a] = bud.position_factor68.centre[a];
+        continue;
+      }
       std::vector<CoverageRow> rows;
       bool finite = true;
       // A sampled row's draws: k's, then the centre frame's x, y, z, then the axis frame's z (its x and y are the

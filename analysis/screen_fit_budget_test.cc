@@ -114,7 +114,7 @@ TEST(UncertaintyBudgetTest, CoverageFactorConvolvesTheRectangularRow) {
   EXPECT_THROW(CoverageFactor(0.95, {{std::nan(""), kInf, D::kRectangular}}), Error);
 }
 
-// A sampled row (a stated misfit's, DrawNormalisedField) is convolved with the rest by averaging over its draws:
+// A sampled row (a stated misfit's, NormalisedField) is convolved with the rest by averaging over its draws:
 // against closed forms and the unsampled rows it reproduces.
 TEST(UncertaintyBudgetTest, CoverageFactorAveragesOverASampledRow) {
   constexpr double kInf = std::numeric_limits<double>::infinity();
@@ -1063,7 +1063,7 @@ TEST(UncertaintyBudgetTest, StatedMisfitDegreesOfFreedomAreThoseOfOneFieldsMeanS
   EXPECT_TRUE(std::isinf(FieldMeanSquareDof(0, 2400, 1600)));
 }
 
-// DrawNormalisedField: a field scaled to RMS 1 over the imager, through linear responses. Against (1) the exact
+// NormalisedField: a field scaled to RMS 1 over the imager, through linear responses. Against (1) the exact
 // standard deviation of each response to the unscaled field, sqrt(w^T K w); (2) an independent brute force: the
 // field drawn jointly on a grid over the imager and at the points (Cholesky), each draw divided by its grid RMS;
 // the responses' RMS and their 68% and 95% magnitudes agree within the draws' sampling error (4000 draws: about 3%
@@ -1087,10 +1087,13 @@ TEST(UncertaintyBudgetTest, NormalisedFieldDrawsMatchABruteForceField) {
     w[1](2, i) = (q.y() * q.y() - 0.1) / n;
     w[0](3, i) = 0.5 / n, w[1](3, i) = q.x() * q.y() / n;
   }
-  const NormalisedFieldDraws d = DrawNormalisedField(points, w, kLength, kWidth, kHeight, kDraws, 5);
-  ASSERT_TRUE(d.ok);
-  EXPECT_GT(d.modes, 20);
-  EXPECT_LT(d.modes, 1000);
+  const NormalisedField field = NormalisedField::Draw(kLength, kWidth, kHeight, kDraws, 5);
+  ASSERT_TRUE(field.ok);
+  EXPECT_GT(field.lambda.size(), 20);
+  EXPECT_LT(field.lambda.size(), 200);
+  EXPECT_NEAR(field.lambda.sum(), 1.0, 1e-4);  // the kept modes hold nearly all of the mean square
+  Eigen::VectorXd sd;
+  const Eigen::MatrixXd draws = field.Respond(points, w, &sd);
   const Eigen::MatrixXd k = GaussianKernel(points, kLength, 0);
   // Brute force: a 36 x 24 grid of cell centres (spacing L / 7) and the points.
   constexpr int kGx = 36, kGy = 24;
@@ -1109,10 +1112,10 @@ TEST(UncertaintyBudgetTest, NormalisedFieldDrawsMatchABruteForceField) {
     for (long i = 0; i < m; ++i) {
       for (int j = 0; j < kDraws; ++j) g(i, j) = unit(rng);
     }
-    const Eigen::MatrixXd field = l * g;
+    const Eigen::MatrixXd values = l * g;
     for (int j = 0; j < kDraws; ++j) {
-      const double rms = std::sqrt(field.col(j).head(grid).squaredNorm() / static_cast<double>(grid));
-      brute.col(j) += w[static_cast<size_t>(f)] * field.col(j).tail(n) / rms;
+      const double rms = std::sqrt(values.col(j).head(grid).squaredNorm() / static_cast<double>(grid));
+      brute.col(j) += w[static_cast<size_t>(f)] * values.col(j).tail(n) / rms;
     }
   }
   const auto magnitude = [](Eigen::RowVectorXd row, double p) {
@@ -1124,12 +1127,12 @@ TEST(UncertaintyBudgetTest, NormalisedFieldDrawsMatchABruteForceField) {
   for (long r = 0; r < 4; ++r) {
     const double exact = std::sqrt((w[0].row(r) * k * w[0].row(r).transpose())(0, 0) +
                                    (w[1].row(r) * k * w[1].row(r).transpose())(0, 0));
-    EXPECT_NEAR(d.gaussian_sd[r], exact, 0.01 * exact) << "row " << r;
-    const double rms = std::sqrt(d.draws.row(r).squaredNorm() / kDraws),
+    EXPECT_NEAR(sd[r], exact, 0.01 * exact) << "row " << r;
+    const double rms = std::sqrt(draws.row(r).squaredNorm() / kDraws),
                  brute_rms = std::sqrt(brute.row(r).squaredNorm() / kDraws);
-    const double q68 = magnitude(d.draws.row(r), 0.68), q95 = magnitude(d.draws.row(r), 0.95);
+    const double q68 = magnitude(draws.row(r), 0.68), q95 = magnitude(draws.row(r), 0.95);
     const double b68 = magnitude(brute.row(r), 0.68), b95 = magnitude(brute.row(r), 0.95);
-    std::cout << "row " << r << ": sd " << d.gaussian_sd[r] << " (exact " << exact << "); scaled RMS / sd "
+    std::cout << "row " << r << ": sd " << sd[r] << " (exact " << exact << "); scaled RMS / sd "
               << rms / exact << " (brute force " << brute_rms / exact << "), 95% magnitude / sd " << q95 / exact
               << " (" << b95 / exact << "), 68% " << q68 / exact << " (" << b68 / exact << ")\n";
     EXPECT_NEAR(rms / brute_rms, 1.0, 0.05) << "row " << r;
@@ -1144,15 +1147,17 @@ TEST(UncertaintyBudgetTest, NormalisedFieldDrawsMatchABruteForceField) {
     }
     std::array<Eigen::MatrixXd, 2> mean = {Eigen::MatrixXd::Constant(1, 4096, 1.0 / 4096),
                                            Eigen::MatrixXd::Zero(1, 4096)};
-    const NormalisedFieldDraws c = DrawNormalisedField(cells, mean, length, kWidth, kHeight, 1000, 9);
+    const NormalisedField c = NormalisedField::Draw(length, kWidth, kHeight, 1000, 9);
     ASSERT_TRUE(c.ok);
-    EXPECT_LE(c.draws.cwiseAbs().maxCoeff(), 1 + 1e-9) << "L " << length;
+    const Eigen::MatrixXd mean_draws = c.Respond(cells, mean, nullptr);
+    EXPECT_LE(mean_draws.cwiseAbs().maxCoeff(), 1 + 1e-9) << "L " << length;
     if (length > kWidth) {  // nearly constant over the imager: the mean is nearly the RMS
-      EXPECT_GT(magnitude(c.draws.row(0), 0.25), 0.95);
+      EXPECT_GT(magnitude(mean_draws.row(0), 0.25), 0.95);
     }
   }
   // Too short a field for the imager's modes: not drawn.
-  EXPECT_FALSE(DrawNormalisedField(points, w, 2, kWidth, kHeight, 10, 1).ok);
+  EXPECT_FALSE(NormalisedField::Draw(2, kWidth, kHeight, 10, 1).ok);
+  EXPECT_THROW(field.Respond({points[0]}, w, nullptr), Error);  // weights for other points
 }
 
 }  // namespace

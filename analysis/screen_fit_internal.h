@@ -246,8 +246,12 @@ double IndependentNoisePx(const ModelFit& fit);
 inline constexpr size_t kMisfitRow = 3;  // the lens-model-misfit row's index in UncertaintyBudget::components
 std::vector<Eigen::Vector2d> LinearizedResiduals(const Setup& setup, const Linearization& lin, const ModelFit& fit);
 void Budget(const Setup& setup, ModelWork& w, int n_residuals, ModelFit* fit);
+// stated_field: FitOptions::stated_lens_misfit's field, drawn once per fit (StatedField), or null.
 std::vector<QuantityVariance> CompleteBudget(const Setup& setup, ModelWork& w, const ModelFit& reference,
-                                             ModelFit* fit);
+                                             const NormalisedField* stated_field, ModelFit* fit);
+// The stated lens misfit's field of RMS 1 (NormalisedField::Draw at its length, over the camera's imager,
+// kStatedFieldDraws draws seeded from FitOptions::systematic_field_seed); not ok without a stated misfit.
+NormalisedField StatedField(const Setup& setup);
 void FinishBudget(const std::vector<QuantityVariance>& vars, ModelFit* fit);
 
 // screen_fit_misfit.cc: the lens-model-misfit row. FieldVariance is exact (the family's covariance between
@@ -258,17 +262,17 @@ constexpr int kExactFieldPoints = 3000;
 constexpr int kExactRingFieldPoints = 600;
 QuantityVariance FieldVariance(const Setup& setup, const Linearization& lin, const PixelLockingCorrection& correction,
                                const UncertaintyBudget::FieldComponent& component);
-// A stated misfit's error distribution (RowDistribution::kSampled): DrawNormalisedField of a field of RMS 1 at
-// length_px through the estimate's response (as FieldVariance's, pixel-locking correction included), for k, the
-// first camera's centre-frame x, y, z and its axis-frame z (c_z - 1/k at curvature_per_mm), kStatedFieldDraws
-// draws; per quantity the magnitudes over the unscaled field's standard deviation, sorted, in kStatedFieldGroups
-// means of consecutive ones. Empty when the field cannot be drawn (too short a length; DrawNormalisedField).
+// A stated misfit's error distribution (RowDistribution::kSampled): the stated field (NormalisedField of RMS 1,
+// drawn once per fit) through the estimate's response (as FieldVariance's, pixel-locking correction included),
+// for k, the first camera's centre-frame x, y, z and its axis-frame z (c_z - 1/k at curvature_per_mm); per
+// quantity the draws' magnitudes over the unscaled field's standard deviation, sorted, in kStatedFieldGroups
+// means of consecutive ones. Empty when the field could not be drawn (NormalisedField::ok).
 constexpr long kStatedFieldQuantities = 5;
 constexpr int kStatedFieldDraws = 4000;
 constexpr size_t kStatedFieldGroups = 250;
 std::vector<std::vector<double>> StatedFieldDraws(const Setup& setup, const Linearization& lin,
-                                                  const PixelLockingCorrection& correction, double length_px,
-                                                  double curvature_per_mm);
+                                                  const PixelLockingCorrection& correction,
+                                                  const NormalisedField& field, double curvature_per_mm);
 void EstimateMisfit(const Setup& setup, const Linearization& lin, const std::vector<Eigen::Vector2d>& residual,
                     double sigma_px, UncertaintyBudget* bud, LensFieldProjection* projection);
 void MeasureMisfitCorrelation(const Setup& setup, const Linearization& lin,

@@ -520,10 +520,10 @@ QuantityVariance FieldVariance(const Setup& setup, const Linearization& lin, con
 }
 
 std::vector<std::vector<double>> StatedFieldDraws(const Setup& setup, const Linearization& lin,
-                                                  const PixelLockingCorrection& correction, double length_px,
-                                                  double curvature_per_mm) {
+                                                  const PixelLockingCorrection& correction,
+                                                  const NormalisedField& field, double curvature_per_mm) {
   const long n = static_cast<long>(lin.obs.size());
-  if (setup.photos < 1 || lin.sel_pinv.rows() < 4) return {};
+  if (!field.ok || setup.photos < 1 || lin.sel_pinv.rows() < 4) return {};
   // Weights of k and the first camera's centre-frame position (q's rows 0-3) and of its axis-frame z,
   // c_z - 1/k: d = dc_z + dk / k^2; per coordinate, the response A_f of the existing exact path.
   std::array<Eigen::MatrixXd, 2> weights;
@@ -538,17 +538,15 @@ std::vector<std::vector<double>> StatedFieldDraws(const Setup& setup, const Line
                    ? Eigen::MatrixXd(a.row(3) + a.row(0) / (curvature_per_mm * curvature_per_mm))
                    : Eigen::MatrixXd(a.row(3));
   }
-  const NormalisedFieldDraws d =
-      DrawNormalisedField(DetectedPoints(setup, lin), weights, length_px, setup.camera->width,
-                          setup.camera->height, kStatedFieldDraws, setup.options->systematic_field_seed + 5);
-  if (!d.ok) return {};
+  Eigen::VectorXd sd;
+  const Eigen::MatrixXd draws = field.Respond(DetectedPoints(setup, lin), weights, &sd);
   // Each row's magnitudes over its unscaled field's standard deviation, sorted, as the means of groups of
   // consecutive ones (kStatedFieldDraws / kStatedFieldGroups each): what the coverage factor averages over.
   std::vector<std::vector<double>> out(kStatedFieldQuantities);
   for (long r = 0; r < kStatedFieldQuantities; ++r) {
-    if (!(d.gaussian_sd[r] > 0)) return {};
-    std::vector<double> x(static_cast<size_t>(d.draws.cols()));
-    for (long i = 0; i < d.draws.cols(); ++i) x[static_cast<size_t>(i)] = std::abs(d.draws(r, i)) / d.gaussian_sd[r];
+    if (!(sd[r] > 0)) return {};
+    std::vector<double> x(static_cast<size_t>(draws.cols()));
+    for (long i = 0; i < draws.cols(); ++i) x[static_cast<size_t>(i)] = std::abs(draws(r, i)) / sd[r];
     std::sort(x.begin(), x.end());
     const size_t per = x.size() / kStatedFieldGroups;
     for (size_t g = 0; g < kStatedFieldGroups; ++g) {

@@ -236,7 +236,8 @@ Eigen::MatrixXd NormalisedField::Respond(const std::vector<Eigen::Vector2d>& poi
   const long m = lambda.size();
   Eigen::MatrixXd psi(n, m);
   for (long k = 0; k < m; ++k) {
-    psi.col(k) = at[0].col(modes[static_cast<size_t>(k)].first).cwiseProduct(at[1].col(modes[static_cast<size_t>(k)].second));
+    const auto [i, j] = modes[static_cast<size_t>(k)];
+    psi.col(k) = at[0].col(i).cwiseProduct(at[1].col(j));
   }
   // Row r's response to coordinate c's field sum_k sqrt(lambda_k) g_k psi_k: C_c g, C_c = W_c psi sqrt(lambda).
   const Eigen::VectorXd root = lambda.cwiseSqrt();

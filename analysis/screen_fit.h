@@ -595,8 +595,8 @@ double FieldMeanSquareDof(double length_px, int width, int height);
 // products of each axis's eigenvectors on a grid of cell centres, at least 8 per length and 64 to 256, extended
 // to points by Nystrom's formula; modes down to 1e-6 of the largest), so that each draw's mean square is exactly
 // sum lambda g^2 of its own normal draws g. Drawn once per fit (it is the lens's), answered per candidate model
-// (Respond). ok false when the imager holds more than kMaxModes modes (L below about width / 16, where the mean
-// square has some 70 degrees of freedom or more and the scaling matters little). Deterministic in seed.
+// (Respond). ok false when the imager holds more than kMaxModes modes (L below about width / 22 on 3:2, where the
+// mean square has some 100 degrees of freedom or more and the scaling matters little). Deterministic in seed.
 struct NormalisedField {
   static constexpr size_t kMaxModes = 800;
   bool ok = false;

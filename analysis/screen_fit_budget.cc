@@ -476,11 +476,6 @@ void Budget(const Setup& setup, ModelWork& w, int n_residuals, ModelFit* fit) {
   }
 }
 
-// The lens-model-misfit row's variance and the combined budget of one candidate (after Budget), replacing its
-// sigmas by the combined ones (the curvature's, the cameras' centre-frame positions and their covariance with k).
-// The misfit field is a property of the lens and the detector, common to every candidate: it is measured once, on
-// the residuals of `reference` (the chosen model; its budget holds the components), and propagated through each
-// candidate's own linearization. Returns the rows' variances, the combined last, for FinishBudget.
 NormalisedField StatedField(const Setup& setup) {
   const FitOptions& o = *setup.options;
   if (!(o.stated_lens_misfit_px > 0)) return {};
@@ -488,6 +483,11 @@ NormalisedField StatedField(const Setup& setup) {
                                kStatedFieldDraws, o.systematic_field_seed + 5);
 }
 
+// The lens-model-misfit row's variance and the combined budget of one candidate (after Budget), replacing its
+// sigmas by the combined ones (the curvature's, the cameras' centre-frame positions and their covariance with k).
+// The misfit field is a property of the lens and the detector, common to every candidate: it is measured once, on
+// the residuals of `reference` (the chosen model; its budget holds the components), and propagated through each
+// candidate's own linearization. Returns the rows' variances, the combined last, for FinishBudget.
 std::vector<QuantityVariance> CompleteBudget(const Setup& setup, ModelWork& w, const ModelFit& reference,
                                              const NormalisedField* stated_field, ModelFit* fit) {
   const FitOptions& o = *setup.options;
@@ -618,7 +618,8 @@ std::vector<QuantityVariance> CompleteBudget(const Setup& setup, ModelWork& w, c
       "normal, what follows its finer structure wider (Student's t-like). The row's distribution is therefore "
       "drawn: the field in the imager's Karhunen-Loeve modes, each draw divided by its own RMS over the imager, "
       "through the same response (distribution 'sampled'; the coverage factors average over the draws). Where "
-      "the field is too short to draw (below about 1/64 of the width), Student's t at the mean square's "
+      "the field is too short to draw (the imager holding more than 800 of its modes, below about 1/22 of the "
+      "width), Student's t at the mean square's "
       "degrees of freedom (W H)^2 / (integral over the imager twice of rho(p - p')^2)",
       o.misfit_features, kExactFieldPoints, kExactRingFieldPoints, stated_rule);
   // Combined, fully in quadrature (the sources are independent; within a source the correlation of k with the

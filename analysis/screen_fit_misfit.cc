@@ -460,6 +460,15 @@ void EstimateMisfitCorrelation(const Setup& setup, const Linearization& lin,
   bud->misfit_fit_chi2 = best.cost;
 }
 
+// The first `rows` quantities' response to a field on coordinate f at the detections (rows x n): G_f, less
+// G S M_f where the estimate is corrected for the pixel-locking signature (PixelLockingCorrection::Response).
+Eigen::MatrixXd FieldResponse(const Linearization& lin, const PixelLockingCorrection& correction, int f, long rows) {
+  const Eigen::MatrixXd jf = lin.j_obs(Eigen::seq(f, Eigen::last, 2), Eigen::all);  // J_f, n x t
+  Eigen::MatrixXd a = lin.sel_pinv.topRows(rows) * jf.transpose();
+  if (correction.ok) a -= correction.gs.topRows(rows) * correction.SolveColumns(f);
+  return a;
+}
+
 }  // namespace
 
 // A stationary field of one component's family and variance, common to every photo, propagated through G:
@@ -495,12 +504,7 @@ QuantityVariance FieldVariance(const Setup& setup, const Linearization& lin, con
   const std::vector<Eigen::Vector2d> points = DetectedPoints(setup, lin);
   // A = [A_x; A_y], 2q x n: A_f's column i is q's response to a unit shift of detection i in coordinate f.
   Eigen::MatrixXd a(2 * q, n);
-  for (int f = 0; f < 2; ++f) {
-    const Eigen::MatrixXd jf = lin.j_obs(Eigen::seq(f, Eigen::last, 2), Eigen::all);  // J_f, n x t
-    Eigen::MatrixXd g = lin.sel_pinv * jf.transpose();
-    if (correction.ok) g -= correction.gs * correction.SolveColumns(f);
-    a.middleRows(f * q, q) = g;
-  }
+  for (int f = 0; f < 2; ++f) a.middleRows(f * q, q) = FieldResponse(lin, correction, f, q);
   // A K in column blocks of K (n x 256 at a time; the candidates' budgets may already run in parallel).
   constexpr long kBlock = 256;
   Eigen::MatrixXd ak(2 * q, n), k;
@@ -525,12 +529,10 @@ std::vector<std::vector<double>> StatedFieldDraws(const Setup& setup, const Line
   const long n = static_cast<long>(lin.obs.size());
   if (!field.ok || setup.photos < 1 || lin.sel_pinv.rows() < 4) return {};
   // Weights of k and the first camera's centre-frame position (q's rows 0-3) and of its axis-frame z,
-  // c_z - 1/k: d = dc_z + dk / k^2; per coordinate, the response A_f of the existing exact path.
+  // c_z - 1/k: d = dc_z + dk / k^2; per coordinate, the response A_f of FieldVariance's exact path.
   std::array<Eigen::MatrixXd, 2> weights;
   for (int f = 0; f < 2; ++f) {
-    const Eigen::MatrixXd jf = lin.j_obs(Eigen::seq(f, Eigen::last, 2), Eigen::all);  // J_f, n x t
-    Eigen::MatrixXd a = lin.sel_pinv.topRows(4) * jf.transpose();
-    if (correction.ok) a -= correction.gs.topRows(4) * correction.SolveColumns(f);
+    const Eigen::MatrixXd a = FieldResponse(lin, correction, f, 4);
     Eigen::MatrixXd& w = weights[static_cast<size_t>(f)];
     w.resize(kStatedFieldQuantities, n);
     w.topRows(4) = a;

@@ -287,11 +287,13 @@ nlohmann::json BudgetJson(const ModelFit& f, const std::string& first_photo) {
                    "the combination of the smallest weighted misfit + 2 per component (AIC)"}}},
       {"row_basis", b.misfit_row_basis},
       {"measured_curvature_per_mm", Num(b.measured_misfit_share_curvature_per_mm)},
+      {"measured_curvature_sd_per_mm", Num(b.measured_misfit_share_sd_curvature_per_mm)},
       {"stated_curvature_per_mm", Num(b.stated_misfit_share_curvature_per_mm)},
       {"row_rule", "u(k) of the field measured from the residuals (measured_curvature_per_mm) and of the calibration's "
                    "stated misfit field when one is given (stated_curvature_per_mm: calibrate's measurement in the "
-                   "intrinsics covariance sidecar, or analyze --lens-misfit); the row is the larger (row_basis "
-                   "residuals or calibration)"}};
+                   "intrinsics covariance sidecar, or analyze --lens-misfit); the row is the calibration's unless the "
+                   "measured u(k)^2 exceeds the stated one by more than 1.645 of its own standard uncertainty (a "
+                   "one-sided 5% test; row_basis residuals or calibration)"}};
   j["correlations"] = "rows are independent of one another and combined in quadrature; within a row the curvature "
                       "and the camera positions are correlated (their covariance is carried into the axis-frame z)";
   if (!b.note.empty()) j["note"] = b.note;

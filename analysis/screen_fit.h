@@ -346,8 +346,10 @@ struct UncertaintyBudget {
   std::vector<Lag> misfit_lags;
   // The row's two candidates, u(k) (1/mm): the field measured from the residuals and the stated one
   // (FitOptions::stated_lens_misfit_px, NaN when none is stated); misfit_row_basis names the one the row took
-  // ("residuals" or "calibration").
+  // ("residuals" or "calibration"); the measured one's standard uncertainty (from its variances' standard
+  // uncertainties, delta method), by which the row's rule judges whether it exceeds the stated one.
   double measured_misfit_share_curvature_per_mm = std::numeric_limits<double>::quiet_NaN();
+  double measured_misfit_share_sd_curvature_per_mm = std::numeric_limits<double>::quiet_NaN();
   double stated_misfit_share_curvature_per_mm = std::numeric_limits<double>::quiet_NaN();
   std::string misfit_row_basis;
 };

@@ -192,6 +192,16 @@ Eigen::MatrixXd JtTimes(const Linearization& lin, const Eigen::MatrixXd& x) {
 
 namespace {
 
+// The lens-model-misfit row takes a stated (calibration's) field unless the field measured from the residuals
+// moves the curvature significantly more: var(k) measured above the stated one by more than this many of the
+// measured variance's standard uncertainties (one-sided 5%). Once the measurement was unbiased
+// (EstimatedCovarianceWeight, 2026-12-06), the larger of the two, the rule until then, was biased upward where both
+// measure the same lens.
+constexpr double kMisfitExcessSigmas = 1.645;
+
+// u(k) = sqrt(var) and its standard uncertainty sd(var) / (2 sqrt(var)) (delta method), for the row's text.
+double MisfitShareSd(double var, double var_sd) { return var > 0 ? var_sd / (2 * std::sqrt(var)) : 0.0; }
+
 // Bias fields over the image of RMS `bound_px` per coordinate (Legendre polynomials of total degree <= `degree`,
 // the same field in every photo), propagated through G; the covariance of q over seeded draws. The detector
 // systematic's smooth part and the lens model misfit.
@@ -506,6 +516,7 @@ std::vector<QuantityVariance> CompleteBudget(const Setup& setup, ModelWork& w, c
   }
   const std::optional<Linearization>& lin = w.lin;
   BudgetComponent& c = bud.components[kMisfitRow];
+  double measured_var_sd = 0;  // the standard uncertainty of the measured row's var(k), from its components
   QuantityVariance& misfit = vars[kMisfitRow];
   if (!bud.misfit_components.empty() && lin) {
     std::string lags, parts;
@@ -533,6 +544,7 @@ std::vector<QuantityVariance> CompleteBudget(const Setup& setup, ModelWork& w, c
       if (std::isfinite(ratio)) dof_denominator += part.var_k * part.var_k / (2 * ratio * ratio);
     }
     if (dof_denominator > 0) c.dof = var_sum * var_sum / dof_denominator;
+    measured_var_sd = std::sqrt(2 * dof_denominator);
     c.source = fmt::format(
         "the residuals' correlation at several lags (in feature spacings of {:.1f} px: mean r_a . r_b / 2 in px^2, "
         "{}{}), fitted by stationary fields: a {}; propagated through {} linearization",
@@ -547,6 +559,7 @@ std::vector<QuantityVariance> CompleteBudget(const Setup& setup, ModelWork& w, c
   }
   // The calibration's misfit (FitOptions::stated_lens_misfit_px) as the row's floor: the larger of the two in u(k).
   bud.measured_misfit_share_curvature_per_mm = std::sqrt(std::max(0.0, misfit.var_k));
+  bud.measured_misfit_share_sd_curvature_per_mm = MisfitShareSd(misfit.var_k, measured_var_sd);
   bud.misfit_row_basis = "residuals";
   std::string stated_rule =
       ". No misfit from the lens's calibration was given (the covariance sidecar's misfit, or analyze --lens-misfit): "
@@ -577,27 +590,35 @@ std::vector<QuantityVariance> CompleteBudget(const Setup& setup, ModelWork& w, c
                               "degrees of freedom",
                               stated_dof);
     };
-    stated_rule = "; of this field and the calibration's, the row takes the one that moves the curvature more";
-    if (part.var_k > misfit.var_k) {
+    stated_rule = fmt::format(
+        "; the row takes the calibration's field unless the residuals show significantly more: the measured "
+        "u(k)^2 above the stated one by more than {:g} of its own standard uncertainty (a one-sided 5% test; "
+        "the larger of the two until 2026-12-06, which, once the measurement was unbiased, was biased upward)",
+        kMisfitExcessSigmas);
+    const double measured_excess = misfit.var_k - kMisfitExcessSigmas * measured_var_sd;
+    if (part.var_k >= measured_excess) {
       misfit = part;
       if (stated_field) {
         misfit.draws = StatedFieldDraws(setup, *lin, w.correction, *stated_field, fit->curvature_per_mm);
       }
       const bool drawn = !misfit.draws.empty();
-      c.source = fmt::format("{}, {}, propagated through {} linearization; it moves the curvature more than the "
-                             "field measured from the residuals (u(k) {:.3g} against {:.3g} 1/mm), which was: {}",
+      c.source = fmt::format("{}, {}, propagated through {} linearization; the field measured from the residuals "
+                             "does not move the curvature significantly more (u(k) {:.3g} against {:.3g} +- {:.2g} "
+                             "1/mm, the last from its variance's standard uncertainty), which was: {}",
                              field, distribution(drawn), &reference == fit ? "the fit's" : "this model's",
                              bud.stated_misfit_share_curvature_per_mm,
-                             bud.measured_misfit_share_curvature_per_mm, c.source);
+                             bud.measured_misfit_share_curvature_per_mm,
+                             bud.measured_misfit_share_sd_curvature_per_mm, c.source);
       c.type = "B";
       // The coverage factor averages over the draws (no dof), or Student's t at the mean square's dof.
       c.distribution = drawn ? RowDistribution::kSampled : RowDistribution::kNormal;
       c.dof = drawn ? kInf : stated_dof;
       bud.misfit_row_basis = "calibration";
     } else {
-      c.source += fmt::format("; it moves the curvature more than the calibration's misfit, {} (u(k) {:.3g} against "
-                              "{:.3g} 1/mm)",
+      c.source += fmt::format("; it moves the curvature significantly more than the calibration's misfit, {} (u(k) "
+                              "{:.3g} +- {:.2g} against {:.3g} 1/mm)",
                               field, bud.measured_misfit_share_curvature_per_mm,
+                              bud.measured_misfit_share_sd_curvature_per_mm,
                               bud.stated_misfit_share_curvature_per_mm);
     }
   }

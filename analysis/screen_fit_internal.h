@@ -273,6 +273,16 @@ constexpr size_t kStatedFieldGroups = 250;
 std::vector<std::vector<double>> StatedFieldDraws(const Setup& setup, const Linearization& lin,
                                                   const PixelLockingCorrection& correction,
                                                   const NormalisedField& field, double curvature_per_mm);
+// The generalized-least-squares weight for statistics whose covariance is estimated (the misfit's lag statistics,
+// StatisticsCovariance): V diag(1 / max(lambda, floor)) V^T over the eigenpairs of `covariance`, the floor the
+// larger of 1e-6 of the largest eigenvalue and the magnitude of the most negative one. An estimate whose true
+// value is positive semi-definite and that has an eigenvalue -mu is off by at least mu in norm (Weyl's
+// inequality), so eigenvalues below mu are not known to be smaller than mu: weighting such a direction by 1 /
+// (1e-6 lambda_max) let the estimate's sampling error pick the field (2026-12-06: in webcam trials the lag
+// statistics' covariance held eigenvalues down to -1.6% of the largest; the selection then left a 0.2 px lens
+// field of 364 px for a 0.02 px short one, chi^2 485 on 9 statistics). Empty when the decomposition fails or
+// the largest eigenvalue is not positive.
+std::optional<Eigen::MatrixXd> EstimatedCovarianceWeight(const Eigen::MatrixXd& covariance);
 void EstimateMisfit(const Setup& setup, const Linearization& lin, const std::vector<Eigen::Vector2d>& residual,
                     double sigma_px, UncertaintyBudget* bud, LensFieldProjection* projection);
 void MeasureMisfitCorrelation(const Setup& setup, const Linearization& lin,

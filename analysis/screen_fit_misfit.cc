@@ -183,6 +183,22 @@ Eigen::MatrixXd StatisticsCovariance(const Setup& setup, const Linearization& li
   return out;
 }
 
+}  // namespace
+
+std::optional<Eigen::MatrixXd> EstimatedCovarianceWeight(const Eigen::MatrixXd& covariance) {
+  if (covariance.size() == 0) return std::nullopt;
+  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(covariance);
+  if (eig.info() != Eigen::Success || !(eig.eigenvalues().maxCoeff() > 0)) {
+    return std::nullopt;
+  }
+  const double floor =
+      std::max(1e-6 * eig.eigenvalues().maxCoeff(), std::max(0.0, -eig.eigenvalues().minCoeff()));
+  const Eigen::VectorXd ev = eig.eigenvalues().cwiseMax(floor);
+  return eig.eigenvectors() * ev.cwiseInverse().asDiagonal() * eig.eigenvectors().transpose();
+}
+
+namespace {
+
 // The correlated error's components (UncertaintyBudget::misfit_components, misfit_lags), from the residuals'
 // correlation at several lags. The neighbour statistic alone cannot tell a field smooth over the whole image (which
 // moves the radius) from errors correlated over a few features only (the detector's pixel-locking beat,
@@ -342,7 +358,8 @@ void EstimateMisfitCorrelation(const Setup& setup, const Linearization& lin,
   // residuals are correlated, so the pair products are not independent; a first selection weights the bins as if
   // they were (a product's variance about (sigma^2 + s^2)^2 / 2, s^2 from the nearest lag), then the statistics'
   // covariance is computed from that selection's residual covariance (StatisticsCovariance) and the selection is
-  // repeated by generalized least squares. Under independent weights the long lags' sums looked far more certain
+  // repeated by generalized least squares (weighted by EstimatedCovarianceWeight: that covariance is itself an
+  // estimate, often indefinite). Under independent weights the long lags' sums looked far more certain
   // than they are (a long-range Gaussian of variance 0.16 +- 0.012 px^2 in a frontal validity trial, its row 10 mm
   // against a scatter of ~4 mm).
   const long m = static_cast<long>(stats.size());
@@ -419,10 +436,8 @@ void EstimateMisfitCorrelation(const Setup& setup, const Linearization& lin,
     for (long k = 0; k < m; ++k) sub[static_cast<size_t>(k)] = lag[used_bins[static_cast<size_t>(k)]];
     const Eigen::MatrixXd cov_s = StatisticsCovariance(setup, lin, points, spacing, kLagEdges, by_lag, noise_by_lag,
                                                        var0, sub);
-    const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(cov_s);
-    if (eig.info() == Eigen::Success && eig.eigenvalues().maxCoeff() > 0) {
-      const Eigen::VectorXd ev = eig.eigenvalues().cwiseMax(1e-6 * eig.eigenvalues().maxCoeff());
-      weight = eig.eigenvectors() * ev.cwiseInverse().asDiagonal() * eig.eigenvectors().transpose();
+    if (std::optional<Eigen::MatrixXd> w = EstimatedCovarianceWeight(cov_s)) {
+      weight = std::move(*w);
       best = select(weight);
     }
   }

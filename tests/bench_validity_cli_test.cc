@@ -291,7 +291,8 @@ TEST_F(BenchValidityCli, TheAnalysisStatesThePitchToleranceTheTruthIsDrawnWithin
 // true RMS at the trial's imager, at its length), the floor of the lens-model-misfit row. One realistic trial
 // (the ilc24 lens, 0.1 px at 6000 px) at F = 0, 1 and 2: the photo and the radius are the same (the statement
 // moves the interval, not the estimate); at 0 nothing is stated and the row is the residuals' field; the stated
-// field's u(k) doubles with F (the propagation is linear); the row is the larger of the measured and the stated.
+// field's u(k) doubles with F (the propagation is linear); the row is the stated field's unless the measured one's
+// u(k)^2 exceeds it by more than 1.645 of its standard uncertainty.
 TEST_F(BenchValidityCli, TheAnalysisIsToldTheLensMisfitItsCalibrationWouldState) {
   std::vector<nlohmann::json> results;
   for (const std::string factor : {"0", "1", "2"}) {
@@ -310,13 +311,19 @@ TEST_F(BenchValidityCli, TheAnalysisIsToldTheLensMisfitItsCalibrationWouldState)
   const double stated1 = misfit(1).at("stated_curvature_per_mm").get<double>();
   EXPECT_GT(stated1, 0);
   EXPECT_NEAR(misfit(2).at("stated_curvature_per_mm").get<double>(), 2 * stated1, 1e-9 * stated1);
+  const double measured_sd = misfit(0).at("measured_curvature_sd_per_mm").get<double>();
+  EXPECT_GE(measured_sd, 0);
   for (size_t i = 1; i < 3; ++i) {
     EXPECT_EQ(misfit(i).at("measured_curvature_per_mm").get<double>(), measured);
+    EXPECT_EQ(misfit(i).at("measured_curvature_sd_per_mm").get<double>(), measured_sd);
     const double stated = misfit(i).at("stated_curvature_per_mm").get<double>();
-    EXPECT_NEAR(RowMm(results[i], "lens model misfit"), std::max(measured, stated) / (k * k), 1e-6 * radius) << i;
-    EXPECT_EQ(misfit(i).at("row_basis"), stated > measured ? "calibration" : "residuals");
+    // var(k) measured less 1.645 of its standard uncertainty (2 u sd(u), the delta method inverted).
+    const bool residuals = measured * measured - 1.645 * 2 * measured * measured_sd > stated * stated;
+    EXPECT_NEAR(RowMm(results[i], "lens model misfit"), (residuals ? measured : stated) / (k * k), 1e-6 * radius) << i;
+    EXPECT_EQ(misfit(i).at("row_basis"), residuals ? "residuals" : "calibration");
   }
-  std::cout << "misfit row u(k): measured " << measured << " 1/mm, stated (F = 1) " << stated1 << " 1/mm\n";
+  std::cout << "misfit row u(k): measured " << measured << " +- " << measured_sd << " 1/mm, stated (F = 1) " << stated1
+            << " 1/mm\n";
 }
 
 // --detector-effect: the trial's display photographed again without sensor noise gives the detector's

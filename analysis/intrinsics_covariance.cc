@@ -1,6 +1,7 @@
 // The lens calibration's sidecar beside a camera model, CAM.intrinsics_covariance.json (analysis/screen_fit.h
 // IntrinsicsCovariance; written by calibrate/calibrate.h IntrinsicsCovarianceJson): read, checked against the
-// camera model, and stated into the fit's options (the lens calibration row and the lens-model-misfit row's floor).
+// camera model, and stated into the fit's options (the lens calibration row and the lens-model-misfit row's stated
+// field).
 #include <fmt/format.h>
 
 #include <algorithm>

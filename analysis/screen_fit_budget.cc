@@ -194,9 +194,9 @@ namespace {
 
 // The lens-model-misfit row takes a stated (calibration's) field unless the field measured from the residuals
 // moves the curvature significantly more: var(k) measured above the stated one by more than this many of the
-// measured variance's standard uncertainties (one-sided 5%). Once the measurement was unbiased
-// (EstimatedCovarianceWeight, 2026-12-06), the larger of the two, the rule until then, was biased upward where both
-// measure the same lens.
+// measured variance's standard uncertainties (one-sided 5%). The larger of the two, the rule until 2026-12-06, is
+// biased upward where both estimate the same lens's field; it had made up for a measurement that fell short by
+// construction (EstimatedCovarianceWeight).
 constexpr double kMisfitExcessSigmas = 1.645;
 
 // u(k) = sqrt(var) and its standard uncertainty sd(var) / (2 sqrt(var)) (delta method), for the row's text.
@@ -557,7 +557,8 @@ std::vector<QuantityVariance> CompleteBudget(const Setup& setup, ModelWork& w, c
   } else {
     c.source = "not measurable here (too few features or pairs)";
   }
-  // The calibration's misfit (FitOptions::stated_lens_misfit_px) as the row's floor: the larger of the two in u(k).
+  // The calibration's misfit (FitOptions::stated_lens_misfit_px): the row's unless the residuals' field exceeds it
+  // significantly (kMisfitExcessSigmas).
   bud.measured_misfit_share_curvature_per_mm = std::sqrt(std::max(0.0, misfit.var_k));
   bud.measured_misfit_share_sd_curvature_per_mm = MisfitShareSd(misfit.var_k, measured_var_sd);
   bud.misfit_row_basis = "residuals";
@@ -593,7 +594,7 @@ std::vector<QuantityVariance> CompleteBudget(const Setup& setup, ModelWork& w, c
     stated_rule = fmt::format(
         "; the row takes the calibration's field unless the residuals show significantly more: the measured "
         "u(k)^2 above the stated one by more than {:g} of its own standard uncertainty (a one-sided 5% test; "
-        "the larger of the two until 2026-12-06, which, once the measurement was unbiased, was biased upward)",
+        "until 2026-12-06 the larger of the two, which is biased upward where both estimate one lens's field)",
         kMisfitExcessSigmas);
     const double measured_excess = misfit.var_k - kMisfitExcessSigmas * measured_var_sd;
     if (part.var_k >= measured_excess) {

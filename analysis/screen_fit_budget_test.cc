@@ -115,8 +115,6 @@ TEST(UncertaintyBudgetTest, CoverageFactorConvolvesTheRectangularRow) {
   EXPECT_THROW(CoverageFactor(0.95, {{std::nan(""), kInf, D::kRectangular}}), Error);
 }
 
-// A sampled row (a stated misfit's, NormalisedField) is convolved with the rest by averaging over its draws:
-// against closed forms and the unsampled rows it reproduces.
 // The misfit's lag statistics are weighted by the inverse of their estimated covariance. An estimate with a
 // negative eigenvalue -mu is off by at least mu (Weyl), so no direction is weighted above 1 / mu; a positive
 // definite estimate well above 1e-6 of its largest eigenvalue is inverted exactly.
@@ -142,6 +140,8 @@ TEST(UncertaintyBudgetTest, EstimatedCovarianceWeightFloorsWhatTheEstimateCannot
   EXPECT_FALSE(EstimatedCovarianceWeight(Eigen::MatrixXd(0, 0)).has_value());
 }
 
+// A sampled row (a stated misfit's, NormalisedField) is convolved with the rest by averaging over its draws:
+// against closed forms and the unsampled rows it reproduces.
 TEST(UncertaintyBudgetTest, CoverageFactorAveragesOverASampledRow) {
   constexpr double kInf = std::numeric_limits<double>::infinity();
   using D = RowDistribution;
@@ -625,8 +625,8 @@ TEST(UncertaintyBudgetTest, LensMisfitIsMeasuredFromTheResidualsAndCoversItsShif
 // The calibration's stated misfit (FitOptions::stated_lens_misfit_px, as curvecheck calibrate writes it beside the
 // model) against the radius shifts of the true lens's fields: 24 lenses of the synthetic camera's family (a
 // Gaussian field of RMS 0.1 px at a length of 0.2 x the width, synth/lens_misfit.h), noise-free observations, so
-// that each shift is the field's own. The row is the stated field's (it moves the radius more than what one
-// photo's residuals show of a field this long) and its u(R) is the RMS of the shifts within their sampling error
+// that each shift is the field's own. The row is the stated field's unless the residuals' field is significantly
+// larger (noise-free, it often is here), and its u(R) is the RMS of the shifts within their sampling error
 // (24 fields: the RMS to +-15% at 1 sigma); it scales with the stated RMS exactly. Without the statement the row
 // from the residuals alone covers them too: its RMS within the same bounds and 20 or more of the 24 shifts inside
 // 1.96 of it. (Until 2026-12-06 it did not: 0.94 mm RMS against shifts of 1.40 mm, 16 of 24 inside; the lag

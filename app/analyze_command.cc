@@ -54,8 +54,9 @@ void AddAnalyzeCommand(CLI::App& app, std::function<int()>& run) {
   cmd->add_option("--lens-misfit", args->lens_misfit,
                   "RMS_PX,LENGTH_PX: the lens model misfit the calibration measured (a Gaussian field common to "
                   "every photo, RMS per coordinate and correlation length, px; curvecheck calibrate writes it into "
-                  "the covariance sidecar, which is the default); the budget's lens-model-misfit row is the larger "
-                  "of this field's effect and that of the field measured from the photos' residuals")
+                  "the covariance sidecar, which is the default); the budget's lens-model-misfit row is this field's "
+                  "effect unless the field measured from the photos' residuals moves the curvature significantly "
+                  "more (one-sided 5%)")
       ->delimiter(',')
       ->expected(2);
   cmd->add_option("--pitch-tolerance", args->pitch_tolerance_percent,

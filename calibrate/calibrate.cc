@@ -148,8 +148,8 @@ nlohmann::json IntrinsicsCovarianceJson(const CandidateResult& c, const std::str
           {"observed_pixel_uncertainty_px", c.observed_pixel_uncertainty_px},
           {"method", "mrcal: s^2 (J^T J)^-1 [J_obs^T J_obs] (J^T J)^-1 in the packed state, intrinsics block, "
                      "unpacked (D Var D), marginal over the board poses; s = std of the board residuals"}};
-  // The lens model misfit the calibration measured: curvecheck analyze takes it as the floor of its
-  // lens-model-misfit row (FitOptions::stated_lens_misfit_px).
+  // The lens model misfit the calibration measured: curvecheck analyze takes it for its lens-model-misfit row
+  // unless the residuals show significantly more (FitOptions::stated_lens_misfit_px).
   if (c.misfit_note.empty() && c.misfit_length_px > 0 && std::isfinite(c.misfit_variance_px2)) {
     out["misfit"] = {{"rms_px", std::sqrt(std::max(0.0, c.misfit_variance_px2))},
                      {"length_px", c.misfit_length_px},

@@ -5,8 +5,8 @@
 // position in both frames (a wrong frame or a wrong truth would be off by hundreds of mm); the cell
 // statistics are what the trial rows imply (the coverage counts, the bias in sigmas, the Wilson interval);
 // seeds follow the trial index; shards 1/2 and 2/2 merged give the full run's rows; the analysis's pitch row
-// follows --pitch-tolerance (none at 0); the misfit row's floor follows --lens-misfit-stated; the detector's errors
-// against the truth are a fraction of a pixel; bad options fail
+// follows --pitch-tolerance (none at 0); the misfit row's stated field follows --lens-misfit-stated; the detector's
+// errors against the truth are a fraction of a pixel; bad options fail
 // with one line. Does not prove that the intervals
 // are honest (3 trials cannot): that is what the bench measures (docs/bench/validity_bench.txt).
 #include <gmock/gmock.h>
@@ -288,7 +288,7 @@ TEST_F(BenchValidityCli, TheAnalysisStatesThePitchToleranceTheTruthIsDrawnWithin
 }
 
 // The analysis is told the true lens's misfit as its calibration would state it (--lens-misfit-stated F: F x the
-// true RMS at the trial's imager, at its length), the floor of the lens-model-misfit row. One realistic trial
+// true RMS at the trial's imager, at its length), the lens-model-misfit row's stated field. One realistic trial
 // (the ilc24 lens, 0.1 px at 6000 px) at F = 0, 1 and 2: the photo and the radius are the same (the statement
 // moves the interval, not the estimate); at 0 nothing is stated and the row is the residuals' field; the stated
 // field's u(k) doubles with F (the propagation is linear); the row is the stated field's unless the measured one's

@@ -405,7 +405,7 @@ bool DetectBoard(const std::string& detector, const cv::Mat& photo, const cv::Ma
   };
   grid = search(coarse_input);
   // The measured moire's prefilter (auto) can hide a small board from the coarse search: on the validity bench's
-  // quarter-resolution photos from 3 m at 40 deg (squares of 9-13 px, sigma 2-3.3 px) opencv-sb missed it in 23 of
+  // quarter-resolution photos from 3 m at 40 deg (squares of 7-12 px, sigma 2-3.3 px) opencv-sb missed it in 23 of
   // 60 trials and found it in all 23 on the photo itself. The search is repeated there; the refinement keeps its
   // own sigma (capped by the feature spacing, below). A stated prefilter is the user's and is not undone.
   if (!grid && retry_unsmoothed && sigma > 0 && o.prefilter_sigma_px < 0) {

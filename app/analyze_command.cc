@@ -75,7 +75,8 @@ void AddAnalyzeCommand(CLI::App& app, std::function<int()>& run) {
       ->capture_default_str();
   cmd->add_option("--prefilter-sigma", args->prefilter_sigma_px,
                   "Gaussian prefilter of the detector, sigma in camera px: -1 auto (default: against the moire "
-                  "measured in the photo, and 2 x the display pitch for the refinement), 0 none, or a fixed sigma "
+                  "measured in the photo, and 2 x the display pitch for the refinement; where it hides a small "
+                  "board, the coarse search is repeated unfiltered), 0 none, or a fixed sigma "
                   "(result.json records the one used: inputs.photos[].detection.moire.filter_sigma_px)");
   cmd->add_flag("--correct-pixel-locking", args->options.correct_pixel_locking,
                 "Remove the detector's pixel-locking (estimated with the verification's error field, reported in "

@@ -101,6 +101,9 @@ struct DetectOptions {
   // detected unfiltered. A symmetric blur moves neither straight edges nor X-corners (moire.h). Measured
   // (docs/bench/moire.txt, 1.67 camera px per display px, sharp lens): fill 0.7 0.51 px RMS unfiltered, 0.024 px
   // with the prefilter; fill 1 0.137 px unfiltered, 0.019 px. Detection.moire reports what was seen and used.
+  // Under -1, where the prefiltered copy hides a small board from the coarse search (every detector tried: under
+  // the auto detector classic, then SB), the coarse search is repeated on the photo itself and noted; the
+  // refinement keeps its sigma. A stated sigma (>= 0) is used as given.
   double prefilter_sigma_px = -1;
   // Orientation rule (2): largest angle between the board's up and the image's up, deg, in (0, 45].
   double upright_max_deg = 40;

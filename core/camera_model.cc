@@ -72,6 +72,20 @@ void CameraModel::Check(const std::string& where) const {
     throw Error(where, fmt::format("{} takes {} intrinsics, got {}", lensmodel, n, intrinsics.size()),
                 "give fx, fy, cx, cy and the model's distortion parameters");
   }
+  // libmrcal 2.2 asserts (aborts the process) on a splined model whose spline it cannot evaluate: an order other
+  // than 2 or 3, or fewer than order + 1 knots along an axis (fuzz/fuzz_cameramodel:
+  // LENSMODEL_SPLINED_STEREOGRAPHIC_order=3_Nx=4_Ny=3 aborted in mrcal_project; order=2 Nx=Ny=3 and order=3
+  // Nx=Ny=4 project). Refused here instead.
+  if (lens.type == MRCAL_LENSMODEL_SPLINED_STEREOGRAPHIC) {
+    const auto& c = lens.LENSMODEL_SPLINED_STEREOGRAPHIC__config;
+    if ((c.order != 2 && c.order != 3) || c.Nx < c.order + 1 || c.Ny < c.order + 1) {
+      throw Error(where,
+                  fmt::format("{}: a splined model of order {} with {} x {} knots cannot be evaluated (order 2 or 3, "
+                              "at least order + 1 knots per axis)",
+                              lensmodel, c.order, c.Nx, c.Ny),
+                  "check the model's name");
+    }
+  }
   for (double v : intrinsics) {
     if (!std::isfinite(v)) throw Error(where, "an intrinsic is not finite", "check the model");
   }

@@ -50,6 +50,30 @@ TEST(CameraModel, AbsurdDistortionIsRefused) {
   EXPECT_NO_THROW(m.Check("cam.cameramodel"));
 }
 
+// Splined models libmrcal cannot evaluate abort the process inside mrcal_project (fuzz/fuzz_cameramodel found
+// order=3 with 4 x 3 knots): refused with a reason instead; the smallest evaluable ones project.
+TEST(CameraModel, SplinedModelsMrcalCannotEvaluateAreRefused) {
+  const auto model = [](const std::string& config) {
+    CameraModel m;
+    m.lensmodel = "LENSMODEL_SPLINED_STEREOGRAPHIC_" + config + "_fov_x_deg=100";
+    m.intrinsics.assign(static_cast<size_t>(LensModelParameterCount(m.lensmodel)), 0.0);
+    m.intrinsics[0] = m.intrinsics[1] = 500;
+    m.intrinsics[2] = 319.5, m.intrinsics[3] = 239.5;
+    m.width = 640, m.height = 480;
+    return m;
+  };
+  for (const std::string bad : {"order=3_Nx=4_Ny=3", "order=3_Nx=3_Ny=3", "order=2_Nx=2_Ny=2", "order=1_Nx=4_Ny=4"}) {
+    EXPECT_THAT(testing::MessageOf([&] { model(bad).Check("cam.cameramodel"); }),
+                ::testing::HasSubstr("cannot be evaluated"))
+        << bad;
+  }
+  for (const std::string good : {"order=2_Nx=3_Ny=3", "order=3_Nx=4_Ny=4"}) {
+    const CameraModel m = model(good);
+    EXPECT_NO_THROW(m.Check("cam.cameramodel")) << good;
+    EXPECT_NEAR(ProjectPoint(m, Eigen::Vector3d(0, 0, 1)).x(), 319.5, 1e-9) << good;
+  }
+}
+
 TEST(CameraModel, PinholeAndGradients) {
   const CameraModel pin = PinholeModel(1920, 1080, 1000);
   EXPECT_THAT(ProjectPoint(pin, {0.1, -0.2, 2.0}), EigenNear(Eigen::Vector2d(959.5 + 50, 539.5 - 100), 1e-9));

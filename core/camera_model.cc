@@ -75,7 +75,8 @@ void CameraModel::Check(const std::string& where) const {
   // libmrcal 2.2 asserts (aborts the process) on a splined model whose spline it cannot evaluate: an order other
   // than 2 or 3, or fewer than order + 1 knots along an axis (fuzz/fuzz_cameramodel:
   // LENSMODEL_SPLINED_STEREOGRAPHIC_order=3_Nx=4_Ny=3 aborted in mrcal_project; order=2 Nx=Ny=3 and order=3
-  // Nx=Ny=4 project). Refused here instead.
+  // Nx=Ny=4 project). Refused here instead. A field of view of 0 deg puts every knot at one point: mrcal then
+  // projects every point to NaN (checked with mrcal.project, fov_x_deg=0; the field is an unsigned integer).
   if (lens.type == MRCAL_LENSMODEL_SPLINED_STEREOGRAPHIC) {
     const auto& c = lens.LENSMODEL_SPLINED_STEREOGRAPHIC__config;
     if ((c.order != 2 && c.order != 3) || c.Nx < c.order + 1 || c.Ny < c.order + 1) {
@@ -84,6 +85,12 @@ void CameraModel::Check(const std::string& where) const {
                               "at least order + 1 knots per axis)",
                               lensmodel, c.order, c.Nx, c.Ny),
                   "check the model's name");
+    }
+    if (c.fov_x_deg <= 0) {
+      throw Error(where,
+                  fmt::format("{}: a splined model's field of view fov_x_deg is {}, not positive: it cannot project",
+                              lensmodel, c.fov_x_deg),
+                  "check the model's name (the spline's horizontal field of view, deg)");
     }
   }
   for (double v : intrinsics) {

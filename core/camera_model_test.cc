@@ -67,6 +67,9 @@ TEST(CameraModel, SplinedModelsMrcalCannotEvaluateAreRefused) {
                 ::testing::HasSubstr("cannot be evaluated"))
         << bad;
   }
+  CameraModel no_fov = model("order=3_Nx=5_Ny=4");
+  no_fov.lensmodel = "LENSMODEL_SPLINED_STEREOGRAPHIC_order=3_Nx=5_Ny=4_fov_x_deg=0";
+  EXPECT_THAT(testing::MessageOf([&] { no_fov.Check("cam.cameramodel"); }), ::testing::HasSubstr("fov_x_deg is 0"));
   for (const std::string good : {"order=2_Nx=3_Ny=3", "order=3_Nx=4_Ny=4"}) {
     const CameraModel m = model(good);
     EXPECT_NO_THROW(m.Check("cam.cameramodel")) << good;

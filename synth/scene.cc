@@ -100,6 +100,8 @@ const char* BlurName(Blur blur) {
   return "none";
 }
 
+const char* SamplingName(Sampling sampling) { return sampling == Sampling::kPoint ? "point" : "footprint"; }
+
 const char* ImagingPresetName(ImagingPreset preset) {
   switch (preset) {
     case ImagingPreset::kClean: return "clean";
@@ -149,8 +151,18 @@ Imaging ImagingFromPreset(ImagingPreset preset) {
 namespace {
 
 void ReadOptics(const ConfigMap& o, Optics* optics) {
-  o.RejectUnknownKeys({"supersample", "blur", "blur_px", "vignetting", "exposure"});
+  o.RejectUnknownKeys({"supersample", "sampling", "blur", "blur_px", "vignetting", "exposure"});
   if (o.Has("supersample")) optics->supersample = o.PositiveInt("supersample");
+  if (o.Has("sampling")) {
+    const std::string sampling = o.String("sampling");
+    if (sampling == "footprint") {
+      optics->sampling = Sampling::kFootprint;
+    } else if (sampling == "point") {
+      optics->sampling = Sampling::kPoint;
+    } else {
+      o.Fail("sampling", "is not footprint or point", "choose one");
+    }
+  }
   if (o.Has("blur")) {
     const std::string blur = o.String("blur");
     if (blur == "none") {

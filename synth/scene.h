@@ -37,8 +37,18 @@ struct DisplayModel {
 enum class Blur { kNone, kGaussian, kDisc };
 const char* BlurName(Blur blur);  // "none", "gaussian", "disc"
 
+// How a ray's sample of the display is shaded (scene key optics.sampling: footprint | point; parsed and printed
+// only by the scene reader and SamplingName). kFootprint: the display's light averaged over the sample's footprint
+// (DisplayLight::ShadeAreaN), as a camera pixel integrates it. kPoint: the light at the ray's hit alone, as a
+// ray tracer with a few rays per pixel and no footprint does; the emitters (fill factor, stripes), finer than a
+// sample, alias into a texture (moire, random-looking where the display pitch is below a camera px) that a
+// real lens would blur away: a stress condition for detection and for the intervals, not a real camera.
+enum class Sampling { kFootprint, kPoint };
+const char* SamplingName(Sampling sampling);  // "footprint", "point"
+
 struct Optics {
   int supersample = 2;         // rays per pixel along each axis
+  Sampling sampling = Sampling::kFootprint;
   Blur blur = Blur::kNone;
   double blur_px = 0;          // Gaussian sigma or disc radius, camera px
   double vignetting = 0;       // relative fall-off at the image corner: gain 1 - v (r / r_corner)^2

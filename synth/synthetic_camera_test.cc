@@ -404,6 +404,45 @@ TEST(SyntheticCamera, SensorNoiseHasTheModelsMeanAndVariance) {
 namespace curvecheck {
 namespace {
 
+// optics.sampling: footprint integrates the display's emitters over each sample (a white screen of fill 0.7 is
+// even), point takes the light at each ray's hit (the emitters, finer than a sample, alias into a texture: the
+// stress condition of an independent ray tracer without footprints). Clean chain, no noise, no blur.
+TEST(SyntheticCamera, PointSamplingAliasesTheEmittersAndFootprintsDoNot) {
+  SyntheticScene s;
+  s.monitor = MonitorFromDiagonal("27 flat", 2560, 1440, 27, 0);
+  s.truth.curvature_per_mm = 0;
+  s.camera = PinholeModel(300, 300, 1000);  // 0.9 mm per camera px at 900 mm: 3.85 display px of 0.2335 mm
+  s.screen_from_cam.translation = {0, 0, 900};
+  s.screen_from_cam = ScreenFromCamLookAt(s.screen_from_cam.translation, {0, 0, 0}, Eigen::Vector3d::UnitY());
+  s.display.fill_factor = 0.7;
+  s.display.rgb_stripes = true;
+  s.display.gamma = 1;
+  s.optics.blur = Blur::kNone;
+  s.optics.supersample = 2;
+  s.sensor.noise = false;
+  s.sensor.bits = 16;
+  const Image8 white{2560, 1440, 1, std::vector<uint8_t>(2560 * 1440, 255)};
+  const auto relative_sd = [&](Sampling sampling) {
+    s.optics.sampling = sampling;
+    const cv::Mat centre = RenderSyntheticPhoto(s, white).image(cv::Rect(50, 50, 200, 200));
+    cv::Scalar mean, sd;
+    cv::meanStdDev(centre, mean, sd);
+    return sd[0] / mean[0];
+  };
+  const double footprint = relative_sd(Sampling::kFootprint), point = relative_sd(Sampling::kPoint);
+  std::cout << "white screen, fill 0.7, pixel-to-pixel sd / mean: footprint " << footprint << ", point " << point << "\n";
+  // Measured 0.042 and 1.05. Footprint: a sample's box is 1.9 display px wide, not a whole number of them, so
+  // its lit fraction varies by a few percent (what a pixel aperture without a lens's blur does). Point: each of
+  // the 4 samples of a px is lit (a stripe's emitter, its colour's light x 3) or dark.
+  EXPECT_LT(footprint, 0.1);
+  EXPECT_GT(point, 0.5);
+  const std::filesystem::path scene = Datasets() / "scenes/default.yaml";
+  EXPECT_EQ(LoadScene(scene, {"optics.sampling=point"}).optics.sampling, Sampling::kPoint);
+  EXPECT_EQ(LoadScene(scene).optics.sampling, Sampling::kFootprint);
+  EXPECT_THAT(testing::MessageOf([&] { LoadScene(scene, {"optics.sampling=area"}); }),
+              ::testing::HasSubstr("key 'optics.sampling' is not footprint or point"));
+}
+
 TEST(SyntheticCamera, SeedMustBeAWholeNumber) {
   const std::filesystem::path scenes = std::filesystem::path(std::getenv("CURVECHECK_SOURCE_DIR")) / "datasets/scenes";
   EXPECT_EQ(LoadScene(scenes / "default.yaml", {"sensor.seed=12345"}).sensor.seed, 12345u);

@@ -297,6 +297,7 @@ cv::Mat Trace(const SyntheticScene& s, const Image8& display, const RayGrid& ray
   }
   const int width = s.camera.width, height = s.camera.height;
   const int n = s.optics.supersample;
+  const bool point_samples = s.optics.sampling == Sampling::kPoint;  // no footprint (a stress condition)
   const int samples_x = width * n;
   // The dense-table column and fraction of every sample's x, the same for all rows.
   std::vector<int> column(static_cast<size_t>(samples_x));
@@ -388,8 +389,9 @@ cv::Mat Trace(const SyntheticScene& s, const Image8& display, const RayGrid& ray
           const double wx = std::abs(dxx) + std::abs(dyx), wy = std::abs(dxy) + std::abs(dyy);
           // The PSF in display px: footprints are per sample (1/n camera px).
           const double psf_x = psf_sigma_px * n * wx, psf_y = psf_sigma_px * n * wy;
-          value = std::isnan(wx) || std::isnan(wy) ? light.template ShadePointN<N>(fx, fys[at])
-                                                   : light.template ShadeAreaN<N>(fx, fys[at], wx, wy, psf_x, psf_y);
+          value = point_samples || std::isnan(wx) || std::isnan(wy)
+                      ? light.template ShadePointN<N>(fx, fys[at])
+                      : light.template ShadeAreaN<N>(fx, fys[at], wx, wy, psf_x, psf_y);
           if (terms) {
             const float reflection = terms->Reflection(fx, fys[at]);
             const float luminance = luminances[static_cast<size_t>(sx / n)];

@@ -548,8 +548,15 @@ AnalysisResult AnalyzeWith(const CameraModel& camera, const std::filesystem::pat
 
 AnalysisResult Analyze(const std::filesystem::path& camera_path, const std::vector<PhotoInput>& inputs,
                        const AnalyzeOptions& options) {
-  return AnalyzeWith(ReadCameraModel(camera_path), camera_path, inputs,
-                     [&](size_t i) { return ReadPhotoGray(inputs[i].photo); }, options);
+  std::vector<GrayConversion> conversions(inputs.size());
+  AnalysisResult r = AnalyzeWith(ReadCameraModel(camera_path), camera_path, inputs,
+                                 [&](size_t i) { return ReadPhotoGray(inputs[i].photo, &conversions[i]); }, options);
+  for (size_t i = 0; i < r.photos.size() && i < conversions.size(); ++i) {
+    r.photos[i].gray_conversion = conversions[i];
+    const std::string note = GrayConversionNote(conversions[i]);
+    if (!note.empty()) r.photos[i].detection.notes.insert(r.photos[i].detection.notes.begin(), note);
+  }
+  return r;
 }
 
 PhotoObservations FitObservationsOf(const PhotoAnalysis& photo, const AnalyzeOptions& options) {
@@ -594,6 +601,12 @@ nlohmann::json ResultJson(const AnalysisResult& r, const std::string& command_li
                         {"flagged", flagged},
                         {"notes", p.detection.notes},
                         {"time_ms", p.detection.time_ms}};
+      if (p.gray_conversion.colour) {  // core/image_decode.h ColourPhotoToGray
+        e["detection"]["gray"] = {{"conversion", p.gray_conversion.channel_mean ? "channel mean" : "luma"},
+                                  {"chroma_texture", p.gray_conversion.chroma_texture},
+                                  {"chroma_texture_limit", kColourAliasingLimit},
+                                  {"bright_fraction", p.gray_conversion.bright_fraction}};
+      }
       const MoireMeasure& m = p.detection.moire;  // detect/moire.h; periods and sigmas in camera px
       e["detection"]["moire"] = {{"patches", m.patches},         {"present", m.present},
                                  {"period_px", m.period_px},     {"contrast", m.contrast},

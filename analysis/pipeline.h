@@ -85,6 +85,9 @@ struct PhotoAnalysis {
   std::string rejected;  // why the photo was not used ("" when used)
   PhotoRejection rejection = PhotoRejection::kNone;
   Detection detection;
+  // How the photo file became gray (ReadPhotoGray; luma or the channel mean, and the colour aliasing measured):
+  // set by Analyze from files; colour = false from AnalyzeImages, whose images come gray.
+  GrayConversion gray_conversion;
   Verification verification;
   int fit_index = -1;  // index of this photo in the fit (ScreenFitResult cameras / residuals), -1 if not fitted
   // kDuplicate: the index (in AnalysisResult::photos) of the earlier photo with this content, whose analysis

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstdlib>
 #include <limits>
+#include <vector>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <zlib.h>
@@ -183,6 +184,88 @@ cv::Mat DecodeImage(std::string_view bytes, const std::string& source) {
                 "give a PNG or JPEG file");
   }
   return img;
+}
+
+namespace {
+
+// GrayConversion::chroma_texture and bright_fraction of a 3- or 4-channel photo (ColourPhotoToGray).
+template <typename T>
+void MeasureChromaTexture(const cv::Mat& photo, GrayConversion* out) {
+  constexpr int kRowStep = 4, kReach = 4;
+  const int channels = photo.channels(), width = photo.cols, height = photo.rows;
+  if (width <= 2 * kReach + 2 || height <= 2 * kReach + 2) return;
+  // The channel mean, which colour aliasing leaves even, finds the bright areas; luma - mean is the chroma.
+  const auto level = [&](const T* row, int x) {
+    const T* p = row + static_cast<ptrdiff_t>(x) * channels;
+    return (static_cast<double>(p[0]) + p[1] + p[2]) / 3;
+  };
+  // White level: the 99th percentile of 3-px means along the sampled rows.
+  std::vector<float> means;
+  for (int y = kReach; y < height - kReach; y += kRowStep) {
+    const T* row = photo.ptr<T>(y);
+    for (int x = 1; x + 1 < width; x += 3) {
+      means.push_back(static_cast<float>((level(row, x - 1) + level(row, x) + level(row, x + 1)) / 3));
+    }
+  }
+  if (means.empty()) return;
+  const size_t at = means.size() * 99 / 100;
+  std::nth_element(means.begin(), means.begin() + static_cast<ptrdiff_t>(at), means.end());
+  const double white = means[at];
+  if (!(white > 0)) return;
+  const double bright = 0.6 * white;
+  double n = 0, sum = 0, sum2 = 0, sampled = 0;
+  for (int y = kReach; y < height - kReach; y += kRowStep) {
+    const T* row = photo.ptr<T>(y);
+    const T* up = photo.ptr<T>(y - kReach);
+    const T* down = photo.ptr<T>(y + kReach);
+    for (int x = kReach; x < width - kReach; ++x) {
+      sampled += 1;
+      const double m = level(row, x);
+      if (m < bright || level(row, x - kReach) < bright || level(row, x + kReach) < bright || level(up, x) < bright ||
+          level(down, x) < bright) {
+        continue;
+      }
+      const T* p = row + static_cast<ptrdiff_t>(x) * channels;
+      const double chroma = 0.114 * p[0] + 0.587 * p[1] + 0.299 * p[2] - m;
+      n += 1;
+      sum += chroma;
+      sum2 += chroma * chroma;
+    }
+  }
+  out->bright_fraction = sampled > 0 ? n / sampled : 0;
+  if (n < 100) return;
+  const double mean = sum / n;
+  out->chroma_texture = std::sqrt(std::max(0.0, sum2 / n - mean * mean)) / white;
+}
+
+}  // namespace
+
+cv::Mat ColourPhotoToGray(const cv::Mat& photo, GrayConversion* conversion) {
+  GrayConversion c;
+  if (photo.channels() != 3 && photo.channels() != 4) {
+    if (conversion) *conversion = c;
+    return photo;
+  }
+  c.colour = true;
+  if (photo.depth() == CV_16U) {
+    MeasureChromaTexture<uint16_t>(photo, &c);
+  } else if (photo.depth() == CV_8U) {
+    MeasureChromaTexture<uint8_t>(photo, &c);
+  }
+  c.channel_mean = c.chroma_texture >= kColourAliasingLimit;
+  cv::Mat gray;
+  if (!c.channel_mean) {
+    cv::cvtColor(photo, gray, photo.channels() == 3 ? cv::COLOR_BGR2GRAY : cv::COLOR_BGRA2GRAY);
+  } else {
+    constexpr float kThird = 1.0f / 3.0f;
+    if (photo.channels() == 3) {
+      cv::transform(photo, gray, cv::Matx13f(kThird, kThird, kThird));
+    } else {
+      cv::transform(photo, gray, cv::Matx14f(kThird, kThird, kThird, 0.0f));
+    }
+  }
+  if (conversion) *conversion = c;
+  return gray;
 }
 
 Image8 DecodeImage8(std::string_view bytes, const std::string& source) {

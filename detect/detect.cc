@@ -691,27 +691,32 @@ void DetectOptions::Check(const std::string& where) const {
   moire.Check(where + ": moire");
 }
 
-cv::Mat DecodePhotoGray(std::string_view bytes, const std::string& source) {
+cv::Mat DecodePhotoGray(std::string_view bytes, const std::string& source, GrayConversion* conversion) {
   const std::filesystem::path path(source);
   cv::Mat img = DecodeImage(bytes, source);  // header, size cap (200 Mpx), then OpenCV; keeps 16 bits
   if (img.depth() != CV_8U && img.depth() != CV_16U) {
     throw Error(path.string(), "has an unsupported pixel type (not 8 or 16 bit integers)",
                 "give an 8 or 16 bit photo");
   }
-  // Into a new Mat: cvtColor in place first copies the whole colour image (72 MB at 24 MP; a sixth of `analyze`'s
-  // time in a profile, issue 18).
-  if (img.channels() == 3 || img.channels() == 4) {
-    cv::Mat gray;
-    cv::cvtColor(img, gray, img.channels() == 3 ? cv::COLOR_BGR2GRAY : cv::COLOR_BGRA2GRAY);
-    img = gray;
-  }
+  // Into a new Mat (a conversion in place first copies the whole colour image: 72 MB at 24 MP, a sixth of
+  // `analyze`'s time in a profile, issue 18).
+  img = ColourPhotoToGray(img, conversion);
   if (img.channels() != 1) {
     throw Error(path.string(), fmt::format("has {} channels", img.channels()), "give a gray or colour photo");
   }
   return img;
 }
 
-cv::Mat ReadPhotoGray(const std::filesystem::path& path) {
+std::string GrayConversionNote(const GrayConversion& c) {
+  if (!c.channel_mean) return "";
+  return fmt::format(
+      "colour aliasing: luma - the channel mean varies by {:.1f}% of the white level over the bright areas (limit "
+      "{:.0f}%): the display's R, G, B sub-pixels alias in colour, so the photo was turned gray by the channel mean, "
+      "which cancels that, instead of luma",
+      100 * c.chroma_texture, 100 * kColourAliasingLimit);
+}
+
+cv::Mat ReadPhotoGray(const std::filesystem::path& path, GrayConversion* conversion) {
   const std::string bytes = ReadFileToString(path);
   if (bytes.empty()) throw Error(path.string(), "is empty (0 bytes)", "give a photo (PNG, JPEG, TIFF)");
   const auto starts = [&](std::string_view magic) { return bytes.compare(0, magic.size(), magic) == 0; };
@@ -722,7 +727,7 @@ cv::Mat ReadPhotoGray(const std::filesystem::path& path) {
   if (starts("\xFF\xD8") && tail.find("\xFF\xD9") == std::string_view::npos) {
     throw Error(path.string(), "is a truncated JPEG (no end-of-image marker)", "copy the photo again");
   }
-  return DecodePhotoGray(bytes, path.string());
+  return DecodePhotoGray(bytes, path.string(), conversion);
 }
 
 const char* DetectionFailureName(DetectionFailure failure) {

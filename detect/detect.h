@@ -64,6 +64,7 @@
 #include <string_view>
 #include <vector>
 
+#include "core/image_decode.h"
 #include "detect/moire.h"
 #include "pattern/pattern_json.h"
 
@@ -160,13 +161,16 @@ struct Detection {
   MoireMeasure moire;
 };
 
-// Photo file -> gray image, 8-bit (CV_8U) or 16-bit (CV_16U, precision kept). Colour photos are converted
-// with OpenCV's luma weights. Throws Error(file, problem, fix) on missing, unreadable, truncated (PNG and JPEG
-// end markers are checked) or empty images and on other pixel types.
-cv::Mat ReadPhotoGray(const std::filesystem::path& path);
+// Photo file -> gray image, 8-bit (CV_8U) or 16-bit (CV_16U, precision kept). Colour photos are converted by
+// ColourPhotoToGray (core/image_decode.h: luma, or the channel mean where the display's sub-pixels alias in
+// colour), which says how in `conversion` if given. Throws Error(file, problem, fix) on missing, unreadable,
+// truncated (PNG and JPEG end markers are checked) or empty images and on other pixel types.
+cv::Mat ReadPhotoGray(const std::filesystem::path& path, GrayConversion* conversion = nullptr);
 // The same from the bytes of a photo file (`source` names it in errors), with core's header checks and wording
 // (DecodeImage) but without ReadPhotoGray's own truncation messages.
-cv::Mat DecodePhotoGray(std::string_view bytes, const std::string& source);
+cv::Mat DecodePhotoGray(std::string_view bytes, const std::string& source, GrayConversion* conversion = nullptr);
+// The note DetectionResult::notes carries for a colour photo converted by the channel mean ("" otherwise).
+std::string GrayConversionNote(const GrayConversion& conversion);
 
 // Detects the pattern of pattern.json in a photo (CV_8U or CV_16U, one channel). Never throws for a photo
 // without the pattern or with a different one: it returns `failure` instead. Throws Error for invalid

@@ -9,6 +9,7 @@
 
 #include "core/error.h"
 #include "core/file_io.h"
+#include "core/image_decode.h"
 #include "core/stopwatch.h"
 #include "synth/imaging.h"
 #include "synth/parallel_rows.h"
@@ -133,9 +134,7 @@ cv::Mat PhotoToStoredMat(const SyntheticPhoto& photo) { return photo.image; }
 
 cv::Mat PhotoToMat(const SyntheticPhoto& photo) {
   if (photo.channels != 3) return photo.image.clone();
-  cv::Mat gray;
-  cv::cvtColor(photo.image, gray, cv::COLOR_BGR2GRAY);
-  return gray;
+  return ColourPhotoToGray(photo.image);
 }
 
 void WriteSyntheticPhoto(const std::filesystem::path& path, const SyntheticPhoto& photo) {

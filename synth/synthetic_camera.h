@@ -83,8 +83,8 @@ SyntheticPhoto RenderSyntheticPhoto(const SyntheticScene& scene, const Image8& d
 void WriteSyntheticPhoto(const std::filesystem::path& path, const SyntheticPhoto& photo);
 
 // The photo as the detectors take it, CV_8U or CV_16U by its bit depth, one channel, a copy the caller may
-// change: a colour photo is turned to gray by cv::cvtColor(COLOR_BGR2GRAY), as detect/ReadPhotoGray does with a
-// colour file, so the photo in memory and the photo written and read back are detected alike.
+// change: a colour photo is turned to gray by ColourPhotoToGray (core/image_decode.h), as detect/ReadPhotoGray
+// does with a colour file, so the photo in memory and the photo written and read back are detected alike.
 cv::Mat PhotoToMat(const SyntheticPhoto& photo);
 // The photo as stored (photo.image, its pixels shared, not copied): CV_8UC3 (B, G, R) for colour, else as
 // PhotoToMat.

@@ -1,7 +1,7 @@
 # analysis/pipeline: detect -> verify -> fit for a set of photos, result.json (pipeline.h) and the overlays
 # (overlay.h).
 find_package(OpenCV 4.6 REQUIRED COMPONENTS core imgproc imgcodecs)
-add_library(curvecheck_analysis_pipeline STATIC pipeline.cc overlay.cc)
+add_library(curvecheck_analysis_pipeline STATIC pipeline.cc overlay.cc result_json.cc)
 target_link_libraries(curvecheck_analysis_pipeline
   PUBLIC curvecheck_detect curvecheck_analysis_verify curvecheck_analysis_fit curvecheck_pattern curvecheck_core
   PRIVATE curvecheck_analysis_report opencv_core opencv_imgproc opencv_imgcodecs fmt::fmt)

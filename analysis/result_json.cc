@@ -323,6 +323,9 @@ nlohmann::json ResultJson(const AnalysisResult& r, const std::string& command_li
                                  {"period_px", m.period_px},     {"contrast", m.contrast},
                                  {"peak_to_floor", m.peak_to_floor}, {"display_pitch_px", m.display_pitch_px},
                                  {"filter_sigma_px", m.filter_sigma_px}};
+      e["detection"]["moire"]["gap_deficit"] = m.gap_deficit >= 0 ? nlohmann::json(m.gap_deficit) : nlohmann::json();
+      e["detection"]["moire"]["gap_deficit_limit"] = kGapDeficitLimit;
+      e["detection"]["moire"]["gap_closing"] = m.gap_closing;
     }
     if (p.used) e["verification"] = VerificationJson(p.verification);
     photos.push_back(e);

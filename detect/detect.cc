@@ -379,6 +379,12 @@ void DiagnoseBoardFailure(const cv::Mat& gray8, const PatternInfo& info, const s
                      info.rows - 1, detector);
 }
 
+// The refinement's gap closing (RefineXCorners): the parallelogram of this fraction of the board's edge vectors
+// (at most 1: the black square holds it). RMS against the truth per coordinate on five point-sampled photos (fill
+// 0.7 and 0.85, 1 m, 2400 x 1600; docs/bench/validity_bench.txt, twenty-ninth section): 0.30-0.80 px at 0.5,
+// 0.27-0.42 px at 0.75, 0.29-0.39 px at 0.9.
+constexpr double kGapClosingPerSpacing = 0.75;
+
 // One board detector, oriented and named; false with `failure` set if it found nothing usable.
 // `unmirrored_alternative`: ResolveBoardOrientation's, for the text of a mirrored naming. `retry_unsmoothed`: where
 // the auto prefilter's copy hides the board from the coarse search, search the photo itself too (auto passes false
@@ -416,6 +422,26 @@ bool DetectBoard(const std::string& detector, const cv::Mat& photo, const cv::Ma
                                       detector, sigma));
     }
   }
+  // The image the board was found on: its square colours name the corners (ResolveBoardOrientation).
+  cv::Mat found_on = gray8;
+  // Where the display's gaps darken the bright areas (detect_board.h; measured on the whole photo), the search is
+  // repeated on closings of it, which fill them.
+  if (!grid && retry_unsmoothed && o.prefilter_sigma_px < 0) {
+    const detect_internal::GapDeficit gaps = detect_internal::MeasureGapDeficit(gray8, cv::Rect(0, 0, gray8.cols,
+                                                                                                 gray8.rows));
+    if (gaps.measured && gaps.deficit >= kGapDeficitLimit) {
+      int k = 0;
+      grid = detect_internal::SearchOnClosings(gray8, search, found_on, k);
+      out.notes.push_back(
+          grid ? fmt::format("the coarse search ({}) found the board only on a gray closing of the photo ({} x {} "
+                             "px), where the display's gaps darken the photo's bright areas by {:.1f}% on average "
+                             "(limit {:.0f}%): aliased, they cross the squares as dark bands",
+                             detector, k, k, 100 * gaps.deficit, 100 * kGapDeficitLimit)
+               : fmt::format("the display's gaps darken the photo's bright areas by {:.1f}% on average (limit "
+                             "{:.0f}%); the coarse search ({}) found no board on gray closings of it either",
+                             100 * gaps.deficit, 100 * kGapDeficitLimit, detector));
+    }
+  }
   if (!grid) {
     out.failure_kind = DetectionFailure::kPatternNotFound;
     out.failure = fmt::format("pattern not found: no checkerboard of {}x{} inner corners ({})", inner.width,
@@ -423,7 +449,7 @@ bool DetectBoard(const std::string& detector, const cv::Mat& photo, const cv::Ma
     return false;
   }
   const detect_internal::BoardOrientation orient =
-      detect_internal::ResolveBoardOrientation(*grid, gray8, info.cols, info.rows, o.upright_max_deg);
+      detect_internal::ResolveBoardOrientation(*grid, found_on, info.cols, info.rows, o.upright_max_deg);
   if (!orient.failure.empty()) {
     out.failure = orient.failure;
     out.failure_kind = DetectionFailure::kAmbiguousOrientation;
@@ -431,25 +457,51 @@ bool DetectBoard(const std::string& detector, const cv::Mat& photo, const cv::Ma
   }
   out.notes.push_back(orient.note);
   unmirrored_alternative = orient.unmirrored_alternative;
-  if (detector == "opencv-classic") {
+  // Refined: opencv-classic's corners always; opencv-sb's and mrgingham's under the auto prefilter, as they locate
+  // the corners on the smoothed copy itself and their own localisation carries a structured error: refined as
+  // opencv-classic's, at RefineSigmaPx's sigma (capped). Measured on issue 16's validity trials (default scene's
+  // realistic camera, quarter resolution, 1.5 m, 30 deg yaw, opencv-sb used where classic failed in moire): with a
+  // 4.6 px auto prefilter the cylinder's residual noise was 0.134 px against 0.016 refined at the cap
+  // (Detect.WidePrefilterIsCappedByTheFeatureSpacing); with a 2.1 px one, no cap, 0.079 px against 0.018 refined
+  // (seed 20: varying-curvature-quadratic at R 966.9 mm before, the cylinder at 1000.3 +- 0.6 after).
+  if (detector == "opencv-classic" || o.prefilter_sigma_px < 0) {
     std::vector<std::pair<std::string, Eigen::Vector2d>> coarse;
     for (size_t d = 0; d < grid->px.size(); ++d) {
       coarse.emplace_back(fmt::format("c{}", orient.corner_index[d]), Eigen::Vector2d(grid->px[d].x, grid->px[d].y));
     }
-    detect_internal::RefineXCorners(photo, RefineSigmaPx(coarse, pattern, o, out), *grid);
-  } else if (o.prefilter_sigma_px < 0) {
-    // opencv-sb and mrgingham locate the corners on the smoothed copy itself, and their own localisation carries a
-    // structured error: refine them as opencv-classic's, at RefineSigmaPx's sigma (capped). Measured on issue
-    // 16's validity trials (default scene's realistic camera, quarter resolution, 1.5 m, 30 deg yaw, opencv-sb
-    // used where classic failed in moire): with a 4.6 px auto prefilter the cylinder's residual noise was 0.134
-    // px against 0.016 refined at the cap (Detect.WidePrefilterIsCappedByTheFeatureSpacing); with a 2.1 px one,
-    // no cap, 0.079 px against 0.018 refined (seed 20: varying-curvature-quadratic at R 966.9 mm before, the
-    // cylinder at 1000.3 +- 0.6 after).
-    std::vector<std::pair<std::string, Eigen::Vector2d>> coarse;
-    for (size_t d = 0; d < grid->px.size(); ++d) {
-      coarse.emplace_back(fmt::format("c{}", orient.corner_index[d]), Eigen::Vector2d(grid->px[d].x, grid->px[d].y));
+    const double sigma_px = RefineSigmaPx(coarse, pattern, o, out);
+    bool refined = false;
+    if (o.prefilter_sigma_px < 0) {
+      // Where the display's gaps darken the white squares (detect_board.h): where the board was found only on a
+      // closing, or where its bright pixels lie kGapDeficitLimit or more below a closing on average, the corners
+      // are refined both on the photo and on closed patches, and the smoother grid is kept. Where the camera
+      // resolves the display's pixels, the gaps are a fine grid that the Gaussian handles and the closing moves the
+      // corners (Detect.MoireMeasuredAndFilteredBackToTheCleanError: 0.23 px closed against 0.024 px); where they
+      // alias into wide bands, the closing is what removes them.
+      const bool found_on_closing = found_on.data != gray8.data;
+      const double spacing = FeatureSpacingPx(coarse);
+      const detect_internal::GapDeficit gaps = detect_internal::MeasureGapDeficit(photo, *grid, spacing);
+      out.moire.gap_deficit = gaps.measured ? gaps.deficit : -1;
+      if (found_on_closing || (gaps.measured && gaps.deficit >= kGapDeficitLimit)) {
+        detect_internal::CornerGrid closed = *grid;
+        detect_internal::RefineXCorners(photo, sigma_px, *grid);
+        detect_internal::RefineXCorners(photo, sigma_px, closed, kGapClosingPerSpacing);
+        const double rough_photo = detect_internal::GridRoughnessPx(*grid);
+        const double rough_closed = detect_internal::GridRoughnessPx(closed);
+        out.moire.gap_closing = rough_closed < rough_photo || (std::isnan(rough_photo) && found_on_closing);
+        if (out.moire.gap_closing) *grid = std::move(closed);
+        out.notes.push_back(fmt::format(
+            "display gaps: the board's bright pixels lie {:.1f}% below their {} x {} px gray closing on average "
+            "(limit {:.0f}%{}); the corners refined on the photo scatter by {:.3f} px, on patches closed along the "
+            "board's edges ({:g} x the corner spacing, which fills the gaps) by {:.3f} px (the grid's third "
+            "differences): {} kept",
+            100 * gaps.deficit, gaps.size_px, gaps.size_px,
+            100 * kGapDeficitLimit, found_on_closing ? "; the board was found only on a closing" : "", rough_photo,
+            kGapClosingPerSpacing, rough_closed, out.moire.gap_closing ? "the closed" : "the photo's"));
+        refined = true;
+      }
     }
-    detect_internal::RefineXCorners(photo, RefineSigmaPx(coarse, pattern, o, out), *grid);
+    if (!refined) detect_internal::RefineXCorners(photo, sigma_px, *grid);
   }
   out.features.clear();
   for (size_t d = 0; d < grid->px.size(); ++d) {

@@ -740,11 +740,14 @@ TEST(Detect, SmallObliqueBoardIsFoundWhenThePrefilterHidesIt) {
 
 // A ray tracer without footprints (optics.sampling: point) aliases the display's R, G, B stripes into colour bands
 // that luma turns into light and dark bands across the white squares; the channel mean cancels them
-// (ColourPhotoToGray). 2400 x 1600 (the default lens at 0.4), fill factor 0.7, 32 x 9 board, on axis from 2 m
-// (luma: no board found) and 3 m: the chroma measured above the limit, the mean chosen, every corner named right.
-// The same scene sampled with footprints is converted by luma.
+// (ColourPhotoToGray). It also aliases the gaps between the emitters into dark bands that no channel weighting
+// cancels: the board is then searched on gray closings of the photo and its corners refined on patches closed
+// along the board's edges (detect_board.h GapDeficit). 2400 x 1600 (the default lens at 0.4), fill factor 0.7,
+// 32 x 9 board, on axis from 1 m (no board found before the closings), 2 m (luma: no board found before them) and
+// 3 m: the chroma measured above the limit, the mean chosen, the gaps measured above their limit, every corner
+// named right. The same scene sampled with footprints is converted by luma and refined on the photo.
 TEST(Detect, ColourAliasedPhotoIsDetectedOnItsChannelMean) {
-  for (const double distance_mm : {2000.0, 3000.0}) {
+  for (const double distance_mm : {1000.0, 2000.0, 3000.0}) {
     for (const char* sampling : {"footprint", "point"}) {
       SyntheticScene scene = LoadScene(Datasets() / "scenes" / "default.yaml",
                                        {std::string("optics.sampling=") + sampling, "display.fill_factor=0.7"});
@@ -763,6 +766,14 @@ TEST(Detect, ColourAliasedPhotoIsDetectedOnItsChannelMean) {
       if (std::string(sampling) == "footprint") {
         EXPECT_FALSE(conversion.channel_mean) << where;
         EXPECT_LT(conversion.chroma_texture, 0.5 * kColourAliasingLimit) << where;
+        if (distance_mm == 1000.0) {
+          const Detection d = DetectFeatures(shot.photo, shot.pattern, DetectOptions());
+          ASSERT_EQ(d.failure, "") << where;
+          EXPECT_GE(d.moire.gap_deficit, 0) << where;
+          EXPECT_LT(d.moire.gap_deficit, 0.2 * kGapDeficitLimit) << where;  // 0.8% measured
+          EXPECT_FALSE(d.moire.gap_closing) << where;
+          EXPECT_LT(Compare(d, shot).rms, 0.1) << where;  // 0.029 px measured
+        }
         continue;
       }
       EXPECT_TRUE(conversion.channel_mean) << where;
@@ -780,8 +791,8 @@ TEST(Detect, ColourAliasedPhotoIsDetectedOnItsChannelMean) {
         std::cout << "  luma: " << by_luma.failure << "\n";
       }
       // Every corner named right: off by less than 0.4 of the corner spacing (the median distance from a true
-      // corner to its nearest neighbour: 33.6 and 22.4 px; a corner named after its neighbour is a spacing off;
-      // the worst measured, 8.3 px from 2 m, is a corner the texture moved; the detector flags 1 of the 248 there).
+      // corner to its nearest neighbour: 67, 33.6 and 22.4 px from 1, 2, 3 m; a corner named after its neighbour
+      // is a spacing off; the worst measured: 2.3, 1.0, 1.0 px, 8.3 px from 2 m before the closings).
       std::vector<double> nearest;
       for (const auto& [id, p] : shot.truth) {
         double d = 1e9;
@@ -792,7 +803,10 @@ TEST(Detect, ColourAliasedPhotoIsDetectedOnItsChannelMean) {
       const double spacing = nearest[nearest.size() / 2];
       EXPECT_EQ(e.n, 248) << where;
       EXPECT_LT(e.max, 0.4 * spacing) << where << ", spacing " << spacing;
-      EXPECT_LT(e.rms, 2.5) << where;  // 1.9 and 0.69 px measured (the bench's median at 2-3 m: 0.3-0.6 px)
+      EXPECT_GT(mean.moire.gap_deficit, 1.5 * kGapDeficitLimit) << where;  // 32.5, 27.0, 19.8% measured
+      EXPECT_TRUE(mean.moire.gap_closing) << where;
+      // 0.45, 0.42, 0.47 px measured from 1, 2, 3 m (before the closings: not found, 1.9 and 0.69 px).
+      EXPECT_LT(e.rms, 0.9) << where;
       if (distance_mm == 2000.0) {
         EXPECT_TRUE(!by_luma.failure.empty() || Compare(by_luma, shot).rms > e.rms);
       }

@@ -417,10 +417,11 @@ GapDeficit MeasureGapDeficit(const cv::Mat& photo, cv::Rect within, int size_px)
   if (roi.width < k || roi.height < k) return out;
   cv::Mat closed;
   cv::morphologyEx(photo(roi), closed, cv::MORPH_CLOSE, cv::getStructuringElement(cv::MORPH_RECT, cv::Size(k, k)));
-  // Every 2nd row of the board's area.
-  std::vector<double> levels;
-  for (int r = 0; r < closed.rows; r += 2) {
-    for (int i = 0; i < closed.cols; ++i) levels.push_back(ValueAt(closed, r, i));
+  // The white level on every 4th row and 2nd column, the deficit on every 2nd row.
+  std::vector<float> levels;
+  levels.reserve(static_cast<size_t>(closed.rows / 4 + 1) * static_cast<size_t>(closed.cols / 2 + 1));
+  for (int r = 0; r < closed.rows; r += 4) {
+    for (int i = 0; i < closed.cols; i += 2) levels.push_back(static_cast<float>(ValueAt(closed, r, i)));
   }
   const auto at = levels.begin() + static_cast<std::ptrdiff_t>(0.99 * static_cast<double>(levels.size() - 1));
   std::nth_element(levels.begin(), at, levels.end());

@@ -58,12 +58,13 @@ std::optional<CornerGrid> SearchOnClosings(const cv::Mat& gray8,
                                            cv::Mat& found_on, int& size_px);
 
 // The deficit of the board's area (the grid's bounding box and one corner spacing around it: its outer squares):
-// the mean of (closing - photo) / closing over its bright pixels (closing above 0.6 of its 99th percentile; every
-// 2nd row), the closing by a square of kGapMeasureSizePx, or of about half the black squares where they are
-// smaller (a closing wider than them would fill them), small enough that the scene's smooth shading stays out of
-// it. Footprint photos measure 0.4-6.5% (6.5% at full resolution from 1 m, where the camera resolves the display's
-// pixels), point-sampled ones 14-33% (docs/bench/validity_bench.txt, twenty-ninth section). The photo is 8 or 16
-// bit, one channel; `measured` false where the area is too small or has no bright pixel.
+// the mean of (closing - photo) / closing over its bright pixels (closing above 0.6 of its 99th percentile, that
+// sampled on every 4th row and 2nd column; the mean on every 2nd row), the closing by a square of
+// kGapMeasureSizePx, or of about half the black squares where they are smaller (a closing wider than them would
+// fill them), small enough that the scene's smooth shading stays out of it. Footprint photos measure 0.4-6.5%
+// (6.5% at full resolution from 1 m, where the camera resolves the display's pixels), point-sampled ones 14-33%
+// (docs/bench/validity_bench.txt, twenty-ninth section). The photo is 8 or 16 bit, one channel; `measured` false
+// where the area is too small or has no bright pixel.
 inline constexpr int kGapMeasureSizePx = 15;
 struct GapDeficit {
   bool measured = false;

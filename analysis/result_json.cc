@@ -325,7 +325,7 @@ nlohmann::json ResultJson(const AnalysisResult& r, const std::string& command_li
                                  {"filter_sigma_px", m.filter_sigma_px}};
       e["detection"]["moire"]["gap_deficit"] = m.gap_deficit >= 0 ? nlohmann::json(m.gap_deficit) : nlohmann::json();
       e["detection"]["moire"]["gap_deficit_limit"] = kGapDeficitLimit;
-      e["detection"]["moire"]["gap_closing"] = m.gap_closing;
+      e["detection"]["moire"]["found_on_closing_px"] = m.found_on_closing_px;
     }
     if (p.used) e["verification"] = VerificationJson(p.verification);
     photos.push_back(e);

@@ -379,11 +379,6 @@ void DiagnoseBoardFailure(const cv::Mat& gray8, const PatternInfo& info, const s
                      info.rows - 1, detector);
 }
 
-// The refinement's gap closing (RefineXCorners): the parallelogram of this fraction of the board's edge vectors
-// (at most 1: the black square holds it). RMS against the truth per coordinate on five point-sampled photos (fill
-// 0.7 and 0.85, 1 m, 2400 x 1600; docs/bench/validity_bench.txt, twenty-ninth section): 0.30-0.80 px at 0.5,
-// 0.27-0.42 px at 0.75, 0.29-0.39 px at 0.9.
-constexpr double kGapClosingPerSpacing = 0.75;
 
 // One board detector, oriented and named; false with `failure` set if it found nothing usable.
 // `unmirrored_alternative`: ResolveBoardOrientation's, for the text of a mirrored naming. `retry_unsmoothed`: where
@@ -432,10 +427,12 @@ bool DetectBoard(const std::string& detector, const cv::Mat& photo, const cv::Ma
     if (gaps.measured && gaps.deficit >= kGapDeficitLimit) {
       int k = 0;
       grid = detect_internal::SearchOnClosings(gray8, search, found_on, k);
+      if (grid) out.moire.found_on_closing_px = k;
       out.notes.push_back(
           grid ? fmt::format("the coarse search ({}) found the board only on a gray closing of the photo ({} x {} "
                              "px), where the display's gaps darken the photo's bright areas by {:.1f}% on average "
-                             "(limit {:.0f}%): aliased, they cross the squares as dark bands",
+                             "(limit {:.0f}%): aliased, they cross the squares as dark bands; the corners are "
+                             "refined on the photo",
                              detector, k, k, 100 * gaps.deficit, 100 * kGapDeficitLimit)
                : fmt::format("the display's gaps darken the photo's bright areas by {:.1f}% on average (limit "
                              "{:.0f}%); the coarse search ({}) found no board on gray closings of it either",
@@ -470,38 +467,13 @@ bool DetectBoard(const std::string& detector, const cv::Mat& photo, const cv::Ma
       coarse.emplace_back(fmt::format("c{}", orient.corner_index[d]), Eigen::Vector2d(grid->px[d].x, grid->px[d].y));
     }
     const double sigma_px = RefineSigmaPx(coarse, pattern, o, out);
-    bool refined = false;
     if (o.prefilter_sigma_px < 0) {
-      // Where the display's gaps darken the white squares (detect_board.h): where the board was found only on a
-      // closing, or where its bright pixels lie kGapDeficitLimit or more below a closing on average, the corners
-      // are refined both on the photo and on closed patches, and the smoother grid is kept. Where the camera
-      // resolves the display's pixels, the gaps are a fine grid that the Gaussian handles and the closing moves the
-      // corners (Detect.MoireMeasuredAndFilteredBackToTheCleanError: 0.23 px closed against 0.024 px); where they
-      // alias into wide bands, the closing is what removes them.
-      const bool found_on_closing = found_on.data != gray8.data;
-      const double spacing = FeatureSpacingPx(coarse);
-      const detect_internal::GapDeficit gaps = detect_internal::MeasureGapDeficit(photo, *grid, spacing);
+      // The display's gaps on the board (detect_board.h), reported: result.json detection.moire.gap_deficit.
+      const detect_internal::GapDeficit gaps =
+          detect_internal::MeasureGapDeficit(photo, *grid, FeatureSpacingPx(coarse));
       out.moire.gap_deficit = gaps.measured ? gaps.deficit : -1;
-      if (found_on_closing || (gaps.measured && gaps.deficit >= kGapDeficitLimit)) {
-        detect_internal::CornerGrid closed = *grid;
-        detect_internal::RefineXCorners(photo, sigma_px, *grid);
-        detect_internal::RefineXCorners(photo, sigma_px, closed, kGapClosingPerSpacing);
-        const double rough_photo = detect_internal::GridRoughnessPx(*grid);
-        const double rough_closed = detect_internal::GridRoughnessPx(closed);
-        out.moire.gap_closing = rough_closed < rough_photo || (std::isnan(rough_photo) && found_on_closing);
-        if (out.moire.gap_closing) *grid = std::move(closed);
-        out.notes.push_back(fmt::format(
-            "display gaps: the board's bright pixels lie {:.1f}% below their {} x {} px gray closing on average "
-            "(limit {:.0f}%{}); the corners refined on the photo scatter by {:.3f} px, on patches closed along the "
-            "board's edges ({:g} x the corner spacing, which fills the gaps) by {:.3f} px (the grid's third "
-            "differences): {} kept",
-            100 * gaps.deficit, gaps.size_px, gaps.size_px,
-            100 * kGapDeficitLimit, found_on_closing ? "; the board was found only on a closing" : "", rough_photo,
-            kGapClosingPerSpacing, rough_closed, out.moire.gap_closing ? "the closed" : "the photo's"));
-        refined = true;
-      }
     }
-    if (!refined) detect_internal::RefineXCorners(photo, sigma_px, *grid);
+    detect_internal::RefineXCorners(photo, sigma_px, *grid);
   }
   out.features.clear();
   for (size_t d = 0; d < grid->px.size(); ++d) {

@@ -33,10 +33,8 @@ std::optional<CornerGrid> RunOpenCvClassic(const cv::Mat& gray8, cv::Size inner,
 
 // cornerSubPix at full resolution on each point of the grid, on a patch of `image` (any depth) smoothed by a
 // Gaussian of sigma_px if > 0, with a half-window of 0.3 x the distance to the nearest grid neighbour, clamped to
-// 3..40 px. gap_closing_per_spacing > 0: each patch is first closed by the parallelogram of the board's two edge
-// vectors there (from the neighbouring corners) times that fraction (ClosedAlongEdges), which fills a display's
-// dark gap bands and leaves the X-corner where it is.
-void RefineXCorners(const cv::Mat& image, double sigma_px, CornerGrid& grid, double gap_closing_per_spacing = 0);
+// 3..40 px.
+void RefineXCorners(const cv::Mat& image, double sigma_px, CornerGrid& grid);
 
 // cornerSubPix of one X-corner with the given half-window on a smoothed patch; returns the refined position.
 cv::Point2d RefineXCorner(const cv::Mat& image, double sigma_px, cv::Point2d guess, int half);
@@ -46,13 +44,13 @@ cv::Point2d RefineXCorner(const cv::Mat& image, double sigma_px, cv::Point2d gue
 // pixel; a sensor sampling a sharp image near the emitters' frequency), aliases the gaps into dark bands of any
 // width and slope across the white squares; the board detectors take their edges for the board's, and a
 // Gaussian the feature spacing allows does not remove them. A gray closing (dilation, then erosion, by a k x k
-// square) fills dark structures narrower than k and keeps wider ones: the black squares keep their shape and the
-// corners their place (the X-junction's two black tips are rounded off alike, by about 0.4 k, which leaves the
-// saddle where it was while the junction is symmetric). docs/bench/validity_bench.txt, twenty-ninth section.
+// square) fills dark structures narrower than k and keeps wider ones, the black squares among them: the board is
+// found on it, and its corners are then refined on the photo (docs/bench/validity_bench.txt, twenty-ninth section:
+// refined on closed patches they scattered less but carried a smooth error that a richer screen model took for
+// shape).
 
-// The coarse search `search` on closings of gray8 by 5, 9, 15, 25, 35 and 49 px squares, smallest first: the first grid
-// found, with its image in `found_on` and its size in `size_px`; nullopt if none. (A square rounds the board's
-// black tips off, which a coarse search does not mind; the refinement closes along the board's edges.)
+// The coarse search `search` on closings of gray8 by 5, 9, 15, 25, 35 and 49 px squares, smallest first: the first
+// grid found, with its image in `found_on` and its size in `size_px`; nullopt if none.
 std::optional<CornerGrid> SearchOnClosings(const cv::Mat& gray8,
                                            const std::function<std::optional<CornerGrid>(const cv::Mat&)>& search,
                                            cv::Mat& found_on, int& size_px);
@@ -74,19 +72,6 @@ struct GapDeficit {
 GapDeficit MeasureGapDeficit(const cv::Mat& photo, const CornerGrid& grid, double spacing_px);
 // The same on a rectangle of the photo (the whole photo: before the board is found) with a closing of size_px.
 GapDeficit MeasureGapDeficit(const cv::Mat& photo, cv::Rect area, int size_px = kGapMeasureSizePx);
-
-// A patch closed (dilation, then erosion) by the parallelogram of sides u and v centred on the origin. A board's
-// straight edges are kept exactly (a monotone edge profile is unchanged by any closing), and so is an X-corner
-// whose edges run along u and v (each black wedge holds translates of the parallelogram right up to its tip):
-// unlike a square's, which rounds the tips off and leaves the saddle on a flat plateau (a 30 deg roll: corners
-// moved up to 1.7 px with a square of half the spacing). A dark band is filled where the parallelogram does not fit
-// inside it (with the black next to it).
-cv::Mat ClosedAlongEdges(const cv::Mat& patch, cv::Point2d u, cv::Point2d v);
-
-// The grid's roughness: the RMS of its third differences along rows and columns over sqrt(20), the standard
-// deviation per coordinate of independent corner errors (a smooth map, perspective and lens, leaves almost
-// nothing). NaN for a grid with fewer than 4 corners per row and column.
-double GridRoughnessPx(const CornerGrid& grid);
 
 // Board inner corner indices of every grid point, or the failure.
 struct BoardOrientation {

@@ -241,12 +241,11 @@ TEST(BoardOrientation, InvertedColoursAreRefused) {
   EXPECT_EQ(ResolveBoardOrientation(reversed, upright.image, 16, 5, 40).corner_index, truth);
 }
 
-// A drawn board (8 x 5 squares of 80 px; white 230, black 20) whose white squares are crossed by dark bands (5 px
-// in every 37 px, at 70 deg to the image's x: a display's aliased gaps), rolled 0, 10 and 30 deg: the deficit is
-// the bands' share of the white times their depth; the corners refined on patches closed along the board's edges
-// are where they are on the board without bands (and closing the clean board moves none); on the banded photo,
-// unclosed, they are not.
-TEST(GapClosing, DarkBandsAreMeasuredAndFilledAndTheCornersStay) {
+// A drawn board (8 x 5 squares of 80 px; white 230, black 20) whose white squares are crossed by dark bands (11 px
+// in every 29 px, at 70 deg to the image's x: a display's aliased gaps), rolled 0, 10 and 30 deg: the deficit is
+// the bands' share of the white times their depth (and about 0 without them); opencv-sb finds no board on the
+// banded photo and finds it on a closing of it, every corner within 1 px of the drawn one.
+TEST(GapDeficit, DarkBandsAreMeasuredAndTheBoardIsFoundOnAClosing) {
   for (const double roll : {0.0, 10.0, 30.0}) {
     const DrawnBoard clean = Draw(8, 5, 80, roll, false);
     cv::Mat banded = clean.image.clone();
@@ -256,34 +255,38 @@ TEST(GapClosing, DarkBandsAreMeasuredAndFilledAndTheCornersStay) {
       for (int c = 0; c < banded.cols; ++c) {
         if (banded.at<uint8_t>(r, c) < 225) continue;  // the white squares' inside and the margin
         ++white;
-        if (std::fmod(std::cos(a) * c + std::sin(a) * r, 37.0) < 5.0) banded.at<uint8_t>(r, c) = 20, ++in_band;
+        if (std::fmod(std::cos(a) * c + std::sin(a) * r, 29.0) < 11.0) banded.at<uint8_t>(r, c) = 20, ++in_band;
       }
     }
     const double expected = (230.0 - 20.0) / 230.0 * in_band / white;
     const GapDeficit none = MeasureGapDeficit(clean.image, clean.grid, 80);
     EXPECT_TRUE(none.measured);
+    EXPECT_EQ(none.size_px, kGapMeasureSizePx);
     EXPECT_LT(none.deficit, 0.02) << roll;
     const GapDeficit gaps = MeasureGapDeficit(banded, clean.grid, 80);
     EXPECT_NEAR(gaps.deficit, expected, 0.15 * expected) << roll << ": bands over " << in_band << " of " << white;
-    const auto refined = [&](const cv::Mat& image, double closing) {
-      CornerGrid g = clean.grid;
-      RefineXCorners(image, 1.0, g, closing);
-      return g.px;
-    };
-    const std::vector<cv::Point2d> truth = refined(clean.image, 0), closed_clean = refined(clean.image, 0.75),
-                                   on_bands = refined(banded, 0), on_closing = refined(banded, 0.75);
-    double max_closed = 0, max_bands = 0, max_closing = 0;
-    for (size_t i = 0; i < truth.size(); ++i) {
-      max_closed = std::max(max_closed, cv::norm(closed_clean[i] - truth[i]));
-      max_bands = std::max(max_bands, cv::norm(on_bands[i] - truth[i]));
-      max_closing = std::max(max_closing, cv::norm(on_closing[i] - truth[i]));
+    const GapDeficit whole = MeasureGapDeficit(banded, cv::Rect(0, 0, banded.cols, banded.rows));
+    EXPECT_NEAR(whole.deficit, expected, 0.15 * expected) << roll;
+    const auto search = [](const cv::Mat& image) { return RunOpenCvSb(image, cv::Size(7, 4), false); };
+    EXPECT_FALSE(search(banded)) << roll;
+    cv::Mat found_on;
+    int size = 0;
+    const std::optional<CornerGrid> grid = SearchOnClosings(banded, search, found_on, size);
+    ASSERT_TRUE(grid) << roll;
+    EXPECT_GE(size, 5) << roll;
+    EXPECT_EQ(found_on.size(), banded.size());
+    ASSERT_EQ(grid->px.size(), clean.grid.px.size());
+    // Every found corner near a drawn one (the grid's order is the detector's).
+    double worst = 0;
+    for (const cv::Point2d& p : grid->px) {
+      double nearest = 1e9;
+      for (const cv::Point2d& q : clean.grid.px) nearest = std::min(nearest, cv::norm(p - q));
+      worst = std::max(worst, nearest);
     }
-    std::cout << fmt::format("roll {:g} deg: deficit {:.4f} (bands: {:.4f}); corners off by at most {:.3f} px on "
-                             "the clean board closed, {:.3f} px on the bands, {:.3f} px on them closed\n",
-                             roll, gaps.deficit, expected, max_closed, max_bands, max_closing);
-    EXPECT_LT(max_closed, 0.1) << roll;  // 0.001, 0.052, 0.038 px measured (rasterised kernel)
-    EXPECT_LT(max_closing, 0.1) << roll;
-    EXPECT_GT(max_bands, 1.0) << roll;
+    std::cout << fmt::format("roll {:g} deg: deficit {:.4f} (bands: {:.4f}; whole photo {:.4f}); found on a {} px "
+                             "closing, corners within {:.2f} px\n",
+                             roll, gaps.deficit, expected, whole.deficit, size, worst);
+    EXPECT_LT(worst, 1.0) << roll;
   }
 }
 

@@ -80,16 +80,15 @@ struct MoireMeasure {
   double display_pitch_px = 0;
   double filter_sigma_px = 0;
   // Filled by DetectFeatures (boards, auto prefilter): the display's gaps in the photo, the mean deficit of the
-  // board's bright pixels below a gray closing (detect_board.h MeasureGapDeficit; -1: not measured), and whether
-  // the corners kept are those refined on patches closed along the board's edges (tried at or above
-  // kGapDeficitLimit, or where the board was found only on a closing of the photo; kept where their grid is
-  // smoother than the photo's, GridRoughnessPx).
+  // board's bright pixels below a gray closing (detect_board.h MeasureGapDeficit; -1: not measured), and the size
+  // of the closing on which the coarse search found the board (0: found on the photo or its Gaussian copy; tried
+  // where the whole photo's deficit reaches kGapDeficitLimit).
   double gap_deficit = -1;
-  bool gap_closing = false;
+  int found_on_closing_px = 0;
 };
 
-// The gap deficit at and above which the board is searched on closings of the photo and its corners refined on
-// closed patches (detect.h DetectOptions::prefilter_sigma_px): footprint photos measure 0.4-6.5%, point-sampled ones
+// The gap deficit (of the whole photo) at and above which a board the coarse search did not find is searched on
+// closings of the photo (detect.h DetectOptions::prefilter_sigma_px): footprint photos measure 0.4-6.5%, point-sampled ones
 // 14-33% (docs/bench/validity_bench.txt, twenty-ninth section).
 inline constexpr double kGapDeficitLimit = 0.1;
 

@@ -324,6 +324,8 @@ nlohmann::json ResultJson(const AnalysisResult& r, const std::string& command_li
                                  {"peak_to_floor", m.peak_to_floor}, {"display_pitch_px", m.display_pitch_px},
                                  {"filter_sigma_px", m.filter_sigma_px}};
       e["detection"]["moire"]["gap_deficit"] = m.gap_deficit >= 0 ? nlohmann::json(m.gap_deficit) : nlohmann::json();
+      e["detection"]["moire"]["photo_gap_deficit"] =
+          m.photo_gap_deficit >= 0 ? nlohmann::json(m.photo_gap_deficit) : nlohmann::json();
       e["detection"]["moire"]["gap_deficit_limit"] = kGapDeficitLimit;
       e["detection"]["moire"]["found_on_closing_px"] = m.found_on_closing_px;
     }

@@ -15,6 +15,7 @@
 #include "core/image_decode.h"
 #include "core/file_io.h"
 #include "core/png_encode.h"
+#include "core/stats.h"
 
 namespace curvecheck {
 
@@ -207,12 +208,9 @@ void MeasureChromaTexture(const cv::Mat& photo, GrayConversion* out) {
       means.push_back(static_cast<float>((level(row, x - 1) + level(row, x) + level(row, x + 1)) / 3));
     }
   }
-  if (means.empty()) return;
-  const size_t at = means.size() * 99 / 100;
-  std::nth_element(means.begin(), means.begin() + static_cast<ptrdiff_t>(at), means.end());
-  const double white = means[at];
+  const double white = WhiteLevel(std::move(means));
   if (!(white > 0)) return;
-  const double bright = 0.6 * white;
+  const double bright = kBrightOfWhite * white;
   double n = 0, sum = 0, sum2 = 0, sampled = 0;
   for (int y = kReach; y < height - kReach; y += kRowStep) {
     const T* row = photo.ptr<T>(y);

@@ -24,4 +24,11 @@ double Rms(const std::vector<double>& values) {
   return std::sqrt(sum / static_cast<double>(values.size()));
 }
 
+float WhiteLevel(std::vector<float> levels) {
+  if (levels.empty()) return 0;
+  const auto at = levels.begin() + static_cast<std::ptrdiff_t>(levels.size() * 99 / 100);
+  std::nth_element(levels.begin(), at, levels.end());
+  return *at;
+}
+
 }  // namespace curvecheck

@@ -23,6 +23,16 @@ TEST(Stats, PercentileInterpolatesBetweenClosestRanks) {
   EXPECT_DOUBLE_EQ(Percentile({7}, 37), 7);
 }
 
+TEST(Stats, WhiteLevelLeavesTheBrightestPercentOut) {
+  // 0..999 shuffled, with 10 glints (1%) at 5000: rank 1010 * 99 / 100 = 999 of the sorted values, the top non-glint.
+  std::vector<float> v;
+  for (int i = 0; i < 1000; ++i) v.push_back(static_cast<float>((i * 7919) % 1000));
+  for (int i = 0; i < 10; ++i) v.push_back(5000);
+  EXPECT_FLOAT_EQ(WhiteLevel(v), 999);
+  EXPECT_FLOAT_EQ(WhiteLevel({3}), 3);
+  EXPECT_FLOAT_EQ(WhiteLevel({}), 0);
+}
+
 TEST(Stats, Rms) {
   EXPECT_DOUBLE_EQ(Rms({3, 4}), std::sqrt(12.5));
   EXPECT_DOUBLE_EQ(Rms({}), 0);

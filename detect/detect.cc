@@ -15,6 +15,7 @@
 
 #include "detect/detect_board.h"
 #include "detect/detect_tags.h"
+#include "detect/pattern_info.h"
 #include "core/error.h"
 #include "core/file_io.h"
 #include "core/image_decode.h"
@@ -25,114 +26,15 @@ namespace curvecheck {
 namespace {
 
 using detect_internal::CornerGrid;
+using detect_internal::ApplyHomography;
 using detect_internal::DetectedTag;
+using detect_internal::FitHomography;
+using detect_internal::PatternInfo;
+using detect_internal::ReadPatternInfo;
+using detect_internal::TagIdRanges;
 
 constexpr Detector kDetectors[] = {Detector::kAuto, Detector::kMrgingham, Detector::kOpenCvSb,
                                    Detector::kOpenCvClassic, Detector::kAprilTag};
-
-// What detection needs from pattern.json.
-struct PatternInfo {
-  std::string kind;        // checkerboard | apriltag | both
-  int cols = 0, rows = 0;  // squares (board kinds)
-  double square_mm = 0;    // board kinds
-  std::map<std::string, Eigen::Vector2d> pattern_mm;  // every feature id -> plane coordinates
-  std::set<int> tag_ids;                              // tags of the pattern (from the feature ids)
-  int board_corners = 0, tag_corners = 0;
-};
-
-PatternInfo ReadPatternInfo(const PatternFile& pattern) {
-  const nlohmann::json& p = pattern.raw.at("pattern");
-  const auto fail = [](const std::string& what) {
-    throw Error("pattern.json", what, "write it again with curvecheck render");
-  };
-  PatternInfo info;
-  if (!p.contains("kind") || !p.at("kind").is_string()) fail("'pattern.kind' is missing or not a text");
-  info.kind = p.at("kind").get<std::string>();
-  if (info.kind != "checkerboard" && info.kind != "apriltag" && info.kind != "both") {
-    fail(fmt::format("'pattern.kind' is '{}', not checkerboard, apriltag or both", info.kind));
-  }
-  if (info.kind != "apriltag") {
-    for (const char* key : {"cols", "rows"}) {
-      if (!p.contains(key) || !p.at(key).is_number_integer() || p.at(key).get<int>() < 2) {
-        fail(fmt::format("'pattern.{}' is missing or not a whole number of at least 2", key));
-      }
-    }
-    info.cols = p.at("cols").get<int>();
-    info.rows = p.at("rows").get<int>();
-    if (!p.contains("square_mm") || !p.at("square_mm").is_number() || !(p.at("square_mm").get<double>() > 0)) {
-      fail("'pattern.square_mm' is missing or not positive");
-    }
-    info.square_mm = p.at("square_mm").get<double>();
-  }
-  for (const Feature& f : pattern.features) {
-    info.pattern_mm[f.id] = f.pattern_mm;
-    if (f.kind == "tag_corner") {
-      info.tag_ids.insert(std::stoi(f.id.substr(1)));
-      ++info.tag_corners;
-    } else {
-      ++info.board_corners;
-    }
-  }
-  if (info.kind != "apriltag" && info.board_corners != (info.cols - 1) * (info.rows - 1)) {
-    fail(fmt::format("has {} checkerboard corners, but a board of {}x{} squares has {}", info.board_corners,
-                     info.cols, info.rows, (info.cols - 1) * (info.rows - 1)));
-  }
-  if (info.kind != "checkerboard" && info.tag_ids.empty()) fail("is a pattern with tags but lists no tag corners");
-  return info;
-}
-
-std::string TagIdRanges(const std::set<int>& ids) {
-  std::string out;
-  for (auto it = ids.begin(); it != ids.end();) {
-    const int first = *it;
-    int last = first;
-    for (++it; it != ids.end() && *it == last + 1; ++it) last = *it;
-    out += fmt::format("{}{}", out.empty() ? "" : ", ", first == last ? fmt::format("{}", first)
-                                                                     : fmt::format("{}..{}", first, last));
-  }
-  return out;
-}
-
-// Homography from pattern plane (mm) to image (px) by least squares with h33 = 1 on normalized coordinates.
-// nullopt if the points are degenerate.
-std::optional<Eigen::Matrix3d> FitHomography(const std::vector<Eigen::Vector2d>& from,
-                                             const std::vector<Eigen::Vector2d>& to) {
-  const size_t n = from.size();
-  if (n < 4) return std::nullopt;
-  const auto normalizer = [](const std::vector<Eigen::Vector2d>& pts) {
-    Eigen::Vector2d mean = Eigen::Vector2d::Zero();
-    for (const auto& p : pts) mean += p;
-    mean /= static_cast<double>(pts.size());
-    double spread = 0;
-    for (const auto& p : pts) spread += (p - mean).norm();
-    spread /= static_cast<double>(pts.size());
-    const double s = spread > 0 ? std::sqrt(2.0) / spread : 1.0;
-    Eigen::Matrix3d t;
-    t << s, 0, -s * mean.x(), 0, s, -s * mean.y(), 0, 0, 1;
-    return t;
-  };
-  const Eigen::Matrix3d ta = normalizer(from), tb = normalizer(to);
-  Eigen::Matrix<double, 8, 8> ata = Eigen::Matrix<double, 8, 8>::Zero();
-  Eigen::Matrix<double, 8, 1> atb = Eigen::Matrix<double, 8, 1>::Zero();
-  for (size_t i = 0; i < n; ++i) {
-    const Eigen::Vector3d p = ta * from[i].homogeneous(), q = tb * to[i].homogeneous();
-    Eigen::Matrix<double, 8, 1> r1, r2;
-    r1 << p.x(), p.y(), 1, 0, 0, 0, -q.x() * p.x(), -q.x() * p.y();
-    r2 << 0, 0, 0, p.x(), p.y(), 1, -q.y() * p.x(), -q.y() * p.y();
-    ata += r1 * r1.transpose() + r2 * r2.transpose();
-    atb += r1 * q.x() + r2 * q.y();
-  }
-  const Eigen::FullPivLU<Eigen::Matrix<double, 8, 8>> lu(ata);
-  if (lu.rank() < 8 || lu.rcond() < 1e-12) return std::nullopt;
-  const Eigen::Matrix<double, 8, 1> h = lu.solve(atb);
-  Eigen::Matrix3d hn;
-  hn << h(0), h(1), h(2), h(3), h(4), h(5), h(6), h(7), 1;
-  const Eigen::Matrix3d out = tb.inverse() * hn * ta;
-  if (!out.allFinite()) return std::nullopt;
-  return out;
-}
-
-Eigen::Vector2d Apply(const Eigen::Matrix3d& h, const Eigen::Vector2d& p) { return (h * p.homogeneous()).hnormalized(); }
 
 void AddFlag(DetectedFeature& f, const std::string& flag) { f.flag += (f.flag.empty() ? "" : "; ") + flag; }
 
@@ -194,7 +96,7 @@ void ScreenOutliers(std::vector<DetectedFeature>& features, const PatternInfo& i
         if (static_cast<int>(from.size()) == o.screen_neighbours) break;
       }
       const std::optional<Eigen::Matrix3d> h = from.size() >= 5 ? FitHomography(from, to) : std::nullopt;
-      residual[i] = h ? (Apply(*h, plane[i]) - features[i].px).norm() : std::nan("");
+      residual[i] = h ? (ApplyHomography(*h, plane[i]) - features[i].px).norm() : std::nan("");
       if (!h) ++unscreened;
       if (active[i] && std::isfinite(residual[i])) finite.push_back(residual[i]);
     }
@@ -379,7 +281,6 @@ void DiagnoseBoardFailure(const cv::Mat& gray8, const PatternInfo& info, const s
                      info.rows - 1, detector);
 }
 
-
 // One board detector, oriented and named; false with `failure` set if it found nothing usable.
 // `unmirrored_alternative`: ResolveBoardOrientation's, for the text of a mirrored naming. `retry_unsmoothed`: where
 // the auto prefilter's copy hides the board from the coarse search, search the photo itself too (auto passes false
@@ -424,6 +325,7 @@ bool DetectBoard(const std::string& detector, const cv::Mat& photo, const cv::Ma
   if (!grid && retry_unsmoothed && o.prefilter_sigma_px < 0) {
     const detect_internal::GapDeficit gaps = detect_internal::MeasureGapDeficit(gray8, cv::Rect(0, 0, gray8.cols,
                                                                                                  gray8.rows));
+    if (gaps.measured) out.moire.photo_gap_deficit = gaps.deficit;
     if (gaps.measured && gaps.deficit >= kGapDeficitLimit) {
       int k = 0;
       grid = detect_internal::SearchOnClosings(gray8, search, found_on, k);
@@ -524,9 +426,9 @@ void BoardCornersFromTags(const cv::Mat& photo, double sigma_px, const std::vect
     }
     const std::optional<Eigen::Matrix3d> h = FitHomography(from, to);
     if (!h) continue;
-    const Eigen::Vector2d guess = Apply(*h, p);
-    const double square_px = std::min((Apply(*h, p + Eigen::Vector2d(info.square_mm, 0)) - guess).norm(),
-                                      (Apply(*h, p + Eigen::Vector2d(0, info.square_mm)) - guess).norm());
+    const Eigen::Vector2d guess = ApplyHomography(*h, p);
+    const double square_px = std::min((ApplyHomography(*h, p + Eigen::Vector2d(info.square_mm, 0)) - guess).norm(),
+                                      (ApplyHomography(*h, p + Eigen::Vector2d(0, info.square_mm)) - guess).norm());
     const int half = std::clamp(static_cast<int>(std::floor(0.12 * square_px)), 2, 30);
     if (guess.x() < half + 1 || guess.y() < half + 1 || guess.x() > photo.cols - half - 2 ||
         guess.y() > photo.rows - half - 2) {

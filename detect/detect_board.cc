@@ -13,6 +13,7 @@
 #include <opencv2/imgproc.hpp>
 #include <utility>
 
+#include "core/stats.h"
 #include "detect/detect_tags.h"
 
 namespace curvecheck::detect_internal {
@@ -397,9 +398,7 @@ GapDeficit MeasureGapDeficit(const cv::Mat& photo, cv::Rect within, int size_px)
   for (int r = 0; r < closed.rows; r += 4) {
     for (int i = 0; i < closed.cols; i += 2) levels.push_back(static_cast<float>(ValueAt(closed, r, i)));
   }
-  const auto at = levels.begin() + static_cast<std::ptrdiff_t>(0.99 * static_cast<double>(levels.size() - 1));
-  std::nth_element(levels.begin(), at, levels.end());
-  const double bright = 0.6 * *at;
+  const double bright = kBrightOfWhite * WhiteLevel(std::move(levels));
   double sum = 0;
   size_t n = 0;
   const cv::Mat area = photo(roi);

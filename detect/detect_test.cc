@@ -772,6 +772,7 @@ TEST(Detect, ColourAliasedPhotoIsDetectedOnItsChannelMean) {
           EXPECT_GE(d.moire.gap_deficit, 0) << where;
           EXPECT_LT(d.moire.gap_deficit, 0.2 * kGapDeficitLimit) << where;  // 0.8% measured
           EXPECT_EQ(d.moire.found_on_closing_px, 0) << where;
+          EXPECT_EQ(d.moire.photo_gap_deficit, -1) << where;  // found without: the whole photo's not needed
           EXPECT_LT(Compare(d, shot).rms, 0.1) << where;  // 0.029 px measured
         }
         continue;
@@ -806,6 +807,10 @@ TEST(Detect, ColourAliasedPhotoIsDetectedOnItsChannelMean) {
       EXPECT_GT(mean.moire.gap_deficit, 1.5 * kGapDeficitLimit) << where;  // 32.5, 27.0, 19.8% measured
       // From 1 m the board is found only on a closing (9 px); from 2 and 3 m on the photo.
       EXPECT_EQ(mean.moire.found_on_closing_px > 0, distance_mm == 1000.0) << where;
+      // The whole photo's deficit, which decided the closings, is reported where it was measured.
+      if (mean.moire.found_on_closing_px > 0) {
+        EXPECT_GE(mean.moire.photo_gap_deficit, kGapDeficitLimit) << where;
+      }
       EXPECT_LT(e.rms, 5.0) << where;  // 3.87, 1.91, 0.69 px measured from 1, 2, 3 m
       if (distance_mm == 2000.0) {
         EXPECT_TRUE(!by_luma.failure.empty() || Compare(by_luma, shot).rms > e.rms);

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "core/error.h"
+#include "core/stats.h"
 
 namespace curvecheck {
 
@@ -41,8 +42,7 @@ MoireMeasure MeasureMoire(const cv::Mat& photo_gray, const MoireOptions& o) {
   const cv::Mat& photo = photo_gray;
 
   // Bright areas: the photo averaged over blocks of n/4 px (INTER_AREA: long enough to average strong moire
-  // away), the patch's minimum there against 0.6 x the 99th percentile (an edge through a block takes it to
-  // about half the white level).
+  // away), the patch's minimum there above the bright level (core/stats.h WhiteLevel, kBrightOfWhite).
   const int block = std::max(1, n / 4);
   const cv::Size coarse_size(photo.cols / block, photo.rows / block);
   cv::Mat coarse;
@@ -64,10 +64,7 @@ MoireMeasure MeasureMoire(const cv::Mat& photo_gray, const MoireOptions& o) {
     photo.convertTo(photo_f, CV_32F);
     cv::resize(photo_f, coarse, coarse_size, 0, 0, cv::INTER_AREA);
   }
-  std::vector<float> levels(coarse.begin<float>(), coarse.end<float>());
-  const size_t p99 = levels.size() * 99 / 100;
-  std::nth_element(levels.begin(), levels.begin() + static_cast<std::ptrdiff_t>(p99), levels.end());
-  const double white = levels[p99];
+  const double white = WhiteLevel(std::vector<float>(coarse.begin<float>(), coarse.end<float>()));
   if (!(white > 0)) return m;
   std::vector<cv::Point> corners;  // top-left of each bright patch
   for (int y = 0; y + n <= photo.rows; y += n) {
@@ -76,7 +73,7 @@ MoireMeasure MeasureMoire(const cv::Mat& photo_gray, const MoireOptions& o) {
       if ((cell & cv::Rect(0, 0, coarse.cols, coarse.rows)) != cell) continue;
       double lo = 0;
       cv::minMaxLoc(coarse(cell), &lo);
-      if (lo > 0.6 * white) corners.emplace_back(x, y);
+      if (lo > kBrightOfWhite * white) corners.emplace_back(x, y);
     }
   }
   if (corners.empty()) return m;

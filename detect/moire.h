@@ -80,16 +80,18 @@ struct MoireMeasure {
   double display_pitch_px = 0;
   double filter_sigma_px = 0;
   // Filled by DetectFeatures (boards, auto prefilter): the display's gaps in the photo, the mean deficit of the
-  // board's bright pixels below a gray closing (detect_board.h MeasureGapDeficit; -1: not measured), and the size
-  // of the closing on which the coarse search found the board (0: found on the photo or its Gaussian copy; tried
-  // where the whole photo's deficit reaches kGapDeficitLimit).
+  // board's bright pixels below a gray closing (detect_board.h MeasureGapDeficit; -1: not measured); the whole
+  // photo's, which decides whether the coarse search is repeated on closings (-1: not measured, the board was
+  // found without); and the size of the closing on which the coarse search found the board (0: found on the photo
+  // or its Gaussian copy).
   double gap_deficit = -1;
+  double photo_gap_deficit = -1;
   int found_on_closing_px = 0;
 };
 
 // The gap deficit (of the whole photo) at and above which a board the coarse search did not find is searched on
-// closings of the photo (detect.h DetectOptions::prefilter_sigma_px): footprint photos measure 0.4-6.5%, point-sampled ones
-// 14-33% (docs/bench/validity_bench.txt, twenty-ninth section).
+// closings of the photo (detect.h DetectOptions::prefilter_sigma_px): footprint photos measure 0.4-6.5%,
+// point-sampled ones 14-33% (docs/bench/validity_bench.txt, twenty-ninth section).
 inline constexpr double kGapDeficitLimit = 0.1;
 
 // The measurement above, on a one-channel photo of any depth (colour photos: convert to gray first, as

@@ -153,28 +153,8 @@ namespace {
 void ReadOptics(const ConfigMap& o, Optics* optics) {
   o.RejectUnknownKeys({"supersample", "sampling", "blur", "blur_px", "vignetting", "exposure"});
   if (o.Has("supersample")) optics->supersample = o.PositiveInt("supersample");
-  if (o.Has("sampling")) {
-    const std::string sampling = o.String("sampling");
-    if (sampling == "footprint") {
-      optics->sampling = Sampling::kFootprint;
-    } else if (sampling == "point") {
-      optics->sampling = Sampling::kPoint;
-    } else {
-      o.Fail("sampling", "is not footprint or point", "choose one");
-    }
-  }
-  if (o.Has("blur")) {
-    const std::string blur = o.String("blur");
-    if (blur == "none") {
-      optics->blur = Blur::kNone;
-    } else if (blur == "gaussian") {
-      optics->blur = Blur::kGaussian;
-    } else if (blur == "disc") {
-      optics->blur = Blur::kDisc;
-    } else {
-      o.Fail("blur", "is not none, gaussian or disc", "choose one");
-    }
-  }
+  if (o.Has("sampling")) optics->sampling = static_cast<Sampling>(Choice(o, "sampling", {"footprint", "point"}));
+  if (o.Has("blur")) optics->blur = static_cast<Blur>(Choice(o, "blur", {"none", "gaussian", "disc"}));
   if (o.Has("blur_px")) optics->blur_px = o.Number("blur_px");
   if (o.Has("vignetting")) optics->vignetting = o.Number("vignetting");
   if (o.Has("exposure")) optics->exposure = o.PositiveNumber("exposure");

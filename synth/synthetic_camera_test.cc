@@ -440,7 +440,7 @@ TEST(SyntheticCamera, PointSamplingAliasesTheEmittersAndFootprintsDoNot) {
   EXPECT_EQ(LoadScene(scene, {"optics.sampling=point"}).optics.sampling, Sampling::kPoint);
   EXPECT_EQ(LoadScene(scene).optics.sampling, Sampling::kFootprint);
   EXPECT_THAT(testing::MessageOf([&] { LoadScene(scene, {"optics.sampling=area"}); }),
-              ::testing::HasSubstr("key 'optics.sampling' is not footprint or point"));
+              ::testing::HasSubstr("key 'optics.sampling' is not one of footprint, point"));
 }
 
 TEST(SyntheticCamera, SeedMustBeAWholeNumber) {
@@ -494,7 +494,7 @@ TEST(SceneReader, OverridesAreAppliedAndChecked) {
       {"optics..blur=none", "has an empty key"},
       {"monitor.name=x", "'monitor' is not a mapping"},
       {"optics.blur=[", "has a value that is not YAML"},
-      {"optics.blur=box", "default.yaml with optics.blur=box: key 'optics.blur' is not none, gaussian or disc"},
+      {"optics.blur=box", "default.yaml with optics.blur=box: key 'optics.blur' is not one of none, gaussian, disc"},
       {"optics.blur_px=", "--set optics.blur_px=: has no value after '='; give one, e.g. optics.blur_px=1.5"},
       {"optics.blur_px=~", "--set optics.blur_px=~: has no value after '='"},
       {"optics.blur_px=0x10", "key 'optics.blur_px' must be a decimal number, got '0x10'"},

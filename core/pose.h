@@ -13,6 +13,12 @@
 
 namespace curvecheck {
 
+// The rotation of a rotation vector r (rad; Rodrigues, as mrcal's rt): by |r| about r / |r|; none for r = 0.
+inline Eigen::AngleAxisd AngleAxisFromVector(const Eigen::Vector3d& r) {
+  const double angle = r.norm();
+  return angle > 0 ? Eigen::AngleAxisd(angle, r / angle) : Eigen::AngleAxisd(0, Eigen::Vector3d::UnitZ());
+}
+
 struct Pose {
   Eigen::Quaterniond rotation = Eigen::Quaterniond::Identity();  // unit quaternion
   Eigen::Vector3d translation = Eigen::Vector3d::Zero();         // mm
@@ -26,11 +32,8 @@ struct Pose {
   // From mrcal's rt vector (rotation as a Rodrigues vector, rad; then the translation): the same convention,
   // mrcal's T_target_source (mrcal conventions, "Poses").
   static Pose FromRt(const std::array<double, 6>& rt) {
-    const Eigen::Vector3d r(rt[0], rt[1], rt[2]);
-    const double angle = r.norm();
-    const Eigen::Quaterniond q =
-        angle > 0 ? Eigen::Quaterniond(Eigen::AngleAxisd(angle, r / angle)) : Eigen::Quaterniond::Identity();
-    return Pose(q, Eigen::Vector3d(rt[3], rt[4], rt[5]));
+    return Pose(Eigen::Quaterniond(AngleAxisFromVector(Eigen::Vector3d(rt[0], rt[1], rt[2]))),
+                Eigen::Vector3d(rt[3], rt[4], rt[5]));
   }
   std::array<double, 6> ToRt() const {
     const Eigen::AngleAxisd aa(rotation);

@@ -716,7 +716,7 @@ TEST(Detect, SmallObliqueBoardIsFoundWhenThePrefilterHidesIt) {
     const Eigen::Vector3d aim = t.aim_deg * M_PI / 180;
     const Eigen::Matrix3d looking = ScreenFromCamLookAt(placed, centre, Eigen::Vector3d::UnitY()).RotationMatrix();
     scene.screen_from_cam =
-        Pose(Eigen::Matrix3d(looking * Eigen::AngleAxisd(aim.norm(), aim.normalized()).toRotationMatrix()),
+        Pose(Eigen::Matrix3d(looking * AngleAxisFromVector(aim).toRotationMatrix()),
              Eigen::Vector3d(placed + t.jitter_mm));
     PatternSpec spec;
     spec.cols = 32;

@@ -212,8 +212,7 @@ FlatVsBoardTrial RunFlatVsBoardTrial(const BenchFlatVsBoardOptions& o, uint64_t 
         const Eigen::Vector3d a(aim(rng), aim(rng), aim(rng));
         scene.screen_from_cam =
             Pose(ScreenFromCamLookAt(position, look, Eigen::Vector3d::UnitY()).RotationMatrix() *
-                     Eigen::AngleAxisd(a.norm(), a.norm() > 0 ? a.normalized() : Eigen::Vector3d::UnitZ())
-                         .toRotationMatrix(),
+                     AngleAxisFromVector(a).toRotationMatrix(),
                  position);
         if (ScreenInside(scene, 0.02)) break;
       }

@@ -52,8 +52,7 @@ SelfCalibrationTrial RunSelfCalibrationTrial(const SyntheticScene& base, const T
     SyntheticScene scene = base;
     scene.sensor.seed = seed * 1000 + obs.size();
     const Eigen::Vector3d a(aim(rng), aim(rng), aim(rng));
-    const Eigen::Matrix3d turn = a.norm() > 0 ? Eigen::AngleAxisd(a.norm(), a.normalized()).toRotationMatrix()
-                                              : Eigen::Matrix3d::Identity();
+    const Eigen::Matrix3d turn = AngleAxisFromVector(a).toRotationMatrix();
     scene.screen_from_cam =
         Pose(ScreenFromCamLookAt(position, look_at, Eigen::Vector3d::UnitY()).RotationMatrix() * turn, position);
     const SyntheticPhoto photo = RenderSyntheticPhoto(scene, display.image);

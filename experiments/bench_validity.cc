@@ -312,9 +312,7 @@ std::vector<std::string> RunTrial(Bench& b, int index, std::string* line) {
   const Eigen::Matrix3d looking =
       ScreenFromCamLookAt(placed, centre, Eigen::Vector3d::UnitY()).RotationMatrix();
   const Eigen::Vector3d aim_rad = aim_deg * M_PI / 180;
-  const Eigen::Matrix3d turn =
-      aim_rad.norm() > 0 ? Eigen::AngleAxisd(aim_rad.norm(), aim_rad.normalized()).toRotationMatrix()
-                         : Eigen::Matrix3d::Identity();
+  const Eigen::Matrix3d turn = AngleAxisFromVector(aim_rad).toRotationMatrix();
   scene.screen_from_cam = Pose(looking * turn, position);  // turn: in the camera frame
 
   // The truth of the camera position in the true screen's centre and axis frames.

@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "core/camera_model.h"
+#include "core/look_at.h"  // ScreenFromCamLookAt, which scenes are placed with
 #include "core/pose.h"
 #include "core/monitor.h"
 #include "synth/true_monitor.h"
@@ -167,9 +168,5 @@ CameraModel ScaledCamera(const CameraModel& camera, double scale);
 // The smallest short side of a scaled imager, px: a 9-square board across it leaves 7 px per square, about the
 // least a corner detector works with.
 inline constexpr int kMinScaledImagerPx = 64;
-
-// The camera at `position` (screen frame, mm) looking at look_at: camera z toward look_at, x = z cross up,
-// y = z cross x (down). Throws Error if up is parallel to the viewing direction.
-Pose ScreenFromCamLookAt(const Eigen::Vector3d& position, const Eigen::Vector3d& look_at, const Eigen::Vector3d& up);
 
 }  // namespace curvecheck

@@ -16,10 +16,11 @@ double Percentile(std::vector<double> values, double p);
 // Root mean square; 0 for none.
 double Rms(const std::vector<double>& values);
 
-// The white level of a photo of a pattern: the 99th percentile (rank n * 99 / 100, by nth_element) of its levels,
-// each a mean over a small window; the brightest 1% are left to glints and clipped noise. 0 for none. The bright
-// areas (white squares, where moire, colour aliasing and the display's gaps are measured) are the windows above
-// kBrightOfWhite of it: an edge through a window takes its mean to about half the white level.
+// The white level of a photo of a pattern: the 99th percentile (rank n * 99 / 100, by nth_element) of its local
+// levels (a small window's mean, or a gray closing's value); the brightest 1% are left to glints and clipped
+// noise. 0 for none. The bright areas (white squares, where moire, colour aliasing and the display's gaps are
+// measured) are the levels above kBrightOfWhite of it: an edge through a window takes its mean to about half the
+// white level.
 float WhiteLevel(std::vector<float> levels);
 inline constexpr double kBrightOfWhite = 0.6;
 

@@ -89,6 +89,8 @@ nlohmann::json ModelFitJson(const ModelFit& f) {
                       {"noise_px", f.noise_px},
                       {"bic", f.bic},
                       {"heldout_rms_px", Num(f.heldout_rms_px)},
+                      {"heldout_strips_px", Num(f.heldout_strips_px)},
+                      {"vetoed", f.vetoed},
                       {"bic_white", Num(f.bic_white)},
                       {"lens_field_rss_px2", Num(f.lens_field_rss_px2)},
                       {"heldout_adjusted_px", Num(f.heldout_adjusted_px)},

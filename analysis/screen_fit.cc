@@ -601,7 +601,10 @@ ScreenFitResult FitScreen(const Monitor& nominal, const CameraModel& camera,
     ModelFit& fit = result.candidates[i];
     fit.model = ScreenModelName(work[i].kind);
     FitFinal(setup, work[i], inlier, &fit);
-    fit.heldout_rms_px = HeldOut(setup, work[i], inlier, fit);
+    fit.heldout_rms_px = HeldOut(setup, work[i], inlier, fit, false);
+    if (options.heldout_strips && work[i].kind != ScreenModelKind::kCylinderDeviation) {
+      fit.heldout_strips_px = HeldOut(setup, work[i], inlier, fit, true);
+    }
     fit.time_ms = time_ms[i] + watch.Ms();
   });
   result.detection_noise_px = DetectionSigma(options);

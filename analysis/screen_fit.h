@@ -81,6 +81,18 @@ struct FitOptions {
   // solver started at the full solution takes first; both agree to well within heldout_tolerance (the fit's
   // tests compare them). The step is used only where the final fit's linearization exists; otherwise the solves.
   bool heldout_exact_refit = false;
+  // The held-out error again with the features' folds made of contiguous strips of the screen (heldout_folds strips
+  // across u, the display's horizontal coordinate) instead of a shuffle (ModelFit::heldout_strips_px), and a
+  // richer candidate left out of the choice when a simpler adequate one predicts the left-out strips better by more
+  // than heldout_tolerance. Shuffled folds leave each feature's neighbours in the fit, so an error correlated
+  // between neighbours (a detector's moire) is predicted from them and a richer model that fits it looks better
+  // there as under BIC; a strip has no such neighbours, and a shape that is not the screen's does not carry over
+  // to it (an independent tracer's moire, 2026-12-06: varying-curvature-quadratic chosen 3-5 sigma from the true
+  // radius, its strip error 1.4-4.6 times the cylinder's; a true lean of 1 deg predicts the strips ten times
+  // better than the cylinder). Not for cylinder+deviation: a local deviation's strip has no support elsewhere, so
+  // no model predicts it from the rest (a true 2 mm bulge: the deviation model's strip error 2.3 times the
+  // cylinder's); its choice stays with BIC and the shuffled folds. false: the shuffled folds alone.
+  bool heldout_strips = true;
   // A richer model is chosen only if its BIC is lower than every simpler one's by more than bic_margin
   // (10: "very strong" evidence on Kass and Raftery's scale), and its held-out RMS is within
   // heldout_tolerance (relative) of the best held-out RMS. The rule runs among the adequate candidates (see
@@ -368,6 +380,12 @@ struct ModelFit {
   // compared as sqrt(heldout^2 - lens_field_rss_px2 / inliers) (heldout_adjusted_px). bic_white: the BIC of the
   // plain residual sum. NaN (and bic = bic_white) when no misfit was measured.
   double lens_field_rss_px2 = std::numeric_limits<double>::quiet_NaN();
+  // The held-out RMS with the folds as strips of the screen (FitOptions::heldout_strips); NaN when off and for
+  // cylinder+deviation. vetoed: a
+  // simpler adequate candidate's strip error is below this one's by more than heldout_tolerance, so the choice
+  // left this one out.
+  double heldout_strips_px = std::numeric_limits<double>::quiet_NaN();
+  bool vetoed = false;
   double bic_white = std::numeric_limits<double>::quiet_NaN();
   double heldout_adjusted_px = std::numeric_limits<double>::quiet_NaN();
   // Per-coordinate noise of this model's residuals, sqrt(RSS/(n - p)); scales this model's covariance.
@@ -486,6 +504,8 @@ ScreenFitResult FitScreen(const Monitor& nominal, const CameraModel& camera,
 // adequate candidates (all converged ones if none is adequate), the simplest whose BIC is within
 // options.bic_margin of the lowest and whose held-out RMS, floored at sqrt(2) options.noise_floor_px, is within
 // options.heldout_tolerance (relative) of the lowest; the lowest BIC when none qualifies or nothing converged.
+// Before that, a candidate whose strip held-out error (ModelFit::heldout_strips_px) exceeds a simpler adequate
+// candidate's by more than options.heldout_tolerance (relative) is left out (vetoed).
 // Candidates must be in order of complexity. Public for tests of the rule at its boundaries.
 void ChooseModel(const FitOptions& options, ScreenFitResult* result);
 

@@ -289,7 +289,9 @@ void MeasureMisfitCorrelation(const Setup& setup, const Linearization& lin,
                               const std::vector<Eigen::Vector2d>& residual, double sigma_px, UncertaintyBudget* bud);
 
 // screen_fit_select.cc: model selection.
-double HeldOut(const Setup& setup, const ModelWork& w, const std::vector<bool>& inlier, const ModelFit& fit);
+// The held-out RMS over heldout_folds folds of the features: shuffled, or (strips) contiguous strips across u.
+double HeldOut(const Setup& setup, const ModelWork& w, const std::vector<bool>& inlier, const ModelFit& fit,
+               bool strips);
 void AdjustForLensField(const FitOptions& o, int width_px, const std::vector<ModelWork>& work,
                         ScreenFitResult* result);
 void Choose(const FitOptions& options, ScreenFitResult* result);

@@ -52,6 +52,22 @@ std::vector<int> FoldOfFeature(size_t features, int folds) {
   return fold_of;
 }
 
+// The fold of each feature as contiguous strips across u: the features sorted by their u (the display's
+// horizontal coordinate, the same in every photo), strip f holding the f-th of `folds` equal shares.
+std::vector<int> StripOfFeature(const Setup& setup, int folds) {
+  std::vector<double> u(setup.feature_ids.size(), kNaN);
+  for (const Obs& o : setup.obs) u[static_cast<size_t>(o.feature)] = o.uv.x();
+  std::vector<int> order(u.size());
+  std::iota(order.begin(), order.end(), 0);
+  std::stable_sort(order.begin(), order.end(),
+                   [&](int a, int b) { return u[static_cast<size_t>(a)] < u[static_cast<size_t>(b)]; });
+  std::vector<int> fold_of(order.size());
+  for (size_t i = 0; i < order.size(); ++i) {
+    fold_of[static_cast<size_t>(order[i])] = static_cast<int>(i * static_cast<size_t>(folds) / order.size());
+  }
+  return fold_of;
+}
+
 // Per photo, the observations a fold's refit keeps (inliers outside the fold). A photo left with fewer than 6 has
 // no determined pose, and its held-out residuals are not counted.
 std::vector<int> KeptPerPhoto(const Setup& setup, const std::vector<bool>& inlier, const std::vector<int>& fold_of,
@@ -117,10 +133,12 @@ double HeldOutLinearized(const Setup& setup, const Linearization& lin, const std
 }  // namespace
 
 // k-fold over feature ids: refit without each fold (from the full solution), predict the fold.
-double HeldOut(const Setup& setup, const ModelWork& w, const std::vector<bool>& inlier, const ModelFit& fit) {
+double HeldOut(const Setup& setup, const ModelWork& w, const std::vector<bool>& inlier, const ModelFit& fit,
+               bool strips) {
   const int folds = setup.options->heldout_folds;
   if (folds < 2) return kNaN;
-  const std::vector<int> fold_of = FoldOfFeature(setup.feature_ids.size(), folds);
+  const std::vector<int> fold_of =
+      strips ? StripOfFeature(setup, folds) : FoldOfFeature(setup.feature_ids.size(), folds);
   if (!setup.options->heldout_exact_refit && w.lin && w.lin->normal.size() > 0 && !fit.residual_px.empty()) {
     return HeldOutLinearized(setup, *w.lin, inlier, fold_of, LinearizedResiduals(setup, *w.lin, fit));
   }
@@ -227,11 +245,34 @@ void Choose(const FitOptions& options, ScreenFitResult* result) {
     if (c[i].adequate) any_adequate = true;
     else inadequate += (inadequate.empty() ? "" : ", ") + c[i].model;
   }
-  const auto in_pool = [&](size_t i) { return c[i].converged && (c[i].adequate || !any_adequate); };
+  // The veto: a candidate whose strip error exceeds a simpler adequate candidate's by more than the tolerance
+  // (NaN errors veto nothing). The simplest adequate candidate is never vetoed, so the pool stays non-empty.
+  std::string vetoed;
+  for (size_t i = 0; i < c.size(); ++i) {
+    result->candidates[i].vetoed = false;
+    if (!c[i].converged || !std::isfinite(c[i].heldout_strips_px)) continue;
+    for (size_t j = 0; j < i; ++j) {
+      if (!c[j].converged || !c[j].adequate || !std::isfinite(c[j].heldout_strips_px)) continue;
+      if (c[i].heldout_strips_px > c[j].heldout_strips_px * (1 + options.heldout_tolerance)) {
+        result->candidates[i].vetoed = true;
+        vetoed += fmt::format("{}{} (strip error {:.4f} px against {}'s {:.4f} px)", vetoed.empty() ? "" : ", ",
+                              c[i].model, c[i].heldout_strips_px, c[j].model, c[j].heldout_strips_px);
+        break;
+      }
+    }
+  }
+  const auto in_pool = [&](size_t i) {
+    return c[i].converged && (c[i].adequate || !any_adequate) && !c[i].vetoed;
+  };
   const std::string pool_note =
       (inadequate.empty() ? std::string()
        : any_adequate     ? "; left out as inadequate: " + inadequate
                           : "; no candidate is adequate") +
+      (vetoed.empty() ? std::string()
+                      : "; left out as predicting strips of the screen left out of the fit worse than a simpler "
+                        "model (a shape the rest of the screen does not carry over to them: correlated detection "
+                        "errors, not the screen): " +
+                            vetoed) +
       (result->lens_field_px > 0
            ? fmt::format("; residuals compared after a lens model misfit field of RMS {:.4f} px common to every "
                          "photo (a correlated error, not evidence for a shape)",

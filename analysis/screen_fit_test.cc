@@ -7,6 +7,7 @@
 // (wrong pattern.json, perturbed display positions, flat-only on a curved screen) and the plausibility warnings.
 #include "analysis/screen_fit.h"
 
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -1054,6 +1055,51 @@ TEST(ScreenFitChoiceTest, HeldOutToleranceDecides) {
             "cylinder");
   // Outside the BIC margin the held-out error cannot rescue a model: flat predicts well here but its BIC is far.
   EXPECT_EQ(Chosen(options, {Candidate("flat", 200, 0.15), Candidate("cylinder", 100, 0.16)}), "cylinder");
+}
+
+// The strip veto (FitOptions::heldout_strips): varying-curvature-quadratic has the lowest BIC by 34 and the lowest
+// shuffled held-out error, but predicts strips of the screen left out 38% worse than the cylinder (the figures of
+// an independent tracer's moire photo, 2026-12-06): it is left out, and so is varying-curvature (92% worse), so the
+// cylinder is chosen. Within the tolerance (5%, inclusive) nothing is vetoed; an inadequate simpler model vetoes
+// nothing, and a richer model that predicts the strips better (a true lean) is kept.
+TEST(ScreenFitChoiceTest, RicherModelThatPredictsLeftOutStripsWorseIsLeftOut) {
+  const FitOptions options;
+  const auto with_strips = [](ModelFit c, double strips) {
+    c.heldout_strips_px = strips;
+    return c;
+  };
+  const std::vector<ModelFit> moire = {
+      with_strips(Candidate("flat", 3231, 38.1, false), 72.0),
+      with_strips(Candidate("cylinder", -1722.3, 0.2345), 0.2963),
+      with_strips(Candidate("cylinder+lean", -1718.7, 0.2353), 0.2944),
+      with_strips(Candidate("varying-curvature", -1743.7, 0.2278), 0.5690),
+      with_strips(Candidate("varying-curvature-quadratic", -1756.6, 0.2244), 0.4083)};
+  ScreenFitResult r;
+  r.candidates = moire;
+  ChooseModel(options, &r);
+  EXPECT_EQ(r.Chosen().model, "cylinder") << r.choice_reason;
+  EXPECT_TRUE(r.candidates[3].vetoed);
+  EXPECT_TRUE(r.candidates[4].vetoed);
+  EXPECT_FALSE(r.candidates[2].vetoed);
+  EXPECT_THAT(r.choice_reason, ::testing::HasSubstr("varying-curvature-quadratic (strip error 0.4083 px"));
+  // Without the strips (NaN), the same table chooses as before.
+  std::vector<ModelFit> plain = moire;
+  for (ModelFit& c : plain) c.heldout_strips_px = kNaN;
+  EXPECT_EQ(Chosen(options, plain), "varying-curvature-quadratic");
+  // The tolerance's boundary: 5% worse (inclusive) is not vetoed, beyond it is.
+  EXPECT_EQ(Chosen(options, {with_strips(Candidate("cylinder", 100, 0.2), 0.30),
+                             with_strips(Candidate("cylinder+lean", 80, 0.2), 0.30 * 1.05)}),
+            "cylinder+lean");
+  EXPECT_EQ(Chosen(options, {with_strips(Candidate("cylinder", 100, 0.2), 0.30),
+                             with_strips(Candidate("cylinder+lean", 80, 0.2), 0.30 * 1.051)}),
+            "cylinder");
+  // An inadequate simpler model vetoes nothing; a richer model that predicts the strips better is kept.
+  EXPECT_EQ(Chosen(options, {with_strips(Candidate("cylinder", 100, 0.5, false), 0.1),
+                             with_strips(Candidate("cylinder+lean", 80, 0.2), 0.30)}),
+            "cylinder+lean");
+  EXPECT_EQ(Chosen(options, {with_strips(Candidate("cylinder", 100, 0.44), 0.52),
+                             with_strips(Candidate("cylinder+lean", 80, 0.044), 0.049)}),
+            "cylinder+lean");
 }
 
 // The noise floor decides: differences below noise_floor_px are not evidence.

@@ -38,7 +38,7 @@ def run(argv):
         for k in range(NPC):
             trials.append((SEED0 + ci * 1000 + k, d, y))
     trials = trials[SHARD::NSH]
-    if opts.get("only"): trials = [t for t in trials if t[0] == int(opts["only"])]
+    if opts.get("only"): trials = [t for t in trials if str(t[0]) in opts["only"].split(",")]
     rows = []
     csvp = os.path.join(OUT, f"trials_{SHARD}.csv")
     for seed, d, yaw in trials:

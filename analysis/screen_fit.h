@@ -381,9 +381,8 @@ struct ModelFit {
   // plain residual sum. NaN (and bic = bic_white) when no misfit was measured.
   double lens_field_rss_px2 = std::numeric_limits<double>::quiet_NaN();
   // The held-out RMS with the folds as strips of the screen (FitOptions::heldout_strips); NaN when off and for
-  // cylinder+deviation. vetoed: a
-  // simpler adequate candidate's strip error is below this one's by more than heldout_tolerance, so the choice
-  // left this one out.
+  // cylinder+deviation. vetoed: a simpler adequate candidate's strip error is below this one's by more than
+  // heldout_tolerance, so the choice left this one out.
   double heldout_strips_px = std::numeric_limits<double>::quiet_NaN();
   bool vetoed = false;
   double bic_white = std::numeric_limits<double>::quiet_NaN();

@@ -33,40 +33,51 @@ class IndependentTracer : public ::testing::Test {
   static CliRun Run(const std::string& binary, const std::vector<std::string>& args) {
     return curvecheck::testing::RunBinary(binary, args, Dir());
   }
+  // `curvecheck render` of the exact correction for `viewpoint` (spec frame) to Dir()/stem.png and stem.json.
+  static void Render(const std::string& stem, const std::string& viewpoint) {
+    const CliRun r = Run(CURVECHECK_BINARY, {"render", "--monitor", "default", "--viewpoint", viewpoint, "--squares",
+                                             "32x9", "--pattern", "checkerboard", "--method", "exact", "-o",
+                                             (Dir() / (stem + ".png")).string()});
+    ASSERT_EQ(r.code, 0) << r.err;
+  }
   static void SetUpTestSuite() {
     curvecheck::testing::FreshDir("independent_tracer_cli_test");
     // The pattern, exact for the camera's position (the same in the spec's frame whatever the true radius: the
     // camera stands kDistance from the true screen centre).
     const double yaw = kYawDeg * M_PI / 180;
-    const std::string viewpoint = std::to_string(kDistance * std::sin(yaw)) + ",0," +
-                                  std::to_string(kDistance * std::cos(yaw) - kSpecRadius);
-    const CliRun r = Run(CURVECHECK_BINARY, {"render", "--monitor", "default", "--viewpoint", viewpoint, "--squares",
-                                             "32x9", "--pattern", "checkerboard", "--method", "exact", "-o",
-                                             (Dir() / "pattern.png").string()});
-    ASSERT_EQ(r.code, 0) << r.err;
+    Render("pattern", std::to_string(kDistance * std::sin(yaw)) + ",0," +
+                          std::to_string(kDistance * std::cos(yaw) - kSpecRadius));
   }
   static void TearDownTestSuite() { fs::remove_all(Dir()); }
 
+  // The tests' usual camera: 1920 x 1080, 60 deg across, kDistance from the true screen centre at kYawDeg, on a
+  // screen of true radius `radius` (the tracer's --radius, --width, --height, focal length, --pos and --look).
+  static std::vector<std::string> UsualView(double radius) {
+    const double yaw = kYawDeg * M_PI / 180;
+    return {"--radius", std::to_string(radius), "--width", "1920", "--height", "1080", "--hfov", "60", "--pos",
+            std::to_string(kDistance * std::sin(yaw)), "0", std::to_string(kDistance * std::cos(yaw) - radius),
+            "--look", "0", "0", std::to_string(-radius)};
+  }
+
   struct Traced {
-    fs::path photo, camera;
+    fs::path photo, camera, pattern;
     nlohmann::json truth;
   };
-  // Photographs the pattern on a screen of true radius `radius` with the tracer's options `extra`.
-  static Traced Trace(const std::string& name, double radius, const std::vector<std::string>& extra) {
+  // Photographs Dir()/pattern.json from `view` (UsualView's arguments) with the tracer's options `extra`.
+  static Traced Trace(const std::string& name, const std::vector<std::string>& view,
+                      const std::vector<std::string>& extra, const std::string& pattern = "pattern") {
     curvecheck::testing::RequireInstalledFile("/usr/lib/python3/dist-packages/numpy/__init__.py", "python3-numpy");
     curvecheck::testing::RequireInstalledFile("/usr/lib/python3/dist-packages/cv2.cpython-311-x86_64-linux-gnu.so",
                                               "python3-opencv");
-    const double yaw = kYawDeg * M_PI / 180;
+    Traced t;
+    t.pattern = Dir() / (pattern + ".json");
     std::vector<std::string> args = {
         (fs::path(std::getenv("CURVECHECK_SOURCE_DIR")) / "experiments/independent_tracer/trace.py").string(),
-        "--pattern", (Dir() / "pattern.json").string(), "--radius", std::to_string(radius), "--width", "1920",
-        "--height", "1080", "--hfov", "60", "--pos", std::to_string(kDistance * std::sin(yaw)), "0",
-        std::to_string(kDistance * std::cos(yaw) - radius), "--look", "0", "0", std::to_string(-radius), "--seed",
-        "7", "-o", (Dir() / name).string()};
+        "--pattern", t.pattern.string(), "--seed", "7", "-o", (Dir() / name).string()};
+    args.insert(args.end(), view.begin(), view.end());
     args.insert(args.end(), extra.begin(), extra.end());
     const CliRun r = Run("/usr/bin/python3", args);
     EXPECT_EQ(r.code, 0) << r.err;
-    Traced t;
     std::string out = r.out;
     while (!out.empty() && out.back() == '\n') out.pop_back();
     t.photo = out.substr(out.rfind('\n') == std::string::npos ? 0 : out.rfind('\n') + 1);
@@ -74,9 +85,9 @@ class IndependentTracer : public ::testing::Test {
     t.truth = nlohmann::json::parse(Slurp(Dir() / (name + ".truth.json")));
     return t;
   }
-  static CliRun Analyze(const fs::path& photo, const fs::path& camera, const std::string& out) {
-    return Run(CURVECHECK_BINARY, {"analyze", photo.string(), "--pattern", (Dir() / "pattern.json").string(),
-                                   "--camera", camera.string(), "--no-report", "-o", (Dir() / out).string()});
+  static CliRun Analyze(const Traced& t, const std::string& out) {
+    return Run(CURVECHECK_BINARY, {"analyze", t.photo.string(), "--pattern", t.pattern.string(), "--camera",
+                                   t.camera.string(), "--no-report", "-o", (Dir() / out).string()});
   }
   // RMS per coordinate of the detections against the truth's image positions.
   static double DetectionRms(const nlohmann::json& result, const nlohmann::json& truth) {
@@ -101,9 +112,9 @@ class IndependentTracer : public ::testing::Test {
 // the corners within 0.1 px RMS of the truth (measured 0.099), the 95% interval holds the true 1000 mm (measured
 // 999.4 +- 1.3 mm), the cylinder is chosen and the verdict is pass (e + U = 0.40 display px against 0.5).
 TEST_F(IndependentTracer, CameraLikePhotoOfTheRightCorrectionPassesAndHoldsTheRadius) {
-  const Traced t = Trace("right", kSpecRadius, {"--spp", "4", "--blur", "0.6", "--noise", "0.01", "--jpeg", "92",
-                                                "--fill", "0.7"});
-  const CliRun r = Analyze(t.photo, t.camera, "right_out");
+  const Traced t = Trace("right", UsualView(kSpecRadius),
+                         {"--spp", "4", "--blur", "0.6", "--noise", "0.01", "--jpeg", "92", "--fill", "0.7"});
+  const CliRun r = Analyze(t, "right_out");
   ASSERT_EQ(r.code, 0) << r.err;
   const nlohmann::json j = Result("right_out");
   EXPECT_EQ(j["features"].size(), 248u);
@@ -120,9 +131,9 @@ TEST_F(IndependentTracer, CameraLikePhotoOfTheRightCorrectionPassesAndHoldsTheRa
 // about 3 display px at the 95th percentile, so the verdict is fail, and the radius is measured: its interval holds
 // 920 mm (measured 920.5 +- 1.0 mm) and not the spec's 1000.
 TEST_F(IndependentTracer, WrongRadiusFailsTheVerdictAndIsMeasured) {
-  const Traced t = Trace("wrong", 920, {"--spp", "4", "--blur", "0.6", "--noise", "0.01", "--jpeg", "92", "--fill",
-                                        "0.7"});
-  const CliRun r = Analyze(t.photo, t.camera, "wrong_out");
+  const Traced t = Trace("wrong", UsualView(920),
+                         {"--spp", "4", "--blur", "0.6", "--noise", "0.01", "--jpeg", "92", "--fill", "0.7"});
+  const CliRun r = Analyze(t, "wrong_out");
   ASSERT_EQ(r.code, 0) << r.err;
   const nlohmann::json j = Result("wrong_out");
   const auto ci = j["fit"]["radius_ci95_mm"].get<std::vector<double>>();
@@ -137,8 +148,8 @@ TEST_F(IndependentTracer, WrongRadiusFailsTheVerdictAndIsMeasured) {
 // truth. The verdict does not fail a right correction for that scatter (inconclusive: the scatter is beyond the
 // 0.5 px a verdict can stand on), and the wider interval (measured 994.3 +- 6.6 mm) still holds the truth.
 TEST_F(IndependentTracer, PointSampledPhotoIsInconclusiveNotFailAndTheIntervalHolds) {
-  const Traced t = Trace("points", kSpecRadius, {"--spp", "2", "--fill", "0.7"});
-  const CliRun r = Analyze(t.photo, t.camera, "points_out");
+  const Traced t = Trace("points", UsualView(kSpecRadius), {"--spp", "2", "--fill", "0.7"});
+  const CliRun r = Analyze(t, "points_out");
   ASSERT_EQ(r.code, 0) << r.err;
   const nlohmann::json j = Result("points_out");
   const double rms = DetectionRms(j, t.truth);
@@ -157,21 +168,12 @@ TEST_F(IndependentTracer, PointSampledPhotoIsInconclusiveNotFailAndTheIntervalHo
 // out); on strips of the screen left out it predicts worse than the cylinder, so it is left out, and the cylinder
 // holds the truth (998.5 mm, [996.5, 1000.5]).
 TEST_F(IndependentTracer, MoireTakenForShapeIsLeftOutOnStripsAndTheCylinderHoldsTheTruth) {
-  const fs::path pattern = Dir() / "moire_pattern.png";
-  CliRun r = Run(CURVECHECK_BINARY, {"render", "--monitor", "default", "--viewpoint", "1986.45,2.56,1297.31",
-                                     "--squares", "32x9", "--pattern", "checkerboard", "--method", "exact", "-o",
-                                     pattern.string()});
-  ASSERT_EQ(r.code, 0) << r.err;
-  r = Run("/usr/bin/python3",
-          {(fs::path(std::getenv("CURVECHECK_SOURCE_DIR")) / "experiments/independent_tracer/trace.py").string(),
-           "--pattern", (Dir() / "moire_pattern.json").string(), "--radius", "1000", "--width", "2400", "--height",
-           "1600", "--fx", "6399.3", "--pos", "1986.45", "2.56", "1297.31", "--look", "0", "0", "-1000", "--fill",
-           "1", "--spp", "2", "--regular", "-o", (Dir() / "moire").string()});
-  ASSERT_EQ(r.code, 0) << r.err;
-  r = Run(CURVECHECK_BINARY, {"analyze", (Dir() / "moire.png").string(), "--pattern",
-                              (Dir() / "moire_pattern.json").string(), "--camera",
-                              (Dir() / "moire.cameramodel").string(), "--no-report", "-o",
-                              (Dir() / "moire_out").string()});
+  Render("moire_pattern", "1986.45,2.56,1297.31");
+  const Traced t = Trace("moire",
+                         {"--radius", "1000", "--width", "2400", "--height", "1600", "--fx", "6399.3", "--pos",
+                          "1986.45", "2.56", "1297.31", "--look", "0", "0", "-1000"},
+                         {"--fill", "1", "--spp", "2", "--regular"}, "moire_pattern");
+  const CliRun r = Analyze(t, "moire_out");
   ASSERT_EQ(r.code, 0) << r.err;
   const nlohmann::json j = Result("moire_out");
   EXPECT_EQ(j["fit"]["model"], "cylinder") << j["fit"]["choice_reason"];
@@ -188,9 +190,9 @@ TEST_F(IndependentTracer, MoireTakenForShapeIsLeftOutOnStripsAndTheCylinderHolds
 // The camera-like photo flipped left-right: rejected as mirrored (exit 1, the problem and the fix named), never a
 // radius.
 TEST_F(IndependentTracer, MirroredPhotoIsRejected) {
-  const Traced t = Trace("mirror", kSpecRadius, {"--spp", "4", "--blur", "0.6", "--noise", "0.01", "--fill", "0.7",
-                                                 "--mirror"});
-  const CliRun r = Analyze(t.photo, t.camera, "mirror_out");
+  const Traced t = Trace("mirror", UsualView(kSpecRadius),
+                         {"--spp", "4", "--blur", "0.6", "--noise", "0.01", "--fill", "0.7", "--mirror"});
+  const CliRun r = Analyze(t, "mirror_out");
   EXPECT_EQ(r.code, 1) << r.out;
   EXPECT_THAT(r.err, HasSubstr("mirrored"));
   EXPECT_THAT(r.err, HasSubstr("flip the photo back"));

@@ -324,12 +324,14 @@ nlohmann::json ResultJson(const AnalysisResult& r, const std::string& command_li
       e["detection"]["moire"] = {{"patches", m.patches},         {"present", m.present},
                                  {"period_px", m.period_px},     {"contrast", m.contrast},
                                  {"peak_to_floor", m.peak_to_floor}, {"display_pitch_px", m.display_pitch_px},
-                                 {"filter_sigma_px", m.filter_sigma_px}};
+                                 {"filter_sigma_px", m.filter_sigma_px}, {"texture", m.texture},
+                                 {"texture_sigma_px", m.texture_sigma_px}};
       e["detection"]["moire"]["gap_deficit"] = m.gap_deficit >= 0 ? nlohmann::json(m.gap_deficit) : nlohmann::json();
       e["detection"]["moire"]["photo_gap_deficit"] =
           m.photo_gap_deficit >= 0 ? nlohmann::json(m.photo_gap_deficit) : nlohmann::json();
       e["detection"]["moire"]["gap_deficit_limit"] = kGapDeficitLimit;
       e["detection"]["moire"]["found_on_closing_px"] = m.found_on_closing_px;
+      e["detection"]["moire"]["refined_on_closing_px"] = m.refined_on_closing_px;
     }
     if (p.used) e["verification"] = VerificationJson(p.verification);
     photos.push_back(e);

@@ -199,23 +199,35 @@ void ChoosePrefilter(const DetectOptions& o, Detection& out) {
     out.notes.push_back(fmt::format("{}; prefilter sigma {:.2f} px as set", seen, m.filter_sigma_px));
     return;
   }
-  if (!m.present) {
+  // The broadband texture (moire.h), beside the periodic components.
+  const std::string texture =
+      m.patches == 0 ? ""
+                     : fmt::format("; texture {:.1f}% of the white level (limit {:.0f}%{})", 100 * m.texture,
+                                   100 * o.moire.texture_limit,
+                                   m.texture_sigma_px > 0
+                                       ? fmt::format(": sigma {:.2f} px brings it to {:.0f}%", m.texture_sigma_px,
+                                                     100 * o.moire.residual_texture)
+                                       : "");
+  if (!m.present && !(m.texture_sigma_px > 0)) {
     m.filter_sigma_px = 0;
-    out.notes.push_back(seen + "; no prefilter");
+    out.notes.push_back(seen + texture + "; no prefilter");
     return;
   }
   constexpr double kMaxSigmaPx = 10;  // DetectOptions::Check's limit
-  const double wanted = m.needed_sigma_px;
+  const bool by_texture = m.texture_sigma_px > m.needed_sigma_px;
+  const double wanted = std::max(m.needed_sigma_px, m.texture_sigma_px);
   m.filter_sigma_px = std::min(wanted, kMaxSigmaPx);
   std::string components;
   for (size_t i = 0; i < m.components.size() && i < 4; ++i) {
     components += fmt::format("{}{:.1f}% at {:.2f} px", i == 0 ? "" : ", ", 100 * m.components[i].contrast,
                               m.components[i].period_px);
   }
-  out.notes.push_back(fmt::format("{}; {} component(s) above the limits ({}); corners detected and refined on a "
-                                  "Gaussian-smoothed copy (sigma {:.2f} px, set by the period {:.2f} px){}",
-                                  seen, m.components.size(), components, m.filter_sigma_px, m.limiting_period_px,
-                                  wanted > kMaxSigmaPx ? fmt::format(" (capped: {:.1f} px wanted)", wanted) : ""));
+  out.notes.push_back(fmt::format(
+      "{}{}; {} component(s) above the limits{}; corners detected and refined on a Gaussian-smoothed copy (sigma "
+      "{:.2f} px, set by {}){}",
+      seen, texture, m.components.size(), components.empty() ? "" : " (" + components + ")", m.filter_sigma_px,
+      by_texture ? std::string("the texture") : fmt::format("the period {:.2f} px", m.limiting_period_px),
+      wanted > kMaxSigmaPx ? fmt::format(" (capped: {:.1f} px wanted)", wanted) : ""));
 }
 
 // The refinement's smoothing: in auto, the larger of the moire's (ChoosePrefilter) and 2 x the display's pitch in
@@ -333,8 +345,7 @@ bool DetectBoard(const std::string& detector, const cv::Mat& photo, const cv::Ma
       out.notes.push_back(
           grid ? fmt::format("the coarse search ({}) found the board only on a gray closing of the photo ({} x {} "
                              "px), where the display's gaps darken the photo's bright areas by {:.1f}% on average "
-                             "(limit {:.0f}%): aliased, they cross the squares as dark bands; the corners are "
-                             "refined on the photo",
+                             "(limit {:.0f}%): aliased, they cross the squares as dark bands",
                              detector, k, k, 100 * gaps.deficit, 100 * kGapDeficitLimit)
                : fmt::format("the display's gaps darken the photo's bright areas by {:.1f}% on average (limit "
                              "{:.0f}%); the coarse search ({}) found no board on gray closings of it either",
@@ -374,8 +385,41 @@ bool DetectBoard(const std::string& detector, const cv::Mat& photo, const cv::Ma
       const detect_internal::GapDeficit gaps =
           detect_internal::MeasureGapDeficit(photo, *grid, FeatureSpacingPx(coarse));
       out.moire.gap_deficit = gaps.measured ? gaps.deficit : -1;
+      // Where the gaps darken the board's bright areas beyond the limit, the corners are refined twice: on the photo
+      // and on the gray closing that measured the gaps, which fills them. A closing by a symmetric convex element
+      // keeps a straight edge (a half-plane is closed) and an X-corner's point symmetry, so the saddle stays (to
+      // 0.04 px on the pixel grid, moire_test ClosingFillsTheGapsAndKeepsTheCorner). The set that scatters less
+      // about a smooth grid is kept (detect_board.h GridRoughnessPx): a point-sampled photo's aliased gaps cross
+      // the squares as dark bands and speckle that the capped Gaussian cannot average away, and the closing wins
+      // there (an independent tracer's one-ray photos at fill 0.7: docs/bench/validity_bench.txt, thirty-second
+      // section); where the camera resolves the gaps the Gaussian already removes them and the photo wins
+      // (Detect.MoireMeasuredAndFilteredBackToTheCleanError).
+      if (gaps.measured && gaps.deficit >= kGapDeficitLimit) {
+        cv::Mat closed;
+        cv::morphologyEx(photo, closed, cv::MORPH_CLOSE,
+                         cv::getStructuringElement(cv::MORPH_RECT, cv::Size(gaps.size_px, gaps.size_px)));
+        CornerGrid on_closing = *grid;
+        detect_internal::RefineXCorners(photo, sigma_px, *grid);
+        detect_internal::RefineXCorners(closed, sigma_px, on_closing);
+        const double rough_photo = detect_internal::GridRoughnessPx(*grid);
+        const double rough_closing = detect_internal::GridRoughnessPx(on_closing);
+        const bool closing = rough_closing < rough_photo;
+        if (closing) {
+          *grid = std::move(on_closing);
+          out.moire.refined_on_closing_px = gaps.size_px;
+        }
+        out.notes.push_back(fmt::format(
+            "the display's gaps darken the board's bright areas by {:.1f}% (limit {:.0f}%): the corners refined on "
+            "the photo scatter by {:.3f} px about a smooth grid, on its gray closing ({} x {} px) by {:.3f} px; "
+            "those on the {} are kept",
+            100 * gaps.deficit, 100 * kGapDeficitLimit, rough_photo, gaps.size_px, gaps.size_px, rough_closing,
+            closing ? "closing" : "photo"));
+      } else {
+        detect_internal::RefineXCorners(photo, sigma_px, *grid);
+      }
+    } else {
+      detect_internal::RefineXCorners(photo, sigma_px, *grid);
     }
-    detect_internal::RefineXCorners(photo, sigma_px, *grid);
   }
   out.features.clear();
   for (size_t d = 0; d < grid->px.size(); ++d) {

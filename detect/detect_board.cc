@@ -159,6 +159,25 @@ void RefineXCorners(const cv::Mat& image, double sigma_px, CornerGrid& g) {
   }
 }
 
+double GridRoughnessPx(const CornerGrid& g) {
+  std::vector<double> d;
+  const auto at = [&](int i, int j) { return g.px[static_cast<size_t>(j * g.width + i)]; };
+  for (int j = 0; j < g.height; ++j) {
+    for (int i = 0; i + 3 < g.width; ++i) {
+      const cv::Point2d t = at(i + 3, j) - 3 * at(i + 2, j) + 3 * at(i + 1, j) - at(i, j);
+      d.push_back(std::abs(t.x)), d.push_back(std::abs(t.y));
+    }
+  }
+  for (int i = 0; i < g.width; ++i) {
+    for (int j = 0; j + 3 < g.height; ++j) {
+      const cv::Point2d t = at(i, j + 3) - 3 * at(i, j + 2) + 3 * at(i, j + 1) - at(i, j);
+      d.push_back(std::abs(t.x)), d.push_back(std::abs(t.y));
+    }
+  }
+  if (d.empty()) return std::nan("");
+  return 1.4826 * Median(std::move(d)) / std::sqrt(20.0);
+}
+
 BoardOrientation ResolveBoardOrientation(const CornerGrid& grid, const cv::Mat& image, int cols, int rows,
                                          double upright_max_deg) {
   const int nc = cols - 1, nr = rows - 1;

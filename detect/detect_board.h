@@ -36,6 +36,11 @@ std::optional<CornerGrid> RunOpenCvClassic(const cv::Mat& gray8, cv::Size inner,
 // 3..40 px.
 void RefineXCorners(const cv::Mat& image, double sigma_px, CornerGrid& grid);
 
+// How much a grid's corners scatter about a smooth mapping, px per coordinate: the third differences along its rows
+// and columns (a perspective view of a smooth surface has nearly none; independent errors of sigma give differences
+// of variance 20 sigma^2), robust sigma (1.4826 x the median absolute value) / sqrt(20). NaN with no run of 4.
+double GridRoughnessPx(const CornerGrid& grid);
+
 // cornerSubPix of one X-corner with the given half-window on a smoothed patch; returns the refined position.
 cv::Point2d RefineXCorner(const cv::Mat& image, double sigma_px, cv::Point2d guess, int half);
 

@@ -8,6 +8,7 @@
 #include <numbers>
 #include <iostream>
 #include <opencv2/imgproc.hpp>
+#include <random>
 
 #include "detect/detect_board.h"
 
@@ -288,6 +289,34 @@ TEST(GapDeficit, DarkBandsAreMeasuredAndTheBoardIsFoundOnAClosing) {
                              roll, gaps.deficit, expected, whole.deficit, size, worst);
     EXPECT_LT(worst, 1.0) << roll;
   }
+}
+
+// A perspective view of a curved board has almost no third differences along its rows and columns; independent
+// errors of sigma per coordinate are read back as sigma (within 10% over 31 x 8 corners).
+TEST(GridRoughness, SmoothGridsAreNearZeroAndNoiseIsReadBack) {
+  CornerGrid g;
+  g.width = 31;
+  g.height = 8;
+  for (int j = 0; j < g.height; ++j) {
+    for (int i = 0; i < g.width; ++i) {
+      // A cylinder of radius 1000 mm seen from 1500 mm off its axis at 20 deg: x = R sin(a), z = R (1 - cos(a)).
+      const double a = (i - 15) * 37.5 / 1000, y = (j - 3.5) * 37.5;
+      const double x = 1000 * std::sin(a), z = 1000 * (1 - std::cos(a)) + 1500;
+      const double c = std::cos(0.35), s = std::sin(0.35);
+      const double xc = c * x + s * (z - 1500), zc = -s * x + c * (z - 1500) + 1500;
+      g.px.emplace_back(960 + 1400 * xc / zc, 540 + 1400 * y / zc);
+    }
+  }
+  EXPECT_LT(GridRoughnessPx(g), 0.002);
+  std::mt19937 rng(4);
+  std::normal_distribution<double> noise(0, 0.3);
+  for (cv::Point2d& p : g.px) p += cv::Point2d(noise(rng), noise(rng));
+  EXPECT_NEAR(GridRoughnessPx(g), 0.3, 0.03);
+  CornerGrid tiny;
+  tiny.width = 3;
+  tiny.height = 3;
+  tiny.px.assign(9, cv::Point2d(0, 0));
+  EXPECT_TRUE(std::isnan(GridRoughnessPx(tiny)));
 }
 
 }  // namespace

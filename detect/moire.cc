@@ -21,12 +21,22 @@ void MoireOptions::Check(const std::string& where) const {
   range("min_contrast", min_contrast, 0, 1, "use a fraction of the white level, e.g. 0.02");
   range("min_peak_to_floor", min_peak_to_floor, 1, 1e9, "use a power ratio >= 1, e.g. 10");
   range("residual_contrast", residual_contrast, 1e-6, 1, "use a fraction of the white level, e.g. 0.005");
+  range("residual_texture", residual_texture, 1e-6, 1, "use a fraction of the white level, e.g. 0.02");
+  range("texture_limit", texture_limit, residual_texture, 1e9, "use a fraction of the white level at least "
+        "residual_texture, e.g. 0.05");
 }
 
 double MoireFilterSigmaPx(double period_px, double contrast, double residual_contrast) {
   if (!(period_px > 0) || !(contrast > residual_contrast) || !(residual_contrast > 0)) return 0;
   // exp(-2 pi^2 sigma^2 f^2) = residual / contrast.
   return std::sqrt(std::log(contrast / residual_contrast) / 2) * period_px / M_PI;
+}
+
+double TextureFilterSigmaPx(double texture, double residual_texture) {
+  if (!(texture > residual_texture) || !(residual_texture > 0)) return 0;
+  // A Gaussian of sigma leaves white noise 1 / (2 sqrt(pi) sigma) of its standard deviation (sum of the kernel's
+  // squares, 1 / (4 pi sigma^2) in two dimensions).
+  return texture / (2 * std::sqrt(M_PI) * residual_texture);
 }
 
 MoireMeasure MeasureMoire(const cv::Mat& photo_gray, const MoireOptions& o) {
@@ -165,6 +175,14 @@ MoireMeasure MeasureMoire(const cv::Mat& photo_gray, const MoireOptions& o) {
   for (const MoireComponent& c : m.components) {
     const double sigma = MoireFilterSigmaPx(c.period_px, c.contrast, o.residual_contrast);
     if (sigma > m.needed_sigma_px) m.needed_sigma_px = sigma, m.limiting_period_px = c.period_px;
+  }
+
+  // The broadband texture (moire.h): white at the spectrum's floor. The floor is the median of an average of
+  // `patches` exponential bin powers (a Gamma of shape k = patches), whose mean is about k / (k - 1/3) times it.
+  if (m.white_level > 0 && floor > 0) {
+    const double k = m.patches;
+    m.texture = std::sqrt(floor * k / (k - 1.0 / 3.0) / sum_w2) / m.white_level;
+    if (m.texture >= o.texture_limit) m.texture_sigma_px = TextureFilterSigmaPx(m.texture, o.residual_texture);
   }
   return m;
 }

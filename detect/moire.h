@@ -28,6 +28,15 @@
 // same symmetry. Curved edges (lens distortion, screen curvature) break it only at second order in the window
 // size, and the edges' own blur (optics) already is such a kernel. The moire, which is not symmetric about c,
 // is what the filter removes. Tested in moire_test.cc on corners with and without a large blur.
+//
+// Texture (the broadband part). A photo can be rough without any periodic component: point sampling of a display
+// with gaps (one ray per camera pixel, jittered: each pixel sees one sub-pixel or a gap; an independent ray
+// tracer's photos, 3-5 px corner errors at fill 0.7 without smoothing), or heavy sensor noise. It is taken as white
+// noise at the averaged spectrum's floor (the median bin, robust to the periodic components and their leakage):
+// a white texture of per-pixel variance v puts v sum(w^2) into each bin of the unnormalized DFT on average, so its
+// relative standard deviation is sqrt(floor' / sum(w^2)) / level, floor' the median corrected to the mean. A
+// Gaussian of sigma leaves 1 / (2 sqrt(pi) sigma) of it; where it is at least texture_limit the prefilter's sigma
+// brings it to residual_texture (TextureFilterSigmaPx), and the larger of that and the moire's sigma is used.
 #pragma once
 
 #include <opencv2/core.hpp>
@@ -50,6 +59,11 @@ struct MoireOptions {
   double min_peak_to_floor = 10;
   // The prefilter brings the moire down to this contrast (0.5% of the white level).
   double residual_contrast = 0.005;
+  // Broadband texture (above): smoothed against when its relative standard deviation reaches texture_limit, down
+  // to residual_texture. A camera's noise at the white level is 0.5-3% (shot and read noise; cameras.md), which
+  // the refinement's window averages by itself; point-sampled gaps give 30-65%.
+  double texture_limit = 0.05;
+  double residual_texture = 0.02;
 
   void Check(const std::string& where) const;  // throws Error naming `where`
 };
@@ -74,6 +88,10 @@ struct MoireMeasure {
   std::vector<MoireComponent> components;
   double needed_sigma_px = 0;
   double limiting_period_px = 0;
+  // The broadband texture (above): its relative standard deviation (white at the floor), and the sigma that
+  // brings it to residual_texture when it is at least texture_limit (0 otherwise).
+  double texture = 0;
+  double texture_sigma_px = 0;
   // Filled by DetectFeatures: the display's pixel pitch in the photo (camera px per display px, from the coarse
   // detections and pattern.json's display positions; 0 if not known), and the Gaussian prefilter (sigma, px) that
   // was applied before corner refinement (0 = none).
@@ -87,6 +105,10 @@ struct MoireMeasure {
   double gap_deficit = -1;
   double photo_gap_deficit = -1;
   int found_on_closing_px = 0;
+  // The size of the gray closing the board's corners were refined on (0: refined on the photo): where the board's
+  // gap deficit is at least kGapDeficitLimit and those corners scatter less about a smooth grid than the photo's
+  // (detect.cc DetectBoard).
+  int refined_on_closing_px = 0;
 };
 
 // The gap deficit (of the whole photo) at and above which a board the coarse search did not find is searched on
@@ -98,6 +120,10 @@ inline constexpr double kGapDeficitLimit = 0.1;
 // ReadPhotoGray does). Never throws for a photo without bright areas (patches = 0); throws Error for an empty or
 // multi-channel image or invalid options.
 MoireMeasure MeasureMoire(const cv::Mat& photo_gray, const MoireOptions& options = {});
+
+// Sigma (px) of the Gaussian that brings a white texture of relative standard deviation `texture` down to
+// `residual_texture` (0 if it is already below it).
+double TextureFilterSigmaPx(double texture, double residual_texture);
 
 // Sigma (px) of the Gaussian that attenuates a component of `period_px` from `contrast` to `residual_contrast`
 // (0 if it is already below it).

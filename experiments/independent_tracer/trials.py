@@ -9,7 +9,7 @@ looking at the centre; `curvecheck render` draws the exact correction for that p
 tracer photographs it on a screen of true radius R (drawn from rfactors x 1000 mm), with a fill factor and a
 sampling drawn per trial; `curvecheck analyze` measures it. Cells: dists x yaws. Keys (defaults): res=2400x1600,
 dists=1000,2000,3000, yaws=0,20,40, fills=0.7,1, samplings=jitter2,regular2,real (2 x 2 rays jittered; 2 x 2 rays
-on a regular grid; 4 x 4 jittered rays, blur 0.6 px, noise 1%, JPEG 92), rfactors=1,0.92,1.08, keep=1 (keep the
+on a regular grid (jitter1, regular1: one ray per pixel); 4 x 4 jittered rays, blur 0.6 px, noise 1%, JPEG 92), rfactors=1,0.92,1.08, keep=1 (keep the
 photos), only=SEED (one trial), k1=K (a radial k1 the camera model is told). One CSV per shard
 (OUTDIR/trials_SHARD.csv): the radius, its sigma and 95% interval against the truth, the chosen model, the fit's
 noise, the detections' RMS error per coordinate against the truth and the verdict. The verdict is meaningful for
@@ -70,10 +70,10 @@ def run(argv):
         args = ["/usr/bin/python3", os.path.join(HERE, "trace.py"), "--pattern", pat + ".json", "--radius", str(R),
                 "--width", str(res[0]), "--height", str(res[1]), "--fx", str(fx), "--pos", *map(str, pos),
                 "--look", *map(str, centre), "--fill", str(fill), "--seed", str(seed), "-o", t]
-        if samp == "jitter2":
-            args += ["--spp", "2"]
-        elif samp == "regular2":
-            args += ["--spp", "2", "--regular"]
+        if samp in ("jitter1", "jitter2"):
+            args += ["--spp", samp[-1]]
+        elif samp in ("regular1", "regular2"):
+            args += ["--spp", samp[-1], "--regular"]
         elif samp == "real":  # a camera-like photo: 4x4 rays, optics blur, noise, JPEG
             args += ["--spp", "4", "--blur", "0.6", "--noise", "0.01", "--jpeg", "92"]
         if opts.get("k1"):

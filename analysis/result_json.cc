@@ -331,7 +331,7 @@ nlohmann::json ResultJson(const AnalysisResult& r, const std::string& command_li
           m.photo_gap_deficit >= 0 ? nlohmann::json(m.photo_gap_deficit) : nlohmann::json();
       e["detection"]["moire"]["gap_deficit_limit"] = kGapDeficitLimit;
       e["detection"]["moire"]["found_on_closing_px"] = m.found_on_closing_px;
-      e["detection"]["moire"]["refined_on_closing_px"] = m.refined_on_closing_px;
+      e["detection"]["moire"]["refined_on_closed_patches"] = m.refined_on_closed_patches;
     }
     if (p.used) e["verification"] = VerificationJson(p.verification);
     photos.push_back(e);

@@ -293,6 +293,12 @@ void DiagnoseBoardFailure(const cv::Mat& gray8, const PatternInfo& info, const s
                      info.rows - 1, detector);
 }
 
+// The refinement's gap closing (RefineXCorners): the parallelogram of this fraction of the board's edge vectors
+// (at most 1: the black square holds it). RMS against the truth per coordinate on five point-sampled photos (fill
+// 0.7 and 0.85, 1 m, 2400 x 1600; docs/bench/validity_bench.txt, twenty-ninth section): 0.30-0.80 px at 0.5,
+// 0.27-0.42 px at 0.75, 0.29-0.39 px at 0.9.
+constexpr double kGapClosingPerSpacing = 0.75;
+
 // One board detector, oriented and named; false with `failure` set if it found nothing usable.
 // `unmirrored_alternative`: ResolveBoardOrientation's, for the text of a mirrored naming. `retry_unsmoothed`: where
 // the auto prefilter's copy hides the board from the coarse search, search the photo itself too (auto passes false
@@ -386,34 +392,29 @@ bool DetectBoard(const std::string& detector, const cv::Mat& photo, const cv::Ma
           detect_internal::MeasureGapDeficit(photo, *grid, FeatureSpacingPx(coarse));
       out.moire.gap_deficit = gaps.measured ? gaps.deficit : -1;
       // Where the gaps darken the board's bright areas beyond the limit, the corners are refined twice: on the photo
-      // and on the gray closing that measured the gaps, which fills them. A closing by a symmetric convex element
-      // keeps a straight edge (a half-plane is closed) and an X-corner's point symmetry, so the saddle stays (to
-      // 0.04 px on the pixel grid, moire_test ClosingFillsTheGapsAndKeepsTheCorner). The set that scatters less
-      // about a smooth grid is kept (detect_board.h GridRoughnessPx): a point-sampled photo's aliased gaps cross
-      // the squares as dark bands and speckle that the capped Gaussian cannot average away, and the closing wins
+      // and on patches closed along the board's edges (detect_board.h ClosedAlongEdges, the parallelogram of
+      // kGapClosingPerSpacing of the edge vectors), which fills the gaps and keeps the X-corner. The set that
+      // scatters less about a smooth grid is kept (GridRoughnessPx): a point-sampled photo's aliased gaps cross the
+      // squares as dark bands and speckle that the capped Gaussian cannot average away, and the closed patches win
       // there (an independent tracer's one-ray photos at fill 0.7: docs/bench/validity_bench.txt, thirty-second
       // section); where the camera resolves the gaps the Gaussian already removes them and the photo wins
-      // (Detect.MoireMeasuredAndFilteredBackToTheCleanError).
+      // (Detect.MoireMeasuredAndFilteredBackToTheCleanError). Refined on closed patches, the corners carry a
+      // smooth remainder of the moire that a richer screen model took for shape before the model choice's strip
+      // veto (twenty-ninth and thirty-first sections).
       if (gaps.measured && gaps.deficit >= kGapDeficitLimit) {
-        cv::Mat closed;
-        cv::morphologyEx(photo, closed, cv::MORPH_CLOSE,
-                         cv::getStructuringElement(cv::MORPH_RECT, cv::Size(gaps.size_px, gaps.size_px)));
-        CornerGrid on_closing = *grid;
+        CornerGrid closed = *grid;
         detect_internal::RefineXCorners(photo, sigma_px, *grid);
-        detect_internal::RefineXCorners(closed, sigma_px, on_closing);
+        detect_internal::RefineXCorners(photo, sigma_px, closed, kGapClosingPerSpacing);
         const double rough_photo = detect_internal::GridRoughnessPx(*grid);
-        const double rough_closing = detect_internal::GridRoughnessPx(on_closing);
-        const bool closing = rough_closing < rough_photo;
-        if (closing) {
-          *grid = std::move(on_closing);
-          out.moire.refined_on_closing_px = gaps.size_px;
-        }
+        const double rough_closed = detect_internal::GridRoughnessPx(closed);
+        out.moire.refined_on_closed_patches = rough_closed < rough_photo;
+        if (out.moire.refined_on_closed_patches) *grid = std::move(closed);
         out.notes.push_back(fmt::format(
             "the display's gaps darken the board's bright areas by {:.1f}% (limit {:.0f}%): the corners refined on "
-            "the photo scatter by {:.3f} px about a smooth grid, on its gray closing ({} x {} px) by {:.3f} px; "
-            "those on the {} are kept",
-            100 * gaps.deficit, 100 * kGapDeficitLimit, rough_photo, gaps.size_px, gaps.size_px, rough_closing,
-            closing ? "closing" : "photo"));
+            "the photo scatter by {:.3f} px about a smooth grid, on patches closed along the board's edges ({:g} x "
+            "the corner spacing) by {:.3f} px; those on the {} are kept",
+            100 * gaps.deficit, 100 * kGapDeficitLimit, rough_photo, kGapClosingPerSpacing, rough_closed,
+            out.moire.refined_on_closed_patches ? "closed patches" : "photo"));
       } else {
         detect_internal::RefineXCorners(photo, sigma_px, *grid);
       }

@@ -142,8 +142,11 @@ cv::Point2d RefineXCorner(const cv::Mat& image, double sigma_px, cv::Point2d gue
   return cv::Point2d(one[0].x + origin.x, one[0].y + origin.y);
 }
 
-void RefineXCorners(const cv::Mat& image, double sigma_px, CornerGrid& g) {
+void RefineXCorners(const cv::Mat& image, double sigma_px, CornerGrid& g, double gap_closing_per_spacing) {
   const std::vector<cv::Point2d> coarse = g.px;
+  const auto at = [&](int i, int j) {
+    return coarse[static_cast<size_t>(std::clamp(j, 0, g.height - 1) * g.width + std::clamp(i, 0, g.width - 1))];
+  };
   for (int j = 0; j < g.height; ++j) {
     for (int i = 0; i < g.width; ++i) {
       const cv::Point2d& p = coarse[static_cast<size_t>(j * g.width + i)];
@@ -154,9 +157,53 @@ void RefineXCorners(const cv::Mat& image, double sigma_px, CornerGrid& g) {
         nearest = std::min(nearest, cv::norm(coarse[static_cast<size_t>(jj * g.width + ii)] - p));
       }
       const int half = std::clamp(static_cast<int>(std::lround(0.3 * nearest)), 3, 40);
-      g.px[static_cast<size_t>(j * g.width + i)] = RefineXCorner(image, sigma_px, p, half);
+      cv::Point2d& refined = g.px[static_cast<size_t>(j * g.width + i)];
+      // The board's edge vectors here, one corner spacing long (from the neighbouring corners), scaled.
+      const bool inside_x = i > 0 && i + 1 < g.width, inside_y = j > 0 && j + 1 < g.height;
+      const cv::Point2d u = gap_closing_per_spacing * (at(i + 1, j) - at(i - 1, j)) / (inside_x ? 2.0 : 1.0);
+      const cv::Point2d v = gap_closing_per_spacing * (at(i, j + 1) - at(i, j - 1)) / (inside_y ? 2.0 : 1.0);
+      if (gap_closing_per_spacing <= 0 || g.width < 2 || g.height < 2 || std::max(cv::norm(u), cv::norm(v)) < 2) {
+        refined = RefineXCorner(image, sigma_px, p, half);
+        continue;
+      }
+      // The patch RefineXCorner reads, and the kernel's reach around it, closed.
+      const int reach =
+          static_cast<int>(std::ceil(0.5 * (std::abs(u.x) + std::abs(v.x) + std::abs(u.y) + std::abs(v.y))));
+      const int pad = half + 4 + static_cast<int>(std::ceil(3 * sigma_px)) + reach + 1;
+      const cv::Rect roi = cv::Rect(static_cast<int>(std::floor(p.x)) - pad, static_cast<int>(std::floor(p.y)) - pad,
+                                    2 * pad + 1, 2 * pad + 1) &
+                           cv::Rect(0, 0, image.cols, image.rows);
+      if (roi.width < 3 || roi.height < 3) {
+        refined = RefineXCorner(image, sigma_px, p, half);
+        continue;
+      }
+      const cv::Mat closed = ClosedAlongEdges(image(roi), u, v);
+      const cv::Point2d origin(roi.x, roi.y);
+      refined = RefineXCorner(closed, sigma_px, p - origin, half) + origin;
     }
   }
+}
+
+cv::Mat ClosedAlongEdges(const cv::Mat& patch, cv::Point2d u, cv::Point2d v) {
+  // The parallelogram +-u/2 +-v/2 on a kernel of odd size centred on the origin.
+  const cv::Point2d corners[] = {0.5 * (u + v), 0.5 * (u - v), -0.5 * (u + v), 0.5 * (v - u)};
+  double reach = 0;
+  for (const cv::Point2d& c : corners) reach = std::max({reach, std::abs(c.x), std::abs(c.y)});
+  const int half = static_cast<int>(std::ceil(reach));
+  if (half < 1) return patch.clone();
+  cv::Mat kernel = cv::Mat::zeros(2 * half + 1, 2 * half + 1, CV_8U);
+  std::vector<cv::Point> polygon;
+  for (const cv::Point2d& c : corners) {
+    polygon.emplace_back(static_cast<int>(std::lround((c.x + half) * 16)), static_cast<int>(std::lround((c.y + half) * 16)));
+  }
+  cv::fillConvexPoly(kernel, polygon, cv::Scalar(1), cv::LINE_8, 4);
+  // Point-symmetric, as OpenCV's dilation and erosion make a closing only of a symmetric kernel.
+  cv::Mat turned;
+  cv::flip(kernel, turned, -1);
+  kernel = cv::max(kernel, turned);
+  cv::Mat closed;
+  cv::morphologyEx(patch, closed, cv::MORPH_CLOSE, kernel, cv::Point(half, half), 1, cv::BORDER_REPLICATE);
+  return closed;
 }
 
 double GridRoughnessPx(const CornerGrid& g) {

@@ -33,8 +33,19 @@ std::optional<CornerGrid> RunOpenCvClassic(const cv::Mat& gray8, cv::Size inner,
 
 // cornerSubPix at full resolution on each point of the grid, on a patch of `image` (any depth) smoothed by a
 // Gaussian of sigma_px if > 0, with a half-window of 0.3 x the distance to the nearest grid neighbour, clamped to
-// 3..40 px.
-void RefineXCorners(const cv::Mat& image, double sigma_px, CornerGrid& grid);
+// 3..40 px. gap_closing_per_spacing > 0: each patch is first closed by the parallelogram of the board's two edge
+// vectors there (from the neighbouring corners) times that fraction (ClosedAlongEdges), which fills a display's
+// dark gap bands and leaves the X-corner where it is.
+void RefineXCorners(const cv::Mat& image, double sigma_px, CornerGrid& grid, double gap_closing_per_spacing = 0);
+
+// A patch closed (dilation, then erosion) by the parallelogram of sides u and v centred on the origin. A board's
+// straight edges are kept (a monotone edge profile is unchanged by any closing), and so is an X-corner whose edges
+// run along u and v (each black wedge holds translates of the parallelogram right up to its tip), unlike a
+// square's, which rounds the tips off and leaves the saddle on a plateau (moire_test
+// ClosingAlongTheEdgesFillsTheGapsAndKeepsTheCorner: a square of 15 px moved a 45 deg corner by 0.1-0.2 px, and by
+// pixels where the refinement's window is smaller than it). A dark band is filled where the parallelogram does
+// not fit inside it.
+cv::Mat ClosedAlongEdges(const cv::Mat& patch, cv::Point2d u, cv::Point2d v);
 
 // How much a grid's corners scatter about a smooth mapping, px per coordinate: the third differences along its rows
 // and columns (a perspective view of a smooth surface has nearly none; independent errors of sigma give differences
@@ -50,9 +61,10 @@ cv::Point2d RefineXCorner(const cv::Mat& image, double sigma_px, cv::Point2d gue
 // width and slope across the white squares; the board detectors take their edges for the board's, and a
 // Gaussian the feature spacing allows does not remove them. A gray closing (dilation, then erosion, by a k x k
 // square) fills dark structures narrower than k and keeps wider ones, the black squares among them: the board is
-// found on it, and its corners are then refined on the photo (docs/bench/validity_bench.txt, twenty-ninth section:
-// refined on closed patches they scattered less but carried a smooth error that a richer screen model took for
-// shape).
+// found on it. Its corners are refined on the photo and, where the board's deficit reaches kGapDeficitLimit, on
+// patches closed along the board's edges (ClosedAlongEdges; a square would round the X-corners' black tips off),
+// and the smoother grid is kept (detect.cc DetectBoard; docs/bench/validity_bench.txt, twenty-ninth and
+// thirty-second sections).
 
 // The coarse search `search` on closings of gray8 by 5, 9, 15, 25, 35 and 49 px squares, smallest first: the first
 // grid found, with its image in `found_on` and its size in `size_px`; nullopt if none.

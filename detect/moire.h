@@ -105,10 +105,10 @@ struct MoireMeasure {
   double gap_deficit = -1;
   double photo_gap_deficit = -1;
   int found_on_closing_px = 0;
-  // The size of the gray closing the board's corners were refined on (0: refined on the photo): where the board's
-  // gap deficit is at least kGapDeficitLimit and those corners scatter less about a smooth grid than the photo's
-  // (detect.cc DetectBoard).
-  int refined_on_closing_px = 0;
+  // Whether the board's corners kept are those refined on patches closed along the board's edges (tried where the
+  // board's gap deficit is at least kGapDeficitLimit; kept where their grid is smoother than the photo's; detect.cc
+  // DetectBoard).
+  bool refined_on_closed_patches = false;
 };
 
 // The gap deficit (of the whole photo) at and above which a board the coarse search did not find is searched on

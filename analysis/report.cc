@@ -96,7 +96,7 @@ std::string ModelsTable(const json& fit, Warnings& warnings) {
     if (const auto b = Opt(k["bic"])) best_bic = best_bic ? std::min(*best_bic, *b) : *b;
   }
   std::ostringstream s;
-  s << "<table id=\"models\"><thead><tr><th>model</th><th>parameters</th><th>RMS, px</th><th>held-out RMS, px</th>"
+  s << "<table id=\"models\"><thead><tr><th>model</th><th>parameters</th><th>RMS, px</th><th>held-out RMS, px (shuffled / strips)</th>"
        "<th>noise, px</th><th>BIC</th><th>&#916;BIC</th><th>radius &#177; &#963;, mm</th><th>95% interval, mm</th>"
        "<th>other parameters</th><th>converged</th><th>fits the detection noise (&#967;&#178;/dof, p)</th><th>notes</th>"
        "</tr></thead><tbody>\n";
@@ -152,6 +152,14 @@ std::string ModelsTable(const json& fit, Warnings& warnings) {
                              p_value ? fmt::format("{:.2g}", *p_value) : "&#8212;");
     }
     if (k.contains("adequacy_note")) notes.push_back(Html(Str(k["adequacy_note"])));
+    // The strip veto of the model choice (screen_fit.h FitOptions::heldout_strips; absent in older result.json).
+    if (k.value("vetoed", false)) {
+      notes.push_back("left out: predicts strips of the screen left out of the fit worse than a simpler adequate "
+                      "model");
+    }
+    const std::optional<double> strips = k.contains("heldout_strips_px") ? Opt(k["heldout_strips_px"]) : std::nullopt;
+    const std::string heldout =
+        Fixed(Opt(k["heldout_rms_px"]), 4) + (strips ? " / " + Fixed(strips, 4) : std::string());
     s << fmt::format(
         "<tr data-model=\"{}\" data-chosen=\"{}\" data-radius-mm=\"{}\" data-adequate=\"{}\"{}><td>{}{}</td>"
         "<td class=\"num\">{}</td>"
@@ -161,7 +169,7 @@ std::string ModelsTable(const json& fit, Warnings& warnings) {
         Html(name), chosen ? "true" : "false", Exact(radius), adequate ? "true" : "false",
         chosen ? " class=\"chosen\"" : "", Html(name),
         chosen ? " (chosen)" : "", k["parameters"].get<long>(), Fixed(Opt(k["rms_px"]), 4),
-        Fixed(Opt(k["heldout_rms_px"]), 4), Fixed(Opt(k["noise_px"]), 4), Fixed(bic, 1),
+        heldout, Fixed(Opt(k["noise_px"]), 4), Fixed(bic, 1),
         bic && best_bic ? fmt::format("{:.1f}", *bic - *best_bic) : "&#8212;", radius_text, interval,
         extra.empty() ? "&#8212;" : extra, converged ? "yes" : "<b>no</b>", adequacy,
         fmt::format("{}", fmt::join(notes, "; ")));

@@ -110,6 +110,32 @@ TEST(Report, WarningsOfTheFitAreShownAndANullRadiusIsNotANumber) {
   EXPECT_LT(box, html.find("<table id=\"models\">"));
 }
 
+// The model choice's strip veto (screen_fit.h FitOptions::heldout_strips): a candidate's held-out error on strips of
+// the screen is shown beside the shuffled one, and a vetoed candidate says why in its notes; older documents
+// without the keys show the shuffled error alone.
+TEST(Report, StripErrorsAndTheVetoAreShownInTheModelTable) {
+  json r = Corpus("cylinder-1080r.json");
+  json& c = r["fit"]["candidates"][3];
+  const auto row_of = [&](const std::string& html) {
+    const size_t row = html.find("<tr data-model=\"" + c["model"].get<std::string>() + "\"");
+    return row == std::string::npos ? std::string() : html.substr(row, html.find("</tr>", row) - row);
+  };
+  const std::string before = row_of(ReportHtml(r, {}, NoCharts()));
+  ASSERT_FALSE(before.empty());
+  EXPECT_THAT(before, Not(HasSubstr(" / ")));
+  EXPECT_THAT(before, Not(HasSubstr("left out: predicts strips")));
+  c["heldout_rms_px"] = 0.1234;
+  c["heldout_strips_px"] = 0.5678;
+  c["vetoed"] = true;
+  const std::string html = ReportHtml(r, {}, NoCharts());
+  const std::string tr = row_of(html);
+  ASSERT_FALSE(tr.empty());
+  EXPECT_THAT(tr, HasSubstr("0.1234 / 0.5678"));
+  EXPECT_THAT(tr, HasSubstr("left out: predicts strips of the screen left out of the fit worse than a simpler "
+                            "adequate model"));
+  EXPECT_THAT(html, HasSubstr("held-out RMS, px (shuffled / strips)"));
+}
+
 TEST(Report, EveryStringIsEscaped) {
   json r = Corpus("cylinder-1080r.json");
   const std::string evil = "<script>alert('x')</script>&\"";

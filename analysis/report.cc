@@ -96,7 +96,8 @@ std::string ModelsTable(const json& fit, Warnings& warnings) {
     if (const auto b = Opt(k["bic"])) best_bic = best_bic ? std::min(*best_bic, *b) : *b;
   }
   std::ostringstream s;
-  s << "<table id=\"models\"><thead><tr><th>model</th><th>parameters</th><th>RMS, px</th><th>held-out RMS, px (shuffled / strips)</th>"
+  s << "<table id=\"models\"><thead><tr><th>model</th><th>parameters</th><th>RMS, px</th>"
+       "<th>held-out RMS, px (shuffled / strips)</th>"
        "<th>noise, px</th><th>BIC</th><th>&#916;BIC</th><th>radius &#177; &#963;, mm</th><th>95% interval, mm</th>"
        "<th>other parameters</th><th>converged</th><th>fits the detection noise (&#967;&#178;/dof, p)</th><th>notes</th>"
        "</tr></thead><tbody>\n";

@@ -97,8 +97,9 @@ struct DetectOptions {
   // (moire.h): when moire is present, the sigma that brings each of its components down to
   // moire.residual_contrast, or the sigma that brings the broadband texture (moire.h) to moire.residual_texture
   // when it reaches moire.texture_limit, the larger (at most 10 px), applied to the whole photo before the coarse
-  // detector (any) and to the refinement; (2) for the refinement, at least 2 x the display's pixel pitch in the photo (estimated from the
-  // coarse detections and pattern.json's display positions) when that pitch exceeds 0.5 camera px: the camera then
+  // detector (any) and to the refinement; (2) for the refinement, at least 2 x the display's pixel pitch in the
+  // photo (estimated from the coarse detections and pattern.json's display positions) when that pitch exceeds 0.5
+  // camera px: the camera then
   // resolves the display's pixels, and the pattern's edges are staircases of them. A photo with neither is
   // detected unfiltered. A symmetric blur moves neither straight edges nor X-corners (moire.h). Measured
   // (docs/bench/moire.txt, 1.67 camera px per display px, sharp lens): fill 0.7 0.51 px RMS unfiltered, 0.024 px

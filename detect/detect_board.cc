@@ -194,7 +194,8 @@ cv::Mat ClosedAlongEdges(const cv::Mat& patch, cv::Point2d u, cv::Point2d v) {
   cv::Mat kernel = cv::Mat::zeros(2 * half + 1, 2 * half + 1, CV_8U);
   std::vector<cv::Point> polygon;
   for (const cv::Point2d& c : corners) {
-    polygon.emplace_back(static_cast<int>(std::lround((c.x + half) * 16)), static_cast<int>(std::lround((c.y + half) * 16)));
+    polygon.emplace_back(static_cast<int>(std::lround((c.x + half) * 16)),
+                         static_cast<int>(std::lround((c.y + half) * 16)));
   }
   cv::fillConvexPoly(kernel, polygon, cv::Scalar(1), cv::LINE_8, 4);
   // Point-symmetric, as OpenCV's dilation and erosion make a closing only of a symmetric kernel.

@@ -173,8 +173,10 @@ TEST_F(IndependentTracer, PointSampledPhotosAreSmoothedAndClosedAndTheIntervalHo
     std::printf("%s: texture %.3f, sigma %.2f px (refined at %.2f, on closed patches %d), detection RMS %.3f px, R "
                 "%.1f +- %.1f mm, %s\n",
                 out, moire["texture"].get<double>(), moire["texture_sigma_px"].get<double>(),
-                moire["filter_sigma_px"].get<double>(), static_cast<int>(moire["refined_on_closed_patches"].get<bool>()), rms, j["fit"]["radius_mm"].get<double>(),
-                j["fit"]["radius_sigma_mm"].get<double>(), j["verification"]["verdict"].get<std::string>().c_str());
+                moire["filter_sigma_px"].get<double>(),
+                static_cast<int>(moire["refined_on_closed_patches"].get<bool>()), rms,
+                j["fit"]["radius_mm"].get<double>(), j["fit"]["radius_sigma_mm"].get<double>(),
+                j["verification"]["verdict"].get<std::string>().c_str());
     EXPECT_LT(rms, rms_hi) << out;
     const auto ci = j["fit"]["radius_ci95_mm"].get<std::vector<double>>();
     EXPECT_LE(ci[0], kSpecRadius) << out;

@@ -3,6 +3,7 @@
 
   trials.py run CURVECHECK OUTDIR SEED0 TRIALS_PER_CELL SHARD SHARDS [key=value ...]
   trials.py summary OUTDIR
+  trials.py reanalyze CURVECHECK OUTDIR SUFFIX   (a run's kept photos through another binary: OUTDIR/re_SUFFIX.csv)
 
 A trial: a camera at distance d from the true screen centre (+-5%) and yaw y about it (+-2 deg, +-30 mm in height),
 looking at the centre; `curvecheck render` draws the exact correction for that position on the spec's 1000R; the
@@ -17,6 +18,48 @@ R = 1000 mm only (the correction is right there); elsewhere the correction is wr
 import csv, glob, json, math, os, subprocess, sys
 import collections
 import numpy as np
+
+KEYS = ["seed", "dist", "yaw", "fill", "sampling", "r_true", "fx", "status", "radius", "sigma", "ci_lo", "ci_hi", "z",
+        "in95", "model", "noise", "det_rms", "n", "verdict", "reason", "note"]
+
+
+def analyze(BIN, t, photo, out, R):
+    """`curvecheck analyze` of trial t's photo into out; the row's measured columns against the truth (t.truth.json)."""
+    r = subprocess.run([BIN, "analyze", photo, "--pattern", t + "_pat.json", "--camera", t + ".cameramodel", "--no-report",
+                        "-o", out], capture_output=True, text=True)
+    if r.returncode or not os.path.exists(out + "/result.json"):
+        return dict(status="analyze_failed", note=(r.stderr.strip().splitlines() or [""])[-1][:160])
+    j = json.load(open(out + "/result.json"))
+    tr = {q["id"]: q["image_px"] for q in json.load(open(t + ".truth.json"))["features"]}
+    e = np.array([np.subtract(q["detected_px"], tr[q["id"]]) for q in j["features"] if q["id"] in tr])
+    fit = j.get("fit") or {}
+    v = j.get("verification") or {}
+    ci = fit.get("radius_ci95_mm") or [float("nan")] * 2
+    sig = fit.get("radius_sigma_mm", float("nan"))
+    rad = fit.get("radius_mm", float("nan"))
+    return dict(status="ok", radius=rad, sigma=sig, ci_lo=ci[0], ci_hi=ci[1], z=(rad - R) / sig if sig else float("nan"),
+                in95=int(ci[0] <= R <= ci[1]), model=fit.get("model", fit.get("chosen_model")), noise=fit.get("noise_px"),
+                det_rms=float(np.sqrt((e ** 2).mean())) if len(e) else float("nan"), n=len(e), verdict=v.get("verdict"),
+                reason=(v.get("reason") or "")[:100])
+
+
+def reanalyze(argv):
+    """The kept photos of a run analyzed again by another binary (the same photos: a before and after):
+    OUTDIR/re_SUFFIX.csv, the run's columns, its analyses in OUTDIR/tSEED_SUFFIX."""
+    BIN, OUT, SUF = argv[0], argv[1], argv[2]
+    rows = []
+    for f in sorted(glob.glob(os.path.join(OUT, "trials_*.csv"))):
+        for r0 in csv.DictReader(open(f)):
+            t = os.path.join(OUT, "t" + r0["seed"])
+            photo = next((p for p in (t + ".png", t + ".jpg") if os.path.exists(p)), None)
+            if r0["status"] not in ("ok", "analyze_failed") or photo is None: continue
+            row = {k: r0[k] for k in KEYS[:7]}
+            row.update(analyze(BIN, t, photo, t + "_" + SUF, float(r0["r_true"])))
+            rows.append(row)
+            print(row, flush=True)
+    with open(os.path.join(OUT, f"re_{SUF}.csv"), "w", newline="") as fh:
+        w = csv.DictWriter(fh, KEYS); w.writeheader(); [w.writerow(x) for x in rows]
+
 
 def run(argv):
     BIN, OUT, SEED0, NPC, SHARD, NSH = argv[0], argv[1], int(argv[2]), int(argv[3]), int(argv[4]), int(argv[5])
@@ -82,33 +125,13 @@ def run(argv):
         if r.returncode:
             rows.append(dict(seed=seed, dist=d, yaw=yaw, status="trace_failed", note=r.stderr[-200:])); continue
         photo = r.stdout.strip().splitlines()[-1]
-        out = t + "_out"
-        r = subprocess.run([BIN, "analyze", photo, "--pattern", pat + ".json", "--camera", t + ".cameramodel", "--no-report",
-                            "-o", out], capture_output=True, text=True)
         row = dict(seed=seed, dist=d, yaw=yaw, fill=fill, sampling=samp, r_true=R, fx=round(fx, 1))
-        if r.returncode or not os.path.exists(out + "/result.json"):
-            row.update(status="analyze_failed", note=(r.stderr.strip().splitlines() or [""])[-1][:160])
-            rows.append(row)
-        else:
-            j = json.load(open(out + "/result.json"))
-            tr = {q["id"]: q["image_px"] for q in json.load(open(t + ".truth.json"))["features"]}
-            e = np.array([np.subtract(q["detected_px"], tr[q["id"]]) for q in j["features"] if q["id"] in tr])
-            fit = j.get("fit") or {}
-            v = j.get("verification") or {}
-            ci = fit.get("radius_ci95_mm") or [float("nan")] * 2
-            sig = fit.get("radius_sigma_mm", float("nan"))
-            rad = fit.get("radius_mm", float("nan"))
-            row.update(status="ok", radius=rad, sigma=sig, ci_lo=ci[0], ci_hi=ci[1], z=(rad - R) / sig if sig else float("nan"),
-                       in95=int(ci[0] <= R <= ci[1]), model=fit.get("model", fit.get("chosen_model")), noise=fit.get("noise_px"),
-                       det_rms=float(np.sqrt((e ** 2).mean())) if len(e) else float("nan"), n=len(e), verdict=v.get("verdict"),
-                       reason=(v.get("reason") or "")[:100])
-            rows.append(row)
+        row.update(analyze(BIN, t, photo, t + "_out", R))
+        rows.append(row)
         for p in [t + ".png", t + ".jpg"]:
             if os.path.exists(p) and opts.get("keep") != "1": os.remove(p)
-        keys = ["seed", "dist", "yaw", "fill", "sampling", "r_true", "fx", "status", "radius", "sigma", "ci_lo", "ci_hi", "z",
-                "in95", "model", "noise", "det_rms", "n", "verdict", "reason", "note"]
         with open(csvp, "w", newline="") as fh:
-            w = csv.DictWriter(fh, keys); w.writeheader(); [w.writerow(x) for x in rows]
+            w = csv.DictWriter(fh, KEYS); w.writeheader(); [w.writerow(x) for x in rows]
         print(rows[-1], flush=True)
 
 
@@ -144,6 +167,8 @@ def summary(argv):
 if __name__ == "__main__":
     if len(sys.argv) >= 8 and sys.argv[1] == "run":
         run(sys.argv[2:])
+    elif len(sys.argv) == 5 and sys.argv[1] == "reanalyze":
+        reanalyze(sys.argv[2:])
     elif len(sys.argv) == 3 and sys.argv[1] == "summary":
         summary(sys.argv[2:])
     else:

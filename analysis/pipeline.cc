@@ -290,6 +290,11 @@ AnalysisResult Analyze(const std::filesystem::path& camera_path, const std::vect
 PhotoObservations FitObservationsOf(const PhotoAnalysis& photo, const AnalyzeOptions& options) {
   PhotoObservations obs;
   obs.photo = photo.name;
+  const RefinementNoise& random = photo.detection.refinement_noise;  // detect.h
+  if (random.measured && random.corners > 0) {
+    obs.random_error_px = random.response_px;
+    obs.random_error_samples = 2L * random.corners * random.draws;
+  }
   for (const FeatureCheck& c : photo.verification.features) {
     obs.ids.push_back(c.id);
     obs.display_px.push_back(c.display_px);

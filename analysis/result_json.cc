@@ -332,6 +332,22 @@ nlohmann::json ResultJson(const AnalysisResult& r, const std::string& command_li
       e["detection"]["moire"]["gap_deficit_limit"] = kGapDeficitLimit;
       e["detection"]["moire"]["found_on_closing_px"] = m.found_on_closing_px;
       e["detection"]["moire"]["refined_on_closed_patches"] = m.refined_on_closed_patches;
+      // detect.h RefinementNoise: the photo's noise (gray levels of its depth) and the refined corners' response
+      // to it (px per coordinate), the random part the detector-systematic row's smooth bound leaves out.
+      const RefinementNoise& rn = p.detection.refinement_noise;
+      e["detection"]["refinement_noise"] =
+          rn.measured ? nlohmann::json{{"basis", rn.basis},
+                                       {"black_sd", rn.black_sd},
+                                       {"white_sd", rn.white_sd},
+                                       {"black_level", rn.black_level},
+                                       {"white_level", rn.white_level},
+                                       {"correlation_lag1", rn.correlation_lag1},
+                                       {"black_interiors", rn.black_patches},
+                                       {"white_interiors", rn.white_patches},
+                                       {"draws", rn.draws},
+                                       {"corners", rn.corners},
+                                       {"response_px", rn.response_px}}
+                      : nlohmann::json();
     }
     if (p.used) e["verification"] = VerificationJson(p.verification);
     photos.push_back(e);

@@ -500,6 +500,15 @@ ScreenFitResult FitScreen(const Monitor& nominal, const CameraModel& camera,
   setup.options = &options;
   setup.photos = static_cast<int>(photos.size());
   setup.half_width_mm = 0.5 * nominal.width_mm;
+  double random_sum2 = 0;
+  for (const PhotoObservations& ph : photos) {
+    if (ph.random_error_samples <= 0 || !std::isfinite(ph.random_error_px)) continue;
+    random_sum2 += static_cast<double>(ph.random_error_samples) * ph.random_error_px * ph.random_error_px;
+    setup.random_error_samples += ph.random_error_samples;
+  }
+  if (setup.random_error_samples > 0) {
+    setup.random_error_px = std::sqrt(random_sum2 / static_cast<double>(setup.random_error_samples));
+  }
   std::unordered_map<std::string, int> feature_index;
   for (size_t p = 0; p < photos.size(); ++p) {
     for (size_t i = 0; i < photos[p].ids.size(); ++i) {

@@ -32,6 +32,11 @@ struct PhotoObservations {
   std::vector<std::string> ids;              // feature ids (the same id in several photos is the same feature)
   std::vector<Eigen::Vector2d> display_px;   // the features' display positions (pattern.json)
   std::vector<Eigen::Vector2d> detected_px;  // in the camera image
+  // The random part of the detections' error, RMS px per coordinate, and how many corner coordinates measured it
+  // (detect.h RefinementNoise: the refinement's response to the photo's own noise; 0 samples: not measured). The
+  // detector-systematic row's smooth bound leaves it out (FitOptions::smooth_bias_px).
+  double random_error_px = 0;
+  long random_error_samples = 0;
 };
 
 struct FitOptions {
@@ -160,7 +165,9 @@ struct FitOptions {
   // twenty-second section). A detector's smooth error measured on the truth (the noise-free photo's detections,
   // Legendre degree 3) is 0.14-1.26 times the scatter on that bench, median 0.76; the fields of independent
   // coefficients over-state its effect on the radius 1.2-6 times (the detector's own error is absorbed more by
-  // the poses), so b = 1 x the scatter does not under-state it in any slice.
+  // the poses), so b = 1 x the scatter does not under-state it in any slice. Where the photos measured the
+  // random part r of their detections' error (PhotoObservations::random_error_px), the scatter's deterministic
+  // part replaces the scatter (screen_fit_internal.h SmoothBoundPx): random errors leave no smooth error.
   std::optional<double> smooth_bias_px;
   double smooth_bias_scatter_fraction = 1.0;
   // false: the pixel-locking signature is not fitted (no share in the detector-systematic row, the noise row

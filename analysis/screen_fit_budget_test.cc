@@ -9,6 +9,7 @@
 //   correction removes the radius shift that bias causes, and under noise alone the correction scatters as the
 //   row's pixel-locking share says.
 // What it does not prove: that the real detectors' bias is smooth (the assumption the row states).
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -270,6 +271,46 @@ TEST(UncertaintyBudgetTest, SmoothBiasFollowsTheMeasuredScatterUnlessStated) {
   EXPECT_THROW(stated.Check("test"), Error);
   half.smooth_bias_scatter_fraction = std::nan("");
   EXPECT_THROW(half.Check("test"), Error);
+}
+
+// Where the photos measured the random part r of their detections' error (detect.h RefinementNoise), b bounds only
+// the rest: b^2 = max(0, s^2 - r^2) + 1.645 u (SmoothBoundPx), at most s. The photos' r are pooled by their samples.
+TEST(UncertaintyBudgetTest, SmoothBiasLeavesOutTheMeasuredRandomPart) {
+  using screen_fit_internal::SmoothBoundPx;
+  // The bound alone: nothing random leaves b = s; all of it random leaves the 95% bound of the estimates' noise.
+  EXPECT_DOUBLE_EQ(SmoothBoundPx(0.1, 500, 0, 0).bound_px, 0.1);
+  const auto all = SmoothBoundPx(0.1, 500, 0.1, 3000);
+  EXPECT_DOUBLE_EQ(all.difference_px2, 0);
+  EXPECT_NEAR(all.margin_px2, 1.645 * std::sqrt(2e-4 / 500 + 2e-4 / 3000), 1e-15);
+  EXPECT_NEAR(all.bound_px, std::sqrt(all.margin_px2), 1e-15);
+  EXPECT_LT(all.bound_px, 0.35 * 0.1);
+  EXPECT_NEAR(SmoothBoundPx(0.1, 1e12, 0.06, 1000000000).bound_px, 0.08, 1e-4);  // 0.08^2 = 0.1^2 - 0.06^2
+  EXPECT_DOUBLE_EQ(SmoothBoundPx(0.1, 500, 0.2, 3000).difference_px2, 0);
+  // Through the fit: independent noise of 0.05 px, the random part stated as measured by two photos' detections.
+  const SyntheticScene scene = DefaultScene();
+  PhotoObservations a = Clean(scene, 0.05, 7), b = Clean(scene, 0.05, 8);
+  a.random_error_px = 0.04;
+  a.random_error_samples = 1000;
+  b.random_error_px = 0.06;
+  b.random_error_samples = 3000;
+  const ModelFit f = FitScreen(scene.monitor, scene.camera, {a, b}, CylinderOnly()).Chosen();
+  ASSERT_TRUE(f.budget.computed);
+  const double pooled = std::sqrt((1000 * 0.04 * 0.04 + 3000 * 0.06 * 0.06) / 4000);
+  const double s = f.budget.pixel_locking.noise_px;
+  const double dof = Row(f, "detection noise").dof;
+  EXPECT_NEAR(f.budget.systematic_bound_px, SmoothBoundPx(s, dof, pooled, 4000).bound_px, 1e-15);
+  EXPECT_LT(f.budget.systematic_bound_px, 0.6 * s);
+  EXPECT_NE(f.budget.systematic_bound_reason.find("random part r = " + fmt::format("{:.4f}", pooled)),
+            std::string::npos)
+      << f.budget.systematic_bound_reason;
+  // The smooth share follows b (the same fit without the measurement: b = s).
+  PhotoObservations a0 = a, b0 = b;
+  a0.random_error_samples = b0.random_error_samples = 0;
+  const ModelFit g = FitScreen(scene.monitor, scene.camera, {a0, b0}, CylinderOnly()).Chosen();
+  EXPECT_DOUBLE_EQ(g.budget.systematic_bound_px, g.budget.pixel_locking.noise_px);
+  EXPECT_NEAR((f.budget.smooth_share_curvature_per_mm / g.budget.smooth_share_curvature_per_mm) /
+                  (f.budget.systematic_bound_px / g.budget.systematic_bound_px),
+              1.0, 0.05);
 }
 
 TEST(UncertaintyBudgetTest, PixelPitchRowIsTheExactScaling) {

@@ -303,6 +303,44 @@ constexpr double kGapClosingPerSpacing = 0.75;
 // `unmirrored_alternative`: ResolveBoardOrientation's, for the text of a mirrored naming. `retry_unsmoothed`: where
 // the auto prefilter's copy hides the board from the coarse search, search the photo itself too (auto passes false
 // for opencv-classic, so that opencv-sb on the prefiltered copy comes first, as before the retry).
+// The refinement's response to the photo's own noise (detect.h RefinementNoise), on the refined grid: not where
+// the display's structure set the refinement (the texture's prefilter, corners refined on closed patches: there the
+// "noise" on the white squares is the display's, and the photo's own noise is not what moves the corners); where
+// moire is present or the camera resolves the display's pixels the white squares' spread holds them (not random),
+// and the white's noise is the moire measurement's broadband floor where that is smaller. Three draws (seeded by
+// the grid's size: the same photo gives the same figure).
+void MeasureRefinementNoise(const cv::Mat& photo, const detect_internal::CornerGrid& grid, double sigma_px,
+                            const DetectOptions& o, Detection& out) {
+  const MoireMeasure& m = out.moire;
+  if (!o.measure_refinement_noise || m.texture_sigma_px > 0 || m.refined_on_closed_patches) return;
+  RefinementNoise noise = detect_internal::MeasureSquareNoise(photo, grid);
+  if (!noise.measured) return;
+  const bool resolved = m.display_pitch_px > 0.5;  // RefineSigmaPx: the camera resolves the display's pixels
+  noise.basis = "black and white squares";
+  if (m.present || resolved) {
+    // The white squares' spread holds the display's structure; their noise is the moire measurement's broadband
+    // floor (the spectrum's median bin, without the periodic peaks: moire.h), where that is the smaller.
+    const double floor_sd = m.texture * m.white_level;
+    const bool by_floor = m.patches > 0 && floor_sd > 0 && floor_sd < noise.white_sd;
+    if (by_floor) noise.white_sd = floor_sd;
+    noise.basis = fmt::format("black squares; on white {}: the white squares' spread holds the display's {}, which is "
+                              "not random",
+                              by_floor ? "the broadband floor of the moire measurement's spectrum" : "their spread",
+                              resolved ? "pixels, which the camera resolves" : "moire");
+  }
+  constexpr int kDraws = 3;
+  detect_internal::MeasureRefinementNoise(photo, grid, sigma_px, 0, kDraws,
+                                          0x5EED0000ull + static_cast<uint64_t>(grid.px.size()), noise);
+  if (noise.corners == 0) return;
+  out.refinement_noise = noise;
+  out.notes.push_back(fmt::format(
+      "the photo's noise on the board's squares: sd {:.2f} on black, {:.2f} on white (levels {:.1f}, {:.1f}; {} and "
+      "{} interiors), adjacent-pixel correlation {:.2f}; drawn {} times ({}), it moves the refined corners by {:.4f} "
+      "px RMS per coordinate (the random part of their error)",
+      noise.black_sd, noise.white_sd, noise.black_level, noise.white_level, noise.black_patches, noise.white_patches,
+      noise.correlation_lag1, kDraws, noise.basis, noise.response_px));
+}
+
 bool DetectBoard(const std::string& detector, const cv::Mat& photo, const cv::Mat& gray8, const PatternFile& pattern,
                  const PatternInfo& info, const DetectOptions& o, Detection& out, std::string& unmirrored_alternative,
                  bool retry_unsmoothed) {
@@ -421,6 +459,7 @@ bool DetectBoard(const std::string& detector, const cv::Mat& photo, const cv::Ma
     } else {
       detect_internal::RefineXCorners(photo, sigma_px, *grid);
     }
+    MeasureRefinementNoise(photo, *grid, sigma_px, o, out);
   }
   out.features.clear();
   for (size_t d = 0; d < grid->px.size(); ++d) {

@@ -116,6 +116,9 @@ struct DetectOptions {
   double outlier_min_px = 0.5;
   // Features closer than this to the image edge (px) are flagged: their refinement window is cut.
   double border_px = 4;
+  // Measure the refined board corners' response to the photo's own noise (Detection::refinement_noise): three
+  // more refinements of the grid, a few percent of the detection's time.
+  bool measure_refinement_noise = true;
   // The moire measurement and the auto prefilter's thresholds (moire.h).
   MoireOptions moire;
 
@@ -132,6 +135,26 @@ struct DetectedFeature {
   double quality = 1;
   // "" = good; else why it is suspect ("outlier: 2.3 px from neighbours' homography", "near the image border").
   std::string flag;
+};
+
+// The random part of the refined corners' error: how far the refinement moves them when noise like the photo's own
+// is added to the photo (detect_board.h MeasureSquareNoise, RefinementNoiseResponsePx). Sensor noise moves each
+// corner independently; it cannot make a smooth error across the board, so the analysis's detector-systematic row
+// bounds the smooth error by the scatter less this part (analysis/screen_fit.h FitOptions::smooth_bias_px).
+// Measured for board corners refined by cornerSubPix (opencv-classic; opencv-sb and mrgingham under the auto
+// prefilter) on photos whose refinement takes them from the photo itself (not where the board's display gaps or
+// broadband texture set the refinement: point-sampled photos, whose "noise" is the display's own structure).
+struct RefinementNoise {
+  bool measured = false;
+  std::string basis;  // what gave the noise: "black and white squares", or on white the moire spectrum's floor
+  // The photo's noise on the board's squares, in gray levels of the photo's depth: standard deviation on black and
+  // on white square interiors (about each interior's mean), their levels, the correlation of horizontally and
+  // vertically adjacent pixels, and how many interiors of each colour.
+  double black_sd = 0, white_sd = 0, black_level = 0, white_level = 0, correlation_lag1 = 0;
+  int black_patches = 0, white_patches = 0;
+  // The RMS per coordinate of the corners' displacement under the drawn noise, px (over corners and draws).
+  double response_px = 0;
+  int corners = 0, draws = 0;
 };
 
 // Why a detection found nothing (a typed outcome: callers branch on this, `Detection::failure` is for people).
@@ -161,6 +184,8 @@ struct Detection {
   // The display-pixel moire measured in the photo (moire.h), the display's pitch in the photo and the prefilter
   // applied (filter_sigma_px: 0 = none); measured on every call, also when the detection fails.
   MoireMeasure moire;
+  // The refinement's response to the photo's own noise (above); measured = false where it is not measured.
+  RefinementNoise refinement_noise;
 };
 
 // Photo file -> gray image, 8-bit (CV_8U) or 16-bit (CV_16U, precision kept). Colour photos are converted by

@@ -6,10 +6,13 @@
 
 #include <Eigen/Core>
 #include <opencv2/core.hpp>
+#include <cstdint>
 #include <functional>
 #include <optional>
 #include <string>
 #include <vector>
+
+#include "detect/detect.h"
 
 namespace curvecheck::detect_internal {
 
@@ -51,6 +54,26 @@ cv::Mat ClosedAlongEdges(const cv::Mat& patch, cv::Point2d u, cv::Point2d v);
 // and columns (a perspective view of a smooth surface has nearly none; independent errors of sigma give differences
 // of variance 20 sigma^2), robust sigma (1.4826 x the median absolute value) / sqrt(20). NaN with no run of 4.
 double GridRoughnessPx(const CornerGrid& grid);
+
+// The photo's noise on the board's square interiors (detect.h RefinementNoise: the noise fields filled, response
+// not): each square's centre (the mean of its four corners), an axis-aligned patch of half-size h = floor((d -
+// 1.5) / sqrt 2), d the centre's distance to the square's nearest edge line (the patch stays 1.5 px inside the
+// square at any rotation), h from 1 to 8; its pixels about their mean. Patches are black or white by their mean
+// (above or below the midpoint of the 10th and 90th percentiles of the means); per colour the pooled variance of
+// the patches whose variance is at most 3 x the colour's median (an edge, a tag's bits or glare in a patch is left
+// out), and the pooled lag-1 correlation of adjacent pixels (corrected for the mean's removal, -1 / (n - 1) for a
+// patch of n pixels). measured = false with fewer than 8 patches of a colour.
+RefinementNoise MeasureSquareNoise(const cv::Mat& photo, const CornerGrid& grid);
+
+// The refined grid refined again (RefineXCorners with the same sigma and closing) on the photo plus `draws`
+// seeded draws of noise like the photo's (MeasureSquareNoise): Gaussian, per pixel of standard deviation
+// at the brightness there (the photo smoothed by 1 px; refinement_noise.cc VarianceAt), spatially
+// correlated by a Gaussian filter whose adjacent-pixel correlation exp(-1 / (4 s^2)) is correlation_lag1 (white
+// below 0.05; s at most 3 px); the displacement's RMS per coordinate over corners and draws in response_px (in the
+// linear regime a corner's response to a noise equals its response to another draw of the same noise). The noise
+// fields as given (the caller may replace white_sd where the white squares hold the display's structure).
+void MeasureRefinementNoise(const cv::Mat& photo, const CornerGrid& refined, double sigma_px,
+                            double gap_closing_per_spacing, int draws, uint64_t seed, RefinementNoise& noise);
 
 // cornerSubPix of one X-corner with the given half-window on a smoothed patch; returns the refined position.
 cv::Point2d RefineXCorner(const cv::Mat& image, double sigma_px, cv::Point2d guess, int half);

@@ -10,8 +10,10 @@ looking at the centre; `curvecheck render` draws the exact correction for that p
 tracer photographs it on a screen of true radius R (drawn from rfactors x 1000 mm), with a fill factor and a
 sampling drawn per trial; `curvecheck analyze` measures it. Cells: dists x yaws. Keys (defaults): res=2400x1600,
 dists=1000,2000,3000, yaws=0,20,40, fills=0.7,1, samplings=jitter2,regular2,real (2 x 2 rays jittered; 2 x 2 rays
-on a regular grid (jitter1, regular1: one ray per pixel); 4 x 4 jittered rays, blur 0.6 px, noise 1%, JPEG 92), rfactors=1,0.92,1.08, keep=1 (keep the
-photos), only=SEED (one trial), k1=K (a radial k1 the camera model is told). One CSV per shard
+on a regular grid (jitter1, regular1: one ray per pixel); real: 4 x 4 jittered rays, blur 0.6 px, noise 1%, JPEG 92;
+webcam: 4 x 4 jittered rays, blur 0.8 px, noise 2%, JPEG 85), rfactors=1,0.92,1.08, keep=1 (keep the
+photos), only=SEED (one trial), k1=K (a radial k1 the camera model is told), noise_seed_offset=K (the tracer's
+rays and noise drawn from seed + K, the scene unchanged: two runs differ only in their random part). One CSV per shard
 (OUTDIR/trials_SHARD.csv): the radius, its sigma and 95% interval against the truth, the chosen model, the fit's
 noise, the detections' RMS error per coordinate against the truth and the verdict. The verdict is meaningful for
 R = 1000 mm only (the correction is right there); elsewhere the correction is wrong for the true screen."""
@@ -112,13 +114,16 @@ def run(argv):
         fx = min(0.45 * res[0] / ax, 0.45 * res[1] / ay) * rng.uniform(0.85, 1.0)
         args = ["/usr/bin/python3", os.path.join(HERE, "trace.py"), "--pattern", pat + ".json", "--radius", str(R),
                 "--width", str(res[0]), "--height", str(res[1]), "--fx", str(fx), "--pos", *map(str, pos),
-                "--look", *map(str, centre), "--fill", str(fill), "--seed", str(seed), "-o", t]
+                "--look", *map(str, centre), "--fill", str(fill),
+                "--seed", str(seed + int(opts.get("noise_seed_offset", 0))), "-o", t]
         if samp in ("jitter1", "jitter2"):
             args += ["--spp", samp[-1]]
         elif samp in ("regular1", "regular2"):
             args += ["--spp", samp[-1], "--regular"]
         elif samp == "real":  # a camera-like photo: 4x4 rays, optics blur, noise, JPEG
             args += ["--spp", "4", "--blur", "0.6", "--noise", "0.01", "--jpeg", "92"]
+        elif samp == "webcam":  # a webcam-class photo (cameras.md): 4x4 rays, blur 0.8 px, noise 2%, MJPEG-like q85
+            args += ["--spp", "4", "--blur", "0.8", "--noise", "0.02", "--jpeg", "85"]
         if opts.get("k1"):
             args += ["--k1", opts["k1"], "--model-k1"]
         r = subprocess.run(args, capture_output=True, text=True)

@@ -1,0 +1,190 @@
+// The random part of the refined corners' error (detect.h RefinementNoise; detect_board.h MeasureSquareNoise,
+// MeasureRefinementNoise).
+#include <algorithm>
+#include <cmath>
+#include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
+#include <vector>
+
+#include "core/stats.h"
+#include "detect/detect_board.h"
+
+namespace curvecheck::detect_internal {
+namespace {
+
+// Distance from c to the line through a and b.
+double LineDistance(cv::Point2d c, cv::Point2d a, cv::Point2d b) {
+  const cv::Point2d d = b - a;
+  const double n = cv::norm(d);
+  return n > 0 ? std::abs(d.x * (c.y - a.y) - d.y * (c.x - a.x)) / n : 0;
+}
+
+// The noise variance at relative brightness w (0 black, 1 white) from its values on black and white. Rising
+// (vw >= vb: a linear sensor's shot and read noise, var = a L + c): linear in w, exact there. Falling (vb > vw: a
+// tone curve's steep toe amplifies the dark noise, var ~ (a L + c) T'(L)^2, which falls fastest near black; the
+// synthetic webcam chain: 3.9 DN on black, 1.1 on white, 1.4 at mid-gray): vw above a tenth of the way from black,
+// the falling curve's lower end, so that the drawn noise does not exceed the photo's at the edges, where the
+// corners are located (linear interpolation there drew it twice the photo's and the response 1.6 x the corners'
+// random error).
+double VarianceAt(double w, double vb, double vw) {
+  if (vw >= vb) return vb + (vw - vb) * w;
+  return w >= 0.1 ? vw : vb + (vw - vb) * (w / 0.1);
+}
+
+struct Interior {
+  double mean = 0, ss = 0, lag_products = 0, lag_squares = 0, lag_correction = 0;
+  int n = 0;
+};
+
+}  // namespace
+
+RefinementNoise MeasureSquareNoise(const cv::Mat& photo, const CornerGrid& g) {
+  RefinementNoise out;
+  if (photo.empty() || photo.channels() != 1 || g.width < 2 || g.height < 2) return out;
+  cv::Mat image;
+  photo.convertTo(image, CV_64F);
+  std::vector<Interior> interiors;
+  const auto at = [&](int i, int j) { return g.px[static_cast<size_t>(j * g.width + i)]; };
+  for (int j = 0; j + 1 < g.height; ++j) {
+    for (int i = 0; i + 1 < g.width; ++i) {
+      const cv::Point2d p00 = at(i, j), p10 = at(i + 1, j), p01 = at(i, j + 1), p11 = at(i + 1, j + 1);
+      const cv::Point2d c = 0.25 * (p00 + p10 + p01 + p11);
+      const double d = std::min({LineDistance(c, p00, p10), LineDistance(c, p10, p11), LineDistance(c, p11, p01),
+                                 LineDistance(c, p01, p00)});
+      const int h = std::min(8, static_cast<int>(std::floor((d - 1.5) / std::sqrt(2.0))));
+      if (h < 1) continue;
+      const int cx = static_cast<int>(std::lround(c.x)), cy = static_cast<int>(std::lround(c.y));
+      if (cx - h < 0 || cy - h < 0 || cx + h >= image.cols || cy + h >= image.rows) continue;
+      const cv::Mat patch = image(cv::Rect(cx - h, cy - h, 2 * h + 1, 2 * h + 1));
+      Interior in;
+      in.n = patch.rows * patch.cols;
+      in.mean = cv::mean(patch)[0];
+      for (int y = 0; y < patch.rows; ++y) {
+        for (int x = 0; x < patch.cols; ++x) {
+          const double r = patch.at<double>(y, x) - in.mean;
+          in.ss += r * r;
+          if (x + 1 < patch.cols) {
+            in.lag_products += r * (patch.at<double>(y, x + 1) - in.mean);
+            in.lag_squares += 0.5 * (r * r + std::pow(patch.at<double>(y, x + 1) - in.mean, 2));
+          }
+          if (y + 1 < patch.rows) {
+            in.lag_products += r * (patch.at<double>(y + 1, x) - in.mean);
+            in.lag_squares += 0.5 * (r * r + std::pow(patch.at<double>(y + 1, x) - in.mean, 2));
+          }
+        }
+      }
+      in.lag_correction = 1.0 / (in.n - 1);
+      interiors.push_back(in);
+    }
+  }
+  if (interiors.size() < 16) return out;
+  std::vector<double> means;
+  for (const Interior& in : interiors) means.push_back(in.mean);
+  std::sort(means.begin(), means.end());
+  const double lo = means[means.size() / 10], hi = means[means.size() - 1 - means.size() / 10];
+  const double mid = 0.5 * (lo + hi);
+  double lag_products = 0, lag_squares = 0, lag_correction = 0, lag_weight = 0;
+  for (int colour = 0; colour < 2; ++colour) {
+    std::vector<const Interior*> of;
+    for (const Interior& in : interiors) {
+      if ((in.mean > mid) == (colour == 1)) of.push_back(&in);
+    }
+    std::vector<double> vars;
+    for (const Interior* in : of) vars.push_back(in->ss / (in->n - 1));
+    if (vars.size() < 8) return out;
+    const double limit = 3 * Median(vars);
+    double ss = 0, dof = 0, level = 0;
+    int used = 0;
+    for (const Interior* in : of) {
+      if (in->ss / (in->n - 1) > limit) continue;
+      ss += in->ss;
+      dof += in->n - 1;
+      level += in->mean;
+      ++used;
+      lag_products += in->lag_products;
+      lag_squares += in->lag_squares;
+      lag_correction += in->lag_correction * in->lag_squares;
+      lag_weight += in->lag_squares;
+    }
+    if (used < 8 || dof <= 0) return out;
+    (colour == 0 ? out.black_sd : out.white_sd) = std::sqrt(ss / dof);
+    (colour == 0 ? out.black_level : out.white_level) = level / used;
+    (colour == 0 ? out.black_patches : out.white_patches) = used;
+  }
+  if (!(out.white_level > out.black_level)) return out;
+  out.correlation_lag1 =
+      lag_squares > 0 ? std::clamp(lag_products / lag_squares + lag_correction / lag_weight, 0.0, 0.99) : 0;
+  out.measured = true;
+  return out;
+}
+
+void MeasureRefinementNoise(const cv::Mat& photo, const CornerGrid& refined, double sigma_px,
+                            double gap_closing_per_spacing, int draws, uint64_t seed, RefinementNoise& noise) {
+  noise.response_px = 0;
+  noise.corners = 0;
+  noise.draws = 0;
+  if (!noise.measured || refined.px.empty() || draws < 1) return;
+  // The grid's bounding box and the refinement's reach around it (RefineXCorners: half-window <= 40 px, the
+  // smoothing's 3 sigma, the closing's reach below a spacing).
+  double x0 = 1e300, y0 = 1e300, x1 = -1e300, y1 = -1e300;
+  for (const cv::Point2d& p : refined.px) {
+    x0 = std::min(x0, p.x), y0 = std::min(y0, p.y), x1 = std::max(x1, p.x), y1 = std::max(y1, p.y);
+  }
+  double spacing = 0;
+  for (size_t i = 1; i < refined.px.size(); ++i) {
+    spacing = std::max(spacing, cv::norm(refined.px[i] - refined.px[i - 1]));
+  }
+  const int pad = 48 + static_cast<int>(std::ceil(3 * sigma_px + std::min(spacing, 200.0)));
+  const cv::Rect box = cv::Rect(static_cast<int>(std::floor(x0)) - pad, static_cast<int>(std::floor(y0)) - pad,
+                                static_cast<int>(std::ceil(x1 - x0)) + 2 * pad + 1,
+                                static_cast<int>(std::ceil(y1 - y0)) + 2 * pad + 1) &
+                       cv::Rect(0, 0, photo.cols, photo.rows);
+  if (box.width < 8 || box.height < 8) return;
+  cv::Mat base;
+  photo(box).convertTo(base, CV_32F);
+  // Per pixel standard deviation, by the brightness there.
+  cv::Mat bright;
+  cv::GaussianBlur(base, bright, cv::Size(0, 0), 1.0);
+  const double vb = noise.black_sd * noise.black_sd;
+  const double vw = noise.white_sd * noise.white_sd;
+  cv::Mat sd(base.size(), CV_32F);
+  for (int y = 0; y < base.rows; ++y) {
+    for (int x = 0; x < base.cols; ++x) {
+      const double w =
+          std::clamp((bright.at<float>(y, x) - noise.black_level) / (noise.white_level - noise.black_level), 0.0, 1.0);
+      sd.at<float>(y, x) = static_cast<float>(std::sqrt(std::max(0.0, VarianceAt(w, vb, vw))));
+    }
+  }
+  // Adjacent-pixel correlation rho of a Gaussian-filtered white noise: exp(-1 / (4 s^2)).
+  const double rho = noise.correlation_lag1;
+  const double s = rho >= 0.05 ? std::min(3.0, 1.0 / (2.0 * std::sqrt(-std::log(rho)))) : 0.0;
+  const cv::Point2d origin(box.x, box.y);
+  CornerGrid start = refined;
+  for (cv::Point2d& p : start.px) p -= origin;
+  cv::RNG rng(seed);
+  double sum2 = 0;
+  long count = 0;
+  for (int d = 0; d < draws; ++d) {
+    cv::Mat n(base.size(), CV_32F);
+    rng.fill(n, cv::RNG::NORMAL, 0.0, 1.0);
+    if (s > 0) {
+      cv::GaussianBlur(n, n, cv::Size(0, 0), s, s, cv::BORDER_REFLECT);
+      cv::Scalar mean, dev;
+      cv::meanStdDev(n, mean, dev);
+      if (dev[0] > 0) n *= 1.0 / dev[0];
+    }
+    const cv::Mat noisy = base + n.mul(sd);
+    CornerGrid again = start;
+    RefineXCorners(noisy, sigma_px, again, gap_closing_per_spacing);
+    for (size_t i = 0; i < again.px.size(); ++i) {
+      const cv::Point2d delta = again.px[i] - start.px[i];
+      sum2 += delta.dot(delta);
+      ++count;
+    }
+  }
+  noise.corners = static_cast<int>(refined.px.size());
+  noise.draws = draws;
+  noise.response_px = count > 0 ? std::sqrt(sum2 / (2.0 * static_cast<double>(count))) : 0;
+}
+
+}  // namespace curvecheck::detect_internal

@@ -307,7 +307,7 @@ constexpr double kGapClosingPerSpacing = 0.75;
 // the display's structure set the refinement (the texture's prefilter, corners refined on closed patches: there the
 // "noise" on the white squares is the display's, and the photo's own noise is not what moves the corners); where
 // moire is present or the camera resolves the display's pixels the white squares' spread holds them (not random),
-// and the white's noise is the moire measurement's broadband floor where that is smaller. Three draws (seeded by
+// and the white's noise is the moire measurement's broadband floor where that is smaller. Four draws on up to 120 corners (seeded by
 // the grid's size: the same photo gives the same figure).
 void MeasureRefinementNoise(const cv::Mat& photo, const detect_internal::CornerGrid& grid, double sigma_px,
                             const DetectOptions& o, Detection& out) {
@@ -328,8 +328,8 @@ void MeasureRefinementNoise(const cv::Mat& photo, const detect_internal::CornerG
                               by_floor ? "the broadband floor of the moire measurement's spectrum" : "their spread",
                               resolved ? "pixels, which the camera resolves" : "moire");
   }
-  constexpr int kDraws = 3;
-  detect_internal::MeasureRefinementNoise(photo, grid, sigma_px, 0, kDraws,
+  constexpr int kDraws = 4;
+  detect_internal::MeasureRefinementNoise(photo, grid, sigma_px, kDraws,
                                           0x5EED0000ull + static_cast<uint64_t>(grid.px.size()), noise);
   if (noise.corners == 0) return;
   out.refinement_noise = noise;

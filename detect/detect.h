@@ -116,8 +116,8 @@ struct DetectOptions {
   double outlier_min_px = 0.5;
   // Features closer than this to the image edge (px) are flagged: their refinement window is cut.
   double border_px = 4;
-  // Measure the refined board corners' response to the photo's own noise (Detection::refinement_noise): three
-  // more refinements of the grid, a few percent of the detection's time.
+  // Measure the refined board corners' response to the photo's own noise (Detection::refinement_noise): four
+  // more refinements of up to 120 corners.
   bool measure_refinement_noise = true;
   // The moire measurement and the auto prefilter's thresholds (moire.h).
   MoireOptions moire;
@@ -152,7 +152,8 @@ struct RefinementNoise {
   // vertically adjacent pixels, and how many interiors of each colour.
   double black_sd = 0, white_sd = 0, black_level = 0, white_level = 0, correlation_lag1 = 0;
   int black_patches = 0, white_patches = 0;
-  // The RMS per coordinate of the corners' displacement under the drawn noise, px (over corners and draws).
+  // The RMS per coordinate of the corners' displacement under the drawn noise, px (over corners and draws), and
+  // how many corners (up to 120, evenly through the board) and draws measured it.
   double response_px = 0;
   int corners = 0, draws = 0;
 };

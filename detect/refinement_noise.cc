@@ -41,8 +41,7 @@ struct Interior {
 RefinementNoise MeasureSquareNoise(const cv::Mat& photo, const CornerGrid& g) {
   RefinementNoise out;
   if (photo.empty() || photo.channels() != 1 || g.width < 2 || g.height < 2) return out;
-  cv::Mat image;
-  photo.convertTo(image, CV_64F);
+  const cv::Mat& image = photo;
   std::vector<Interior> interiors;
   const auto at = [&](int i, int j) { return g.px[static_cast<size_t>(j * g.width + i)]; };
   for (int j = 0; j + 1 < g.height; ++j) {
@@ -55,7 +54,8 @@ RefinementNoise MeasureSquareNoise(const cv::Mat& photo, const CornerGrid& g) {
       if (h < 1) continue;
       const int cx = static_cast<int>(std::lround(c.x)), cy = static_cast<int>(std::lround(c.y));
       if (cx - h < 0 || cy - h < 0 || cx + h >= image.cols || cy + h >= image.rows) continue;
-      const cv::Mat patch = image(cv::Rect(cx - h, cy - h, 2 * h + 1, 2 * h + 1));
+      cv::Mat patch;
+      image(cv::Rect(cx - h, cy - h, 2 * h + 1, 2 * h + 1)).convertTo(patch, CV_64F);
       Interior in;
       in.n = patch.rows * patch.cols;
       in.mean = cv::mean(patch)[0];
@@ -119,7 +119,7 @@ RefinementNoise MeasureSquareNoise(const cv::Mat& photo, const CornerGrid& g) {
 }
 
 void MeasureRefinementNoise(const cv::Mat& photo, const CornerGrid& refined, double sigma_px,
-                            double gap_closing_per_spacing, int draws, uint64_t seed, RefinementNoise& noise) {
+                            int draws, uint64_t seed, RefinementNoise& noise) {
   noise.response_px = 0;
   noise.corners = 0;
   noise.draws = 0;
@@ -142,47 +142,88 @@ void MeasureRefinementNoise(const cv::Mat& photo, const CornerGrid& refined, dou
   if (box.width < 8 || box.height < 8) return;
   cv::Mat base;
   photo(box).convertTo(base, CV_32F);
-  // Per pixel standard deviation, by the brightness there.
-  cv::Mat bright;
-  cv::GaussianBlur(base, bright, cv::Size(0, 0), 1.0);
-  const double vb = noise.black_sd * noise.black_sd;
-  const double vw = noise.white_sd * noise.white_sd;
-  cv::Mat sd(base.size(), CV_32F);
-  for (int y = 0; y < base.rows; ++y) {
-    for (int x = 0; x < base.cols; ++x) {
-      const double w =
-          std::clamp((bright.at<float>(y, x) - noise.black_level) / (noise.white_level - noise.black_level), 0.0, 1.0);
-      sd.at<float>(y, x) = static_cast<float>(std::sqrt(std::max(0.0, VarianceAt(w, vb, vw))));
-    }
-  }
-  // Adjacent-pixel correlation rho of a Gaussian-filtered white noise: exp(-1 / (4 s^2)).
-  const double rho = noise.correlation_lag1;
-  const double s = rho >= 0.05 ? std::min(3.0, 1.0 / (2.0 * std::sqrt(-std::log(rho)))) : 0.0;
   const cv::Point2d origin(box.x, box.y);
   CornerGrid start = refined;
   for (cv::Point2d& p : start.px) p -= origin;
+  // At most kMaxCorners corners, evenly through the grid (the response is a mean over corners: 120 corners and
+  // four draws give it to about 2.5%); the noise is drawn only where their refinement reads: the half-window (0.3 x
+  // the distance to the nearest grid neighbour, 3..40 px, as RefineXCorners), 4 px and the smoothing's 3 sigma
+  // (detect_board.cc RefineXCorner).
+  constexpr size_t kMaxCorners = 120;
+  const size_t step = std::max<size_t>(1, (start.px.size() + kMaxCorners - 1) / kMaxCorners);
+  std::vector<cv::Rect> reads;
+  std::vector<std::pair<cv::Point2d, int>> chosen;  // position, half-window
+  for (size_t idx = 0; idx < start.px.size(); idx += step) {
+    const int i = static_cast<int>(idx) % start.width, j = static_cast<int>(idx) / start.width;
+    const cv::Point2d p = start.px[idx];
+    double nearest = 1e9;
+    for (const auto& [di, dj] : {std::pair{1, 0}, std::pair{-1, 0}, std::pair{0, 1}, std::pair{0, -1}}) {
+      const int ii = i + di, jj = j + dj;
+      if (ii < 0 || jj < 0 || ii >= start.width || jj >= start.height) continue;
+      nearest = std::min(nearest, cv::norm(start.px[static_cast<size_t>(jj * start.width + ii)] - p));
+    }
+    const int half = std::clamp(static_cast<int>(std::lround(0.3 * nearest)), 3, 40);
+    const int r = half + 6 + static_cast<int>(std::ceil(3 * sigma_px));
+    const cv::Rect roi =
+        cv::Rect(static_cast<int>(std::floor(p.x)) - r, static_cast<int>(std::floor(p.y)) - r, 2 * r + 2, 2 * r + 2) &
+        cv::Rect(0, 0, base.cols, base.rows);
+    if (roi.area() == 0) continue;
+    reads.push_back(roi);
+    chosen.emplace_back(p, half);
+  }
+  // Per pixel standard deviation there, by the brightness (the photo smoothed by 1 px).
+  const double vb = noise.black_sd * noise.black_sd;
+  const double vw = noise.white_sd * noise.white_sd;
+  std::vector<cv::Mat> sds;
+  for (const cv::Rect& roi : reads) {
+    cv::Mat bright;
+    cv::GaussianBlur(base(roi), bright, cv::Size(0, 0), 1.0, 1.0, cv::BORDER_REFLECT);
+    cv::Mat sd(roi.size(), CV_32F);
+    for (int y = 0; y < sd.rows; ++y) {
+      for (int x = 0; x < sd.cols; ++x) {
+        const double w = std::clamp(
+            (bright.at<float>(y, x) - noise.black_level) / (noise.white_level - noise.black_level), 0.0, 1.0);
+        sd.at<float>(y, x) = static_cast<float>(std::sqrt(std::max(0.0, VarianceAt(w, vb, vw))));
+      }
+    }
+    sds.push_back(sd);
+  }
+  // Adjacent-pixel correlation rho of a Gaussian-filtered white noise: exp(-1 / (4 s^2)); the filtered noise
+  // divided by its standard deviation, the kernel's sum of squares (per axis, squared).
+  const double rho = noise.correlation_lag1;
+  const double s = rho >= 0.05 ? std::min(3.0, 1.0 / (2.0 * std::sqrt(-std::log(rho)))) : 0.0;
+  const int ksize = s > 0 ? (static_cast<int>(std::lround(s * 8 + 1)) | 1) : 1;
+  double gain = 1;
+  if (s > 0) {
+    const cv::Mat k = cv::getGaussianKernel(ksize, s, CV_64F);
+    gain = 1 / k.dot(k);
+  }
+  const int margin = ksize / 2 + 1;
   cv::RNG rng(seed);
   double sum2 = 0;
   long count = 0;
+  // Each draw rewrites every region RefineXCorners reads (overlaps: the last region's noise), nothing else.
+  cv::Mat noisy = base.clone();
   for (int d = 0; d < draws; ++d) {
-    cv::Mat n(base.size(), CV_32F);
-    rng.fill(n, cv::RNG::NORMAL, 0.0, 1.0);
-    if (s > 0) {
-      cv::GaussianBlur(n, n, cv::Size(0, 0), s, s, cv::BORDER_REFLECT);
-      cv::Scalar mean, dev;
-      cv::meanStdDev(n, mean, dev);
-      if (dev[0] > 0) n *= 1.0 / dev[0];
+    for (size_t k = 0; k < reads.size(); ++k) {
+      const cv::Rect& roi = reads[k];
+      cv::Mat white(roi.height + 2 * margin, roi.width + 2 * margin, CV_32F);
+      rng.fill(white, cv::RNG::NORMAL, 0.0, 1.0);
+      if (s > 0) {
+        cv::GaussianBlur(white, white, cv::Size(ksize, ksize), s, s, cv::BORDER_REFLECT);
+        white *= gain;
+      }
+      const cv::Mat drawn = white(cv::Rect(margin, margin, roi.width, roi.height)).mul(sds[k]);
+      cv::Mat into = noisy(roi);
+      cv::add(base(roi), drawn, into);
     }
-    const cv::Mat noisy = base + n.mul(sd);
-    CornerGrid again = start;
-    RefineXCorners(noisy, sigma_px, again, gap_closing_per_spacing);
-    for (size_t i = 0; i < again.px.size(); ++i) {
-      const cv::Point2d delta = again.px[i] - start.px[i];
+    for (const auto& [p, half] : chosen) {
+      const cv::Point2d delta = RefineXCorner(noisy, sigma_px, p, half) - p;
       sum2 += delta.dot(delta);
       ++count;
     }
   }
-  noise.corners = static_cast<int>(refined.px.size());
+  noise.corners = static_cast<int>(chosen.size());
   noise.draws = draws;
   noise.response_px = count > 0 ? std::sqrt(sum2 / (2.0 * static_cast<double>(count))) : 0;
 }

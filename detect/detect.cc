@@ -300,15 +300,15 @@ void DiagnoseBoardFailure(const cv::Mat& gray8, const PatternInfo& info, const s
 constexpr double kGapClosingPerSpacing = 0.75;
 
 // One board detector, oriented and named; false with `failure` set if it found nothing usable.
-// `unmirrored_alternative`: ResolveBoardOrientation's, for the text of a mirrored naming. `retry_unsmoothed`: where
-// the auto prefilter's copy hides the board from the coarse search, search the photo itself too (auto passes false
-// for opencv-classic, so that opencv-sb on the prefiltered copy comes first, as before the retry).
-// The refinement's response to the photo's own noise (detect.h RefinementNoise), on the refined grid: not where
-// the display's structure set the refinement (the texture's prefilter, corners refined on closed patches: there the
-// "noise" on the white squares is the display's, and the photo's own noise is not what moves the corners); where
-// moire is present or the camera resolves the display's pixels the white squares' spread holds them (not random),
-// and the white's noise is the moire measurement's broadband floor where that is smaller. Four draws on up to 120 corners (seeded by
-// the grid's size: the same photo gives the same figure).
+// `unmirrored_alternative`: ResolveBoardOrientation's, for the text of a mirrored naming. `retry_unsmoothed`: where the
+// auto prefilter's copy hides the board from the coarse search, search the photo itself too (auto passes false for
+// opencv-classic, so that opencv-sb on the prefiltered copy comes first, as before the retry). The refinement's
+// response to the photo's own noise (detect.h RefinementNoise), on the refined grid: not where the display's structure
+// set the refinement (the texture's prefilter, corners refined on closed patches: there the "noise" on the white
+// squares is the display's, and the photo's own noise is not what moves the corners); where moire is present or the
+// camera resolves the display's pixels the white squares' spread holds them (not random), and the white's noise is the
+// moire measurement's broadband floor where that is smaller. Four draws on up to 120 corners (seeded by the grid's
+// size: the same photo gives the same figure).
 void MeasureRefinementNoise(const cv::Mat& photo, const detect_internal::CornerGrid& grid, double sigma_px,
                             const DetectOptions& o, Detection& out) {
   const MoireMeasure& m = out.moire;

@@ -66,12 +66,13 @@ double GridRoughnessPx(const CornerGrid& grid);
 RefinementNoise MeasureSquareNoise(const cv::Mat& photo, const CornerGrid& grid);
 
 // Up to 120 of the refined grid's corners, evenly through it, refined again (RefineXCorner with the same sigma and
-// half-window as RefineXCorners, no closing) on the photo plus `draws` seeded draws of noise like the photo's (MeasureSquareNoise): Gaussian, per pixel of standard deviation
-// at the brightness there (the photo smoothed by 1 px; refinement_noise.cc VarianceAt), spatially
-// correlated by a Gaussian filter whose adjacent-pixel correlation exp(-1 / (4 s^2)) is correlation_lag1 (white
-// below 0.05; s at most 3 px); the displacement's RMS per coordinate over corners and draws in response_px (in the
-// linear regime a corner's response to a noise equals its response to another draw of the same noise). The noise
-// fields as given (the caller may replace white_sd where the white squares hold the display's structure).
+// half-window as RefineXCorners, no closing) on the photo plus `draws` seeded draws of noise like the photo's
+// (MeasureSquareNoise): Gaussian, per pixel of standard deviation at the brightness there (the photo smoothed by 1 px;
+// refinement_noise.cc VarianceAt), spatially correlated by a Gaussian filter whose adjacent-pixel correlation exp(-1 /
+// (4 s^2)) is correlation_lag1 (white below 0.05; s at most 3 px); the displacement's RMS per coordinate over corners
+// and draws in response_px (in the linear regime a corner's response to a noise equals its response to another draw of
+// the same noise). The noise fields as given (the caller may replace white_sd where the white squares hold the
+// display's structure).
 void MeasureRefinementNoise(const cv::Mat& photo, const CornerGrid& refined, double sigma_px, int draws,
                             uint64_t seed, RefinementNoise& noise);
 

@@ -626,14 +626,14 @@ TEST(Detect, MoireMeasuredAndFilteredBackToTheCleanError) {
 
 // The refinement's response to the photo's own noise (Detection::refinement_noise) against the random part of the
 // corners' error measured directly: the same scene photographed twice with different sensor seeds, where the
-// deterministic error (sampling, blur, pixel-locking) is the same in both and the difference of the two detections
-// is the random part alone (its RMS per coordinate / sqrt 2; one pair: about +-3%). Measured (seeds 3 and 4): the
-// clean chain's linear sensor 0.0168 px against 0.0148 px (30 draws on every corner: 0.0162), the webcam chain
-// (sRGB tone curve: 3.9 DN of noise on black, 1.1 on white) 0.0187 against 0.0180 px (0.0285 with the variance
-// interpolated linearly between black and white, refinement_noise.cc VarianceAt). A noise-free photo gives (nearly) nothing. The injected noise is drawn from the square interiors
-// (detect_board.h MeasureSquareNoise); the edges' own randomness (a ray tracer's jittered rays, for one) is not in
-// it, so there the response falls short of the random part: the analysis subtracts it from the scatter, and the
-// smaller it is, the larger the smooth bound it leaves.
+// deterministic error (sampling, blur, pixel-locking) is the same in both and the difference of the two detections is
+// the random part alone (its RMS per coordinate / sqrt 2; one pair: about +-3%). Measured (seeds 3 and 4): the clean
+// chain's linear sensor 0.0168 px against 0.0148 px (30 draws on every corner: 0.0162), the webcam chain (sRGB tone
+// curve: 3.9 DN of noise on black, 1.1 on white) 0.0187 against 0.0180 px (0.0285 with the variance interpolated
+// linearly between black and white, refinement_noise.cc VarianceAt). A noise-free photo gives (nearly) nothing. The
+// injected noise is drawn from the square interiors (detect_board.h MeasureSquareNoise); the edges' own randomness (a
+// ray tracer's jittered rays, for one) is not in it, so there the response falls short of the random part: the analysis
+// subtracts it from the scatter, and the smaller it is, the larger the smooth bound it leaves.
 TEST(Detect, RefinementNoiseResponseIsTheCornersRandomError) {
   struct Case {
     std::string name;

@@ -358,14 +358,14 @@ TEST_F(BenchValidityCli, TheDetectorsSystematicErrorIsMeasuredBesideItsRow) {
             << "), shift " << t.at("sys_shift_mm") << " mm, row 2 parts " << smooth << ", " << locking << " mm\n";
 }
 
-// Row 2's smooth bias b follows the detector across distance (b = its scatter without the pixel-locking signature,
-// less the corners' random part the detection measured, FitOptions::smooth_bias_px unset): the bench's statistical claim in a small seeded form. The realistic chain at
-// quarter resolution on axis, 8 trials at 1 m and 8 at 3 m (seed 51001), with --detector-effect. b is each trial's
-// scatter (result.json), grows with distance (medians 0.014 and 0.033 px here; the colour filter array's moire at
-// 3 m), and the detector's effect on the radius over row 2 (RMS over the trials, in each trial's sigma) stays below
-// 1: measured 0.32 +- 0.08 at 1 m and 0.87 +- 0.20 at 3 m (0.20 and 0.93 on the 60 trials of the scale-0.25 slice
-// on axis, docs/bench/validity_bench.txt). With the stated b = 0.02 px of before, b did not grow and the ratio at
-// 3 m was 1.6-1.9 on the slice and its ablation.
+// Row 2's smooth bias b follows the detector across distance (b = its scatter without the pixel-locking signature, less
+// the corners' random part the detection measured, FitOptions::smooth_bias_px unset): the bench's statistical claim in
+// a small seeded form. The realistic chain at quarter resolution on axis, 8 trials at 1 m and 8 at 3 m (seed 51001),
+// with --detector-effect. b is each trial's scatter (result.json), grows with distance (medians 0.014 and 0.033 px
+// here; the colour filter array's moire at 3 m), and the detector's effect on the radius over row 2 (RMS over the
+// trials, in each trial's sigma) stays below 1: measured 0.32 +- 0.08 at 1 m and 0.87 +- 0.20 at 3 m (0.20 and 0.93 on
+// the 60 trials of the scale-0.25 slice on axis, docs/bench/validity_bench.txt). With the stated b = 0.02 px of before,
+// b did not grow and the ratio at 3 m was 1.6-1.9 on the slice and its ablation.
 TEST_F(BenchValidityCli, RowTwoFollowsTheDetectorAcrossDistance) {
   const CliRun run = Curvecheck({"bench", "validity", "--scales", "0.25", "--distances-mm", "1000,3000", "--yaws-deg",
                                  "0", "--realism", "on", "--radius-factors", "1", "--trials", "8", "--seed", "51001",

@@ -124,27 +124,7 @@ void MeasureRefinementNoise(const cv::Mat& photo, const CornerGrid& refined, dou
   noise.corners = 0;
   noise.draws = 0;
   if (!noise.measured || refined.px.empty() || draws < 1) return;
-  // The grid's bounding box and the refinement's reach around it (RefineXCorners: half-window <= 40 px, the
-  // smoothing's 3 sigma, the closing's reach below a spacing).
-  double x0 = 1e300, y0 = 1e300, x1 = -1e300, y1 = -1e300;
-  for (const cv::Point2d& p : refined.px) {
-    x0 = std::min(x0, p.x), y0 = std::min(y0, p.y), x1 = std::max(x1, p.x), y1 = std::max(y1, p.y);
-  }
-  double spacing = 0;
-  for (size_t i = 1; i < refined.px.size(); ++i) {
-    spacing = std::max(spacing, cv::norm(refined.px[i] - refined.px[i - 1]));
-  }
-  const int pad = 48 + static_cast<int>(std::ceil(3 * sigma_px + std::min(spacing, 200.0)));
-  const cv::Rect box = cv::Rect(static_cast<int>(std::floor(x0)) - pad, static_cast<int>(std::floor(y0)) - pad,
-                                static_cast<int>(std::ceil(x1 - x0)) + 2 * pad + 1,
-                                static_cast<int>(std::ceil(y1 - y0)) + 2 * pad + 1) &
-                       cv::Rect(0, 0, photo.cols, photo.rows);
-  if (box.width < 8 || box.height < 8) return;
-  cv::Mat base;
-  photo(box).convertTo(base, CV_32F);
-  const cv::Point2d origin(box.x, box.y);
-  CornerGrid start = refined;
-  for (cv::Point2d& p : start.px) p -= origin;
+  const CornerGrid& start = refined;
   // At most kMaxCorners corners, evenly through the grid (the response is a mean over corners: 120 corners and
   // four draws give it to about 2.5%); the noise is drawn only where their refinement reads: the half-window (0.3 x
   // the distance to the nearest grid neighbour, 3..40 px, as RefineXCorners), 4 px and the smoothing's 3 sigma
@@ -166,7 +146,7 @@ void MeasureRefinementNoise(const cv::Mat& photo, const CornerGrid& refined, dou
     const int r = half + 6 + static_cast<int>(std::ceil(3 * sigma_px));
     const cv::Rect roi =
         cv::Rect(static_cast<int>(std::floor(p.x)) - r, static_cast<int>(std::floor(p.y)) - r, 2 * r + 2, 2 * r + 2) &
-        cv::Rect(0, 0, base.cols, base.rows);
+        cv::Rect(0, 0, photo.cols, photo.rows);
     if (roi.area() == 0) continue;
     reads.push_back(roi);
     chosen.emplace_back(p, half);
@@ -174,10 +154,13 @@ void MeasureRefinementNoise(const cv::Mat& photo, const CornerGrid& refined, dou
   // Per pixel standard deviation there, by the brightness (the photo smoothed by 1 px).
   const double vb = noise.black_sd * noise.black_sd;
   const double vw = noise.white_sd * noise.white_sd;
-  std::vector<cv::Mat> sds;
+  // Each corner's region of the photo, as float (the photo is read there only).
+  std::vector<cv::Mat> sds, bases;
   for (const cv::Rect& roi : reads) {
+    bases.emplace_back();
+    photo(roi).convertTo(bases.back(), CV_32F);
     cv::Mat bright;
-    cv::GaussianBlur(base(roi), bright, cv::Size(0, 0), 1.0, 1.0, cv::BORDER_REFLECT);
+    cv::GaussianBlur(bases.back(), bright, cv::Size(0, 0), 1.0, 1.0, cv::BORDER_REFLECT);
     cv::Mat sd(roi.size(), CV_32F);
     for (int y = 0; y < sd.rows; ++y) {
       for (int x = 0; x < sd.cols; ++x) {
@@ -202,8 +185,7 @@ void MeasureRefinementNoise(const cv::Mat& photo, const CornerGrid& refined, dou
   cv::RNG rng(seed);
   double sum2 = 0;
   long count = 0;
-  // Each draw rewrites every region RefineXCorners reads (overlaps: the last region's noise), nothing else.
-  cv::Mat noisy = base.clone();
+  // Each draw: per corner, its region plus noise, and the corner refined on it (in the region's coordinates).
   for (int d = 0; d < draws; ++d) {
     for (size_t k = 0; k < reads.size(); ++k) {
       const cv::Rect& roi = reads[k];
@@ -213,12 +195,10 @@ void MeasureRefinementNoise(const cv::Mat& photo, const CornerGrid& refined, dou
         cv::GaussianBlur(white, white, cv::Size(ksize, ksize), s, s, cv::BORDER_REFLECT);
         white *= gain;
       }
-      const cv::Mat drawn = white(cv::Rect(margin, margin, roi.width, roi.height)).mul(sds[k]);
-      cv::Mat into = noisy(roi);
-      cv::add(base(roi), drawn, into);
-    }
-    for (const auto& [p, half] : chosen) {
-      const cv::Point2d delta = RefineXCorner(noisy, sigma_px, p, half) - p;
+      const cv::Mat noisy = bases[k] + white(cv::Rect(margin, margin, roi.width, roi.height)).mul(sds[k]);
+      const auto& [p, half] = chosen[k];
+      const cv::Point2d at(roi.x, roi.y);
+      const cv::Point2d delta = RefineXCorner(noisy, sigma_px, p - at, half) + at - p;
       sum2 += delta.dot(delta);
       ++count;
     }

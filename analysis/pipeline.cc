@@ -293,6 +293,7 @@ PhotoObservations FitObservationsOf(const PhotoAnalysis& photo, const AnalyzeOpt
   const RefinementNoise& random = photo.detection.refinement_noise;  // detect.h
   if (random.measured && random.corners > 0) {
     obs.random_error_px = random.response_px;
+    obs.random_error_u_px = random.response_u_px;
     obs.random_error_samples = 2L * random.corners * random.draws;
   }
   for (const FeatureCheck& c : photo.verification.features) {

@@ -346,7 +346,8 @@ nlohmann::json ResultJson(const AnalysisResult& r, const std::string& command_li
                                        {"white_interiors", rn.white_patches},
                                        {"draws", rn.draws},
                                        {"corners", rn.corners},
-                                       {"response_px", rn.response_px}}
+                                       {"response_px", rn.response_px},
+                                       {"response_u_px", rn.response_u_px}}
                       : nlohmann::json();
     }
     if (p.used) e["verification"] = VerificationJson(p.verification);

@@ -500,14 +500,21 @@ ScreenFitResult FitScreen(const Monitor& nominal, const CameraModel& camera,
   setup.options = &options;
   setup.photos = static_cast<int>(photos.size());
   setup.half_width_mm = 0.5 * nominal.width_mm;
-  double random_sum2 = 0;
+  // The photos' r^2 pooled by their samples n_i: sum n_i r_i^2 / N, of variance sum (n_i / N)^2 (2 r_i u_i)^2.
+  double random_sum2 = 0, random_var_sum = 0;
   for (const PhotoObservations& ph : photos) {
-    if (ph.random_error_samples <= 0 || !std::isfinite(ph.random_error_px)) continue;
-    random_sum2 += static_cast<double>(ph.random_error_samples) * ph.random_error_px * ph.random_error_px;
+    if (ph.random_error_samples <= 0 || !std::isfinite(ph.random_error_px) || !std::isfinite(ph.random_error_u_px)) {
+      continue;
+    }
+    const double n = static_cast<double>(ph.random_error_samples);
+    random_sum2 += n * ph.random_error_px * ph.random_error_px;
+    random_var_sum += std::pow(n * 2 * ph.random_error_px * ph.random_error_u_px, 2);
     setup.random_error_samples += ph.random_error_samples;
   }
   if (setup.random_error_samples > 0) {
-    setup.random_error_px = std::sqrt(random_sum2 / static_cast<double>(setup.random_error_samples));
+    const double total = static_cast<double>(setup.random_error_samples);
+    setup.random_error_px = std::sqrt(random_sum2 / total);
+    setup.random_error_u_px2 = std::sqrt(random_var_sum) / total;
   }
   std::unordered_map<std::string, int> feature_index;
   for (size_t p = 0; p < photos.size(); ++p) {

@@ -32,10 +32,11 @@ struct PhotoObservations {
   std::vector<std::string> ids;              // feature ids (the same id in several photos is the same feature)
   std::vector<Eigen::Vector2d> display_px;   // the features' display positions (pattern.json)
   std::vector<Eigen::Vector2d> detected_px;  // in the camera image
-  // The random part of the detections' error, RMS px per coordinate, and how many corner coordinates measured it
-  // (detect.h RefinementNoise: the refinement's response to the photo's own noise; 0 samples: not measured). The
-  // detector-systematic row's smooth bound leaves it out (FitOptions::smooth_bias_px).
+  // The random part of the detections' error, RMS px per coordinate, its standard uncertainty and how many corner
+  // coordinates measured it (detect.h RefinementNoise: the refinement's response to the photo's own noise; 0
+  // samples: not measured). The detector-systematic row's smooth bound leaves it out (FitOptions::smooth_bias_px).
   double random_error_px = 0;
+  double random_error_u_px = 0;
   long random_error_samples = 0;
 };
 

@@ -274,12 +274,11 @@ std::vector<Eigen::Vector2d> DetectedPoints(const Setup& setup, const Linearizat
 }
 
 
-SmoothBound SmoothBoundPx(double scatter_px, double scatter_dof, double random_px, long random_samples) {
+SmoothBound SmoothBoundPx(double scatter_px, double scatter_dof, double random_px, double random_u_px2) {
   SmoothBound b;
   const double s2 = scatter_px * scatter_px, r2 = random_px * random_px;
   b.difference_px2 = std::max(0.0, s2 - r2);
-  const double u2 = (scatter_dof > 0 ? 2 * s2 * s2 / scatter_dof : 0) +
-                    (random_samples > 0 ? 2 * r2 * r2 / static_cast<double>(random_samples) : 0);
+  const double u2 = (scatter_dof > 0 ? 2 * s2 * s2 / scatter_dof : 0) + random_u_px2 * random_u_px2;
   b.margin_px2 = 1.645 * std::sqrt(u2);
   b.bound_px = std::min(scatter_px, std::sqrt(b.difference_px2 + b.margin_px2));
   return b;
@@ -363,18 +362,19 @@ void Budget(const Setup& setup, ModelWork& w, int n_residuals, ModelFit* fit) {
       bud.systematic_bound_px = *o.smooth_bias_px;
       bud.systematic_bound_reason = "the stated smooth detector bias FitOptions::smooth_bias_px (type B, not measured)";
     } else if (setup.random_error_samples > 0) {
-      const SmoothBound sb = SmoothBoundPx(noise_px, c_noise.dof, setup.random_error_px, setup.random_error_samples);
+      const SmoothBound sb = SmoothBoundPx(noise_px, c_noise.dof, setup.random_error_px, setup.random_error_u_px2);
       bud.systematic_bound_px = o.smooth_bias_scatter_fraction * sb.bound_px;
       bud.systematic_bound_reason = fmt::format(
           "type B, scaled by measurements: {:g} x the deterministic part of the detector's scatter about the fit "
           "without the pixel-locking signature, on the assumption that a detector's smooth error is no larger than "
           "the part of its corner-to-corner scatter that is not random. The scatter s = {:.4f} px (the detection "
           "noise row's, {:.0f} dof), its random part r = {:.4f} px (the refinement's response to the photo's own "
-          "noise drawn again, {} corner coordinates; detect.h RefinementNoise); b^2 = max(0, s^2 - r^2) + 1.645 x "
-          "the standard uncertainty of s^2 - r^2 (a one-sided 95% bound: {:.4f} + {:.4f} px^2), at most s "
-          "(FitOptions::smooth_bias_scatter_fraction; state b with analyze --smooth-bias-px)",
+          "noise drawn again, {} corner coordinates; r^2's standard uncertainty {:.2g} px^2; detect.h "
+          "RefinementNoise); b^2 = max(0, s^2 - r^2) + 1.645 x the standard uncertainty of s^2 - r^2 (a one-sided "
+          "95% bound: {:.4f} + {:.4f} px^2), at most s (FitOptions::smooth_bias_scatter_fraction; state b with "
+          "analyze --smooth-bias-px)",
           o.smooth_bias_scatter_fraction, noise_px, c_noise.dof, setup.random_error_px, setup.random_error_samples,
-          sb.difference_px2, sb.margin_px2);
+          setup.random_error_u_px2, sb.difference_px2, sb.margin_px2);
     } else {
       bud.systematic_bound_px = o.smooth_bias_scatter_fraction * noise_px;
       bud.systematic_bound_reason = fmt::format(

@@ -274,31 +274,38 @@ TEST(UncertaintyBudgetTest, SmoothBiasFollowsTheMeasuredScatterUnlessStated) {
 }
 
 // Where the photos measured the random part r of their detections' error (detect.h RefinementNoise), b bounds only
-// the rest: b^2 = max(0, s^2 - r^2) + 1.645 u (SmoothBoundPx), at most s. The photos' r are pooled by their samples.
+// the rest: b^2 = max(0, s^2 - r^2) + 1.645 u (SmoothBoundPx), at most s. The photos' r^2 are pooled by their
+// samples, and so are the standard uncertainties of their r^2.
 TEST(UncertaintyBudgetTest, SmoothBiasLeavesOutTheMeasuredRandomPart) {
   using screen_fit_internal::SmoothBoundPx;
   // The bound alone: nothing random leaves b = s; all of it random leaves the 95% bound of the estimates' noise.
   EXPECT_DOUBLE_EQ(SmoothBoundPx(0.1, 500, 0, 0).bound_px, 0.1);
-  const auto all = SmoothBoundPx(0.1, 500, 0.1, 3000);
+  const double u_r2 = std::sqrt(2.0 / 3000) * 0.01;  // r^2 = 0.01 px^2 from 3000 normal coordinates
+  const auto all = SmoothBoundPx(0.1, 500, 0.1, u_r2);
   EXPECT_DOUBLE_EQ(all.difference_px2, 0);
   EXPECT_NEAR(all.margin_px2, 1.645 * std::sqrt(2e-4 / 500 + 2e-4 / 3000), 1e-15);
   EXPECT_NEAR(all.bound_px, std::sqrt(all.margin_px2), 1e-15);
   EXPECT_LT(all.bound_px, 0.35 * 0.1);
-  EXPECT_NEAR(SmoothBoundPx(0.1, 1e12, 0.06, 1000000000).bound_px, 0.08, 1e-4);  // 0.08^2 = 0.1^2 - 0.06^2
-  EXPECT_DOUBLE_EQ(SmoothBoundPx(0.1, 500, 0.2, 3000).difference_px2, 0);
+  EXPECT_NEAR(SmoothBoundPx(0.1, 1e12, 0.06, 0).bound_px, 0.08, 1e-4);  // 0.08^2 = 0.1^2 - 0.06^2
+  EXPECT_DOUBLE_EQ(SmoothBoundPx(0.1, 500, 0.2, u_r2).difference_px2, 0);
+  // A less certain r widens the bound.
+  EXPECT_GT(SmoothBoundPx(0.1, 500, 0.06, 10 * u_r2).bound_px, SmoothBoundPx(0.1, 500, 0.06, u_r2).bound_px);
   // Through the fit: independent noise of 0.05 px, the random part stated as measured by two photos' detections.
   const SyntheticScene scene = DefaultScene();
   PhotoObservations a = Clean(scene, 0.05, 7), b = Clean(scene, 0.05, 8);
   a.random_error_px = 0.04;
+  a.random_error_u_px = 0.002;
   a.random_error_samples = 1000;
   b.random_error_px = 0.06;
+  b.random_error_u_px = 0.001;
   b.random_error_samples = 3000;
   const ModelFit f = FitScreen(scene.monitor, scene.camera, {a, b}, CylinderOnly()).Chosen();
   ASSERT_TRUE(f.budget.computed);
   const double pooled = std::sqrt((1000 * 0.04 * 0.04 + 3000 * 0.06 * 0.06) / 4000);
+  const double pooled_u_r2 = std::hypot(1000 * 2 * 0.04 * 0.002, 3000 * 2 * 0.06 * 0.001) / 4000;
   const double s = f.budget.pixel_locking.noise_px;
   const double dof = Row(f, "detection noise").dof;
-  EXPECT_NEAR(f.budget.systematic_bound_px, SmoothBoundPx(s, dof, pooled, 4000).bound_px, 1e-15);
+  EXPECT_NEAR(f.budget.systematic_bound_px, SmoothBoundPx(s, dof, pooled, pooled_u_r2).bound_px, 1e-15);
   EXPECT_LT(f.budget.systematic_bound_px, 0.6 * s);
   EXPECT_NE(f.budget.systematic_bound_reason.find("random part r = " + fmt::format("{:.4f}", pooled)),
             std::string::npos)

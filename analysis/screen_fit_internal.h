@@ -59,9 +59,11 @@ struct Setup {
   std::vector<Obs> obs;
   std::vector<std::string> feature_ids;
   double half_width_mm = 0;
-  // The photos' random detection error pooled (PhotoObservations::random_error_px, weighted by their samples; 0
-  // samples: no photo measured it).
+  // The photos' random detection error pooled (PhotoObservations::random_error_px, its square weighted by their
+  // samples; 0 samples: no photo measured it), and the standard uncertainty of its square (px^2; the photos' own
+  // through the same weights).
   double random_error_px = 0;
+  double random_error_u_px2 = 0;
   long random_error_samples = 0;
   // The lens-model-misfit row's feature spacing (screen_fit_misfit.cc FeatureSpacing: the median distance to the
   // nearest neighbour in the same photo, the unit of its candidate lengths): computed on first use, shared by
@@ -248,15 +250,16 @@ PixelLockingCorrection CorrectionFor(const Linearization& lin, const PixelLockin
 // (budget.pixel_locking.noise_px) once Budget has measured it, else noise_px.
 double IndependentNoisePx(const ModelFit& fit);
 // The detector-systematic row's smooth bound b from the scatter s (its dof) and the detections' random part r
-// (measured on `random_samples` corner coordinates): random errors move each corner alone and leave no smooth
-// error, so b^2 = max(0, s^2 - r^2) + 1.645 u, u^2 = 2 s^4 / dof + 2 r^4 / samples (the two mean squares'
-// variances, normal errors), a one-sided 95% upper bound on the deterministic part's mean square; b at most s.
+// (the standard uncertainty of r^2 given: random_u_px2): random errors move each corner alone and leave no smooth
+// error, so b^2 = max(0, s^2 - r^2) + 1.645 u, u^2 = 2 s^4 / dof + random_u_px2^2 (the two mean squares'
+// variances; s^2's for normal errors), a one-sided 95% upper bound on the deterministic part's mean square; b at
+// most s.
 struct SmoothBound {
   double bound_px = 0;
   double difference_px2 = 0;  // max(0, s^2 - r^2)
   double margin_px2 = 0;      // 1.645 u
 };
-SmoothBound SmoothBoundPx(double scatter_px, double scatter_dof, double random_px, long random_samples);
+SmoothBound SmoothBoundPx(double scatter_px, double scatter_dof, double random_px, double random_u_px2);
 inline constexpr size_t kMisfitRow = 3;  // the lens-model-misfit row's index in UncertaintyBudget::components
 std::vector<Eigen::Vector2d> LinearizedResiduals(const Setup& setup, const Linearization& lin, const ModelFit& fit);
 void Budget(const Setup& setup, ModelWork& w, int n_residuals, ModelFit* fit);

@@ -153,8 +153,11 @@ struct RefinementNoise {
   double black_sd = 0, white_sd = 0, black_level = 0, white_level = 0, correlation_lag1 = 0;
   int black_patches = 0, white_patches = 0;
   // The RMS per coordinate of the corners' displacement under the drawn noise, px (over corners and draws), and
-  // how many corners (up to 120, evenly through the board) and draws measured it.
+  // how many corners (up to 120, evenly through the board) and draws measured it. response_u_px: its standard
+  // uncertainty, from the spread of the corner-draws' mean squares (the standard error of their mean, which holds
+  // the corners' differences; over 2 response_px, the delta method).
   double response_px = 0;
+  double response_u_px = 0;
   int corners = 0, draws = 0;
 };
 

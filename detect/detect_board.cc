@@ -142,6 +142,17 @@ cv::Point2d RefineXCorner(const cv::Mat& image, double sigma_px, cv::Point2d gue
   return cv::Point2d(one[0].x + origin.x, one[0].y + origin.y);
 }
 
+int RefinementHalfWindowPx(const std::vector<cv::Point2d>& px, int width, int height, int i, int j) {
+  const cv::Point2d& p = px[static_cast<size_t>(j * width + i)];
+  double nearest = 1e9;
+  for (const auto& [di, dj] : kNeighbours) {
+    const int ii = i + di, jj = j + dj;
+    if (ii < 0 || jj < 0 || ii >= width || jj >= height) continue;
+    nearest = std::min(nearest, cv::norm(px[static_cast<size_t>(jj * width + ii)] - p));
+  }
+  return std::clamp(static_cast<int>(std::lround(0.3 * nearest)), 3, 40);
+}
+
 void RefineXCorners(const cv::Mat& image, double sigma_px, CornerGrid& g, double gap_closing_per_spacing) {
   const std::vector<cv::Point2d> coarse = g.px;
   const auto at = [&](int i, int j) {
@@ -150,13 +161,7 @@ void RefineXCorners(const cv::Mat& image, double sigma_px, CornerGrid& g, double
   for (int j = 0; j < g.height; ++j) {
     for (int i = 0; i < g.width; ++i) {
       const cv::Point2d& p = coarse[static_cast<size_t>(j * g.width + i)];
-      double nearest = 1e9;
-      for (const auto& [di, dj] : kNeighbours) {
-        const int ii = i + di, jj = j + dj;
-        if (ii < 0 || jj < 0 || ii >= g.width || jj >= g.height) continue;
-        nearest = std::min(nearest, cv::norm(coarse[static_cast<size_t>(jj * g.width + ii)] - p));
-      }
-      const int half = std::clamp(static_cast<int>(std::lround(0.3 * nearest)), 3, 40);
+      const int half = RefinementHalfWindowPx(coarse, g.width, g.height, i, j);
       cv::Point2d& refined = g.px[static_cast<size_t>(j * g.width + i)];
       // The board's edge vectors here, one corner spacing long (from the neighbouring corners), scaled.
       const bool inside_x = i > 0 && i + 1 < g.width, inside_y = j > 0 && j + 1 < g.height;

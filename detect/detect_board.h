@@ -40,6 +40,9 @@ std::optional<CornerGrid> RunOpenCvClassic(const cv::Mat& gray8, cv::Size inner,
 // vectors there (from the neighbouring corners) times that fraction (ClosedAlongEdges), which fills a display's
 // dark gap bands and leaves the X-corner where it is.
 void RefineXCorners(const cv::Mat& image, double sigma_px, CornerGrid& grid, double gap_closing_per_spacing = 0);
+// The half-window RefineXCorners gives corner (i, j) of a width x height grid of points px (row-major): 0.3 x the
+// distance to its nearest 4-neighbour, clamped to 3..40 px (refinement_noise.cc reads the same regions).
+int RefinementHalfWindowPx(const std::vector<cv::Point2d>& px, int width, int height, int i, int j);
 
 // A patch closed (dilation, then erosion) by the parallelogram of sides u and v centred on the origin. A board's
 // straight edges are kept (a monotone edge profile is unchanged by any closing), and so is an X-corner whose edges
@@ -71,8 +74,8 @@ RefinementNoise MeasureSquareNoise(const cv::Mat& photo, const CornerGrid& grid)
 // refinement_noise.cc VarianceAt), spatially correlated by a Gaussian filter whose adjacent-pixel correlation exp(-1 /
 // (4 s^2)) is correlation_lag1 (white below 0.05; s at most 3 px); the displacement's RMS per coordinate over corners
 // and draws in response_px (in the linear regime a corner's response to a noise equals its response to another draw of
-// the same noise). The noise fields as given (the caller may replace white_sd where the white squares hold the
-// display's structure).
+// the same noise), its standard uncertainty in response_u_px (detect.h RefinementNoise). The noise fields as given
+// (the caller may replace white_sd where the white squares hold the display's structure).
 void MeasureRefinementNoise(const cv::Mat& photo, const CornerGrid& refined, double sigma_px, int draws,
                             uint64_t seed, RefinementNoise& noise);
 

@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 #include <numbers>
+#include <numeric>
 #include <iostream>
 #include <opencv2/imgproc.hpp>
 #include <random>
@@ -317,6 +318,40 @@ TEST(GridRoughness, SmoothGridsAreNearZeroAndNoiseIsReadBack) {
   tiny.height = 3;
   tiny.px.assign(9, cv::Point2d(0, 0));
   EXPECT_TRUE(std::isnan(GridRoughnessPx(tiny)));
+}
+
+// The refinement's noise response is an estimate from a few draws: its stated standard uncertainty (response_u_px)
+// is the spread of the response over other seeds. A drawn board (12 x 9 squares of 40 px, rolled 10 deg) with
+// Gaussian noise of 6 gray levels, its corners refined, then measured with 16 seeds (4 draws each).
+TEST(RefinementNoise, StatedUncertaintyIsTheSpreadOverSeeds) {
+  DrawnBoard b = Draw(12, 9, 40, 10, false);
+  cv::Mat noisy;
+  b.image.convertTo(noisy, CV_32F);
+  cv::GaussianBlur(noisy, noisy, cv::Size(0, 0), 1.0);
+  cv::Mat n(noisy.size(), CV_32F);
+  cv::RNG(11).fill(n, cv::RNG::NORMAL, 0.0, 6.0);
+  noisy += n;
+  RefineXCorners(noisy, 0, b.grid);
+  const RefinementNoise base = MeasureSquareNoise(noisy, b.grid);
+  ASSERT_TRUE(base.measured);
+  EXPECT_NEAR(base.black_sd, 6.0, 0.6);
+  std::vector<double> response, stated;
+  for (uint64_t seed = 1; seed <= 16; ++seed) {
+    RefinementNoise r = base;
+    MeasureRefinementNoise(noisy, b.grid, 0, 4, seed, r);
+    ASSERT_EQ(r.corners, 88);
+    response.push_back(r.response_px);
+    stated.push_back(r.response_u_px);
+  }
+  const double mean = std::accumulate(response.begin(), response.end(), 0.0) / 16;
+  double var = 0;
+  for (double v : response) var += (v - mean) * (v - mean) / 15;
+  const double spread = std::sqrt(var), u = std::accumulate(stated.begin(), stated.end(), 0.0) / 16;
+  std::cout << "response " << mean << " px; spread over 16 seeds " << spread << " px, stated u " << u << " px\n";
+  // 16 seeds know the spread to about 18% (1 / sqrt(2 x 15)): about -2.2 and +2.8 of that.
+  EXPECT_GT(spread / u, 0.6);
+  EXPECT_LT(spread / u, 1.5);
+  EXPECT_LT(u / mean, 0.1);
 }
 
 }  // namespace

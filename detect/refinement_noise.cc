@@ -126,8 +126,8 @@ void MeasureRefinementNoise(const cv::Mat& photo, const CornerGrid& refined, dou
   if (!noise.measured || refined.px.empty() || draws < 1) return;
   const CornerGrid& start = refined;
   // At most kMaxCorners corners, evenly through the grid (the response is a mean over corners: 120 corners and
-  // four draws give it to about 2.5%); the noise is drawn only where their refinement reads: the half-window (0.3 x
-  // the distance to the nearest grid neighbour, 3..40 px, as RefineXCorners), 4 px and the smoothing's 3 sigma
+  // four draws give it to about 2.5%); the noise is drawn only where their refinement reads: the half-window
+  // (RefinementHalfWindowPx, as RefineXCorners), 4 px and the smoothing's 3 sigma
   // (detect_board.cc RefineXCorner).
   constexpr size_t kMaxCorners = 120;
   const size_t step = std::max<size_t>(1, (start.px.size() + kMaxCorners - 1) / kMaxCorners);
@@ -136,13 +136,7 @@ void MeasureRefinementNoise(const cv::Mat& photo, const CornerGrid& refined, dou
   for (size_t idx = 0; idx < start.px.size(); idx += step) {
     const int i = static_cast<int>(idx) % start.width, j = static_cast<int>(idx) / start.width;
     const cv::Point2d p = start.px[idx];
-    double nearest = 1e9;
-    for (const auto& [di, dj] : {std::pair{1, 0}, std::pair{-1, 0}, std::pair{0, 1}, std::pair{0, -1}}) {
-      const int ii = i + di, jj = j + dj;
-      if (ii < 0 || jj < 0 || ii >= start.width || jj >= start.height) continue;
-      nearest = std::min(nearest, cv::norm(start.px[static_cast<size_t>(jj * start.width + ii)] - p));
-    }
-    const int half = std::clamp(static_cast<int>(std::lround(0.3 * nearest)), 3, 40);
+    const int half = RefinementHalfWindowPx(start.px, start.width, start.height, i, j);
     const int r = half + 6 + static_cast<int>(std::ceil(3 * sigma_px));
     const cv::Rect roi =
         cv::Rect(static_cast<int>(std::floor(p.x)) - r, static_cast<int>(std::floor(p.y)) - r, 2 * r + 2, 2 * r + 2) &
@@ -183,7 +177,7 @@ void MeasureRefinementNoise(const cv::Mat& photo, const CornerGrid& refined, dou
   }
   const int margin = ksize / 2 + 1;
   cv::RNG rng(seed);
-  double sum2 = 0;
+  double sum2 = 0, sum4 = 0;  // per corner-draw q = |displacement|^2 / 2: sums of q and q^2
   long count = 0;
   // Each draw: per corner, its region plus noise, and the corner refined on it (in the region's coordinates).
   for (int d = 0; d < draws; ++d) {
@@ -199,13 +193,21 @@ void MeasureRefinementNoise(const cv::Mat& photo, const CornerGrid& refined, dou
       const auto& [p, half] = chosen[k];
       const cv::Point2d at(roi.x, roi.y);
       const cv::Point2d delta = RefineXCorner(noisy, sigma_px, p - at, half) + at - p;
-      sum2 += delta.dot(delta);
+      const double q = 0.5 * delta.dot(delta);
+      sum2 += q;
+      sum4 += q * q;
       ++count;
     }
   }
   noise.corners = static_cast<int>(chosen.size());
   noise.draws = draws;
-  noise.response_px = count > 0 ? std::sqrt(sum2 / (2.0 * static_cast<double>(count))) : 0;
+  if (count == 0) return;
+  const double n = static_cast<double>(count), mean = sum2 / n;
+  noise.response_px = std::sqrt(mean);
+  // The standard error of the mean square from the corner-draws' spread (x and y of one draw together: they may
+  // be correlated), over 2 r (d r = d r^2 / 2 r).
+  const double var = count > 1 ? std::max(0.0, (sum4 - n * mean * mean) / (n - 1)) : mean * mean * 2;
+  noise.response_u_px = mean > 0 ? std::sqrt(var / n) / (2 * noise.response_px) : 0;
 }
 
 }  // namespace curvecheck::detect_internal

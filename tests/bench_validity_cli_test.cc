@@ -388,20 +388,20 @@ TEST_F(BenchValidityCli, RowTwoFollowsTheDetectorAcrossDistance) {
     const nlohmann::json& systematic = budget.at("detector_systematic");
     EXPECT_NEAR(Num(t, "smooth_bias_px"), systematic.at("bound_px").get<double>(), 1e-9);
     // b = the scatter s less its random part r where the detection measured r (screen_fit_internal.h
-    // SmoothBoundPx: b^2 = max(0, s^2 - r^2) + 1.645 sqrt(2 s^4 / dof + 2 r^4 / samples), at most s).
+    // SmoothBoundPx: b^2 = max(0, s^2 - r^2) + 1.645 sqrt(2 s^4 / dof + u(r^2)^2), at most s; u(r^2) = 2 r u(r)).
     const double s = systematic.at("noise_without_signature_px").get<double>();
     double expected = s;
     const nlohmann::json& random = result.at("inputs").at("photos")[0].at("detection").at("refinement_noise");
     if (random.is_object()) {
       const double r = random.at("response_px").get<double>();
-      const double samples = 2.0 * random.at("corners").get<double>() * random.at("draws").get<double>();
+      const double u_r2 = 2 * r * random.at("response_u_px").get<double>();
       double dof = 0;
       for (const auto& c : budget.at("components")) {
         if (c.at("name") == "detection noise") dof = c.at("dof").get<double>();
       }
       ASSERT_GT(dof, 0);
       expected = std::min(s, std::sqrt(std::max(0.0, s * s - r * r) +
-                                       1.645 * std::sqrt(2 * std::pow(s, 4) / dof + 2 * std::pow(r, 4) / samples)));
+                                       1.645 * std::sqrt(2 * std::pow(s, 4) / dof + u_r2 * u_r2)));
     }
     EXPECT_NEAR(systematic.at("bound_px").get<double>(), expected, 1e-12);
     EXPECT_LE(systematic.at("bound_px").get<double>(), s);

@@ -12,7 +12,7 @@ sampling drawn per trial; `curvecheck analyze` measures it. Cells: dists x yaws.
 dists=1000,2000,3000, yaws=0,20,40, fills=0.7,1, samplings=jitter2,regular2,real (2 x 2 rays jittered; 2 x 2 rays
 on a regular grid (jitter1, regular1: one ray per pixel); real: 4 x 4 jittered rays, blur 0.6 px, noise 1%, JPEG 92;
 webcam: 4 x 4 jittered rays, blur 0.8 px, noise 2%, JPEG 85), rfactors=1,0.92,1.08, keep=1 (keep the
-photos), only=SEED (one trial), k1=K (a radial k1 the camera model is told), noise_seed_offset=K (the tracer's
+photos), only=SEED (one trial), pattern=checkerboard|apriltag (tags=16x4: the tag grid), k1=K (a radial k1 the camera model is told), noise_seed_offset=K (the tracer's
 rays and noise drawn from seed + K, the scene unchanged: two runs differ only in their random part). One CSV per shard
 (OUTDIR/trials_SHARD.csv): the radius, its sigma and 95% interval against the truth, the chosen model, the fit's
 noise, the detections' RMS error per coordinate against the truth and the verdict. The verdict is meaningful for
@@ -100,8 +100,10 @@ def run(argv):
         vp = pos - centre + np.array([0, 0, -R_SPEC])
         t = os.path.join(OUT, f"t{seed}")
         pat = t + "_pat"
-        r = subprocess.run([BIN, "render", "--monitor", "default", "--viewpoint", "%.3f,%.3f,%.3f" % tuple(vp), "--squares",
-                            "32x9", "--pattern", "checkerboard", "--method", "exact", "-o", pat + ".png"],
+        kind = opts.get("pattern", "checkerboard")
+        grid = ["--squares", "32x9"] if kind == "checkerboard" else ["--tags", opts.get("tags", "16x4")]
+        r = subprocess.run([BIN, "render", "--monitor", "default", "--viewpoint", "%.3f,%.3f,%.3f" % tuple(vp), *grid,
+                            "--pattern", kind, "--method", "exact", "-o", pat + ".png"],
                            capture_output=True, text=True)
         if r.returncode:
             rows.append(dict(seed=seed, dist=d, yaw=yaw, status="render_failed")); continue

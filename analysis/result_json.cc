@@ -334,6 +334,10 @@ nlohmann::json ResultJson(const AnalysisResult& r, const std::string& command_li
       e["detection"]["moire"]["refined_on_closed_patches"] = m.refined_on_closed_patches;
       // detect.h RefinementNoise: the photo's noise (gray levels of its depth) and the refined corners' response
       // to it (px per coordinate), the random part the detector-systematic row's smooth bound leaves out.
+      // detect.h: the tags' border shift in the code values as they are, and the tone power that undid it.
+      const auto finite_or_null = [](double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(); };
+      e["detection"]["tag_border_shift_px"] = finite_or_null(p.detection.tag_border_shift_px);
+      e["detection"]["tag_tone_gamma"] = finite_or_null(p.detection.tag_tone_gamma);
       const RefinementNoise& rn = p.detection.refinement_noise;
       e["detection"]["refinement_noise"] =
           rn.measured ? nlohmann::json{{"basis", rn.basis},

@@ -607,10 +607,33 @@ void DetectTags(const cv::Mat& photo, const cv::Mat& gray8, const PatternFile& p
     for (int k = 0; k < 4; ++k) coarse.emplace_back(fmt::format("t{}.{}", id, k), t.px[static_cast<size_t>(k)]);
   }
   const double sigma = RefineSigmaPx(coarse, pattern, o, out);
+  // The photo's tone curve from its tags' borders (detect_tags.h MeasureTagTone): the refinement reads the edges
+  // in light, where neither the 50% crossing nor the smoothing against moire moves them.
+  double gamma = 1;
+  if (o.refine_tags && o.tag_tone_from_borders) {
+    std::vector<DetectedTag> all;
+    for (const auto& [id, t] : by_id) all.push_back(t);
+    const detect_internal::TagTone tone = detect_internal::MeasureTagTone(photo, all);
+    out.tag_border_shift_px = tone.shift_px;
+    if (std::isfinite(tone.gamma)) {
+      gamma = tone.gamma;
+      out.tag_tone_gamma = gamma;
+      std::string ladder;
+      for (const auto& [g, b] : tone.ladder) ladder += fmt::format("{}{:.3f} px at {:.1f}", ladder.empty() ? "" : ", ", b, g);
+      out.notes.push_back(fmt::format(
+          "tag borders: the outer edges' 50% crossings sat {:.3f} px inside the tags (median of {} tags: their "
+          "borders measured a cell less twice that beside white data cells), the shift of a tone curve; the "
+          "code values taken to light by the power {:.2f} that makes it zero ({}) before the refinement",
+          tone.shift_px, tone.tags, gamma, ladder));
+    } else {
+      out.notes.push_back("tag borders: the tone curve's shift could not be measured (fewer than 3 tags with cells of 4 "
+                          "px and 2.5 edge widths beside white data cells); the code values are read as light");
+    }
+  }
   std::vector<DetectedTag> tags;
   int unrefined = 0;
   for (auto& [id, t] : by_id) {
-    if (o.refine_tags && !detect_internal::RefineTagCorners(photo, t, sigma)) ++unrefined;
+    if (o.refine_tags && !detect_internal::RefineTagCorners(photo, t, sigma, gamma)) ++unrefined;
     tags.push_back(t);
   }
   if (unrefined > 0) {

@@ -88,6 +88,9 @@ struct DetectOptions {
   int apriltag_threads = 0;
   // Refine AprilTag corners from the border edges (false: the detector's corners, -0.5 px, as they are).
   bool refine_tags = true;
+  // Refine them in light: the photo's tone curve measured on the tags' borders (detect_tags.h MeasureTagTone) and
+  // undone before the refinement (false: the code values read as light, the 50% crossings as the edges).
+  bool tag_tone_from_borders = true;
   // opencv-classic: longer side of the scaled copy that the coarse detector sees, px (0 = full resolution).
   int classic_max_px = 1600;
   // opencv-sb: add CALIB_CB_ACCURACY (upsampling; ~5x slower, a little more accurate).
@@ -190,6 +193,11 @@ struct Detection {
   MoireMeasure moire;
   // The refinement's response to the photo's own noise (above); measured = false where it is not measured.
   RefinementNoise refinement_noise;
+  // Tags: how far the border edges' 50% crossings sat inside the tags in the code values as they are, px (the
+  // median over up to 24 tags), and the power that takes the code values to light, making it zero, with which the
+  // tags were refined (detect_tags.h MeasureTagTone); NaN = not measured (fewer than 3 tags measured it, not tags).
+  double tag_border_shift_px = std::nan("");
+  double tag_tone_gamma = std::nan("");
 };
 
 // Photo file -> gray image, 8-bit (CV_8U) or 16-bit (CV_16U, precision kept). Colour photos are converted by

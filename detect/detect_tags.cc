@@ -16,6 +16,8 @@ namespace {
 constexpr int kTagBorderCells = 8;      // tag36h11: outer edge of the black border, in cells
 constexpr double kProfileStepPx = 0.5;  // sample spacing along an edge normal
 constexpr double kMinEdgePx = 16;       // smaller tags have no clean border profile to fit
+// BorderShiftPx: the cell's width over the edges' 10-90% width below which the border's shift is not measured.
+constexpr double kMinCellPerEdgeWidth = 2.5;
 
 struct EdgeCurve {
   Eigen::Vector2d a, u, n;  // start corner, unit direction along the edge, unit outward normal
@@ -74,8 +76,112 @@ bool FitEdge(const std::vector<Eigen::Vector2d>& st, EdgeCurve& e) {
   return true;
 }
 
-// One refinement pass from the current corners; false if any edge cannot be fitted.
-bool RefinePass(const cv::Mat& image, std::array<Eigen::Vector2d, 4>& px, double& rms_px) {
+// Where a profile sampled at equal steps crosses `level` going up (rising) or down: the fractional sample index
+// of the crossing nearest the profile's steepest step that way (linear between the samples); NaN if none.
+double LevelCrossing(const std::vector<double>& v, double level, bool rising) {
+  const auto step = [&](size_t j) { return rising ? v[j + 1] - v[j] : v[j] - v[j + 1]; };
+  size_t steepest = 0;
+  for (size_t j = 1; j + 1 < v.size(); ++j) {
+    if (step(j) > step(steepest)) steepest = j;
+  }
+  const auto distance = [&](size_t j) { return j > steepest ? j - steepest : steepest - j; };
+  long best = -1;
+  for (size_t j = 0; j + 1 < v.size(); ++j) {
+    const bool crosses = rising ? v[j] < level && v[j + 1] >= level : v[j] >= level && v[j + 1] < level;
+    if (crosses && (best < 0 || distance(j) < distance(static_cast<size_t>(best)))) best = static_cast<long>(j);
+  }
+  if (best < 0) return std::nan("");
+  const size_t b = static_cast<size_t>(best);
+  return static_cast<double>(b) + (level - v[b]) / (v[b + 1] - v[b]);
+}
+
+// How far the outer edges' crossings sit inside the tag (px along the outward normals; NaN where it cannot be
+// measured): per outer-edge profile beside a white data cell, the inner border edge's crossing on the same normal
+// (the white cell inside, the black border outside) at the outer crossing's level, and (c - w) / 2, w the
+// crossings' distance and c the cell's width there by the homography of the current corners (tag36h11: the border
+// is one cell of eight); the median over the tag, from at least 8 pairs whose cells are 2.5 times the edges' 10-90%
+// width or more (median). profile(i, ...) gives the outer profiles: edge index (4 = do not use, -1 =
+// no more), s along the edge, t along the normal, its dark and bright levels.
+template <typename ProfileAt>
+double BorderShiftPx(const cv::Mat& image, const std::array<Eigen::Vector2d, 4>& px,
+                     const std::array<EdgeCurve, 4>& edges, ProfileAt profile) {
+  constexpr double n = kTagBorderCells;
+  const std::array<cv::Point2f, 4> frame{cv::Point2f(0, 0), cv::Point2f(n, 0), cv::Point2f(n, n), cv::Point2f(0, n)};
+  std::array<cv::Point2f, 4> img;
+  for (int k = 0; k < 4; ++k) img[k] = cv::Point2f(static_cast<float>(px[k].x()), static_cast<float>(px[k].y()));
+  const cv::Mat h = cv::getPerspectiveTransform(frame.data(), img.data());
+  const auto map = [&](Eigen::Vector2d q) {
+    const double x = h.at<double>(0, 0) * q.x() + h.at<double>(0, 1) * q.y() + h.at<double>(0, 2);
+    const double y = h.at<double>(1, 0) * q.x() + h.at<double>(1, 1) * q.y() + h.at<double>(1, 2);
+    const double w = h.at<double>(2, 0) * q.x() + h.at<double>(2, 1) * q.y() + h.at<double>(2, 2);
+    return Eigen::Vector2d(x / w, y / w);
+  };
+  std::vector<double> shifts, sharpness, values;
+  double s = 0, t = 0, dark = 0, bright = 0, rise = 0;
+  for (int i = 0;; ++i) {
+    const int k = profile(i, &s, &t, &dark, &bright, &rise);
+    if (k < 0) break;
+    if (k > 3) continue;
+    const EdgeCurve& e = edges[static_cast<size_t>(k)];
+    // The profile's place in the tag's frame: a fraction f along edge k, the inward unit there.
+    const Eigen::Vector2d a(frame[k].x, frame[k].y), b(frame[(k + 1) % 4].x, frame[(k + 1) % 4].y);
+    const double f = s / e.length;
+    const double cell_along = f * n;  // cells from corner k
+    const int index = static_cast<int>(std::floor(cell_along));
+    const double within = cell_along - index;
+    if (index < 1 || index > kTagBorderCells - 2 || within < 0.3 || within > 0.7) continue;  // a data cell's middle
+    const Eigen::Vector2d on = a + f * (b - a), centre(0.5 * n, 0.5 * n);
+    Eigen::Vector2d inward = Eigen::Vector2d(-(b - a).y(), (b - a).x()).normalized();
+    if (inward.dot(centre - on) < 0) inward = -inward;
+    const Eigen::Vector2d p_out = map(on), p_in = map(on + inward), p_cell = map(on + 1.5 * inward),
+                          p_next = map(on + 2.5 * inward);
+    const double mid = 0.5 * (dark + bright);
+    // A white data cell beside the border, and a white one beyond it: a black one there would darken the white
+    // cell's side of the line under a wide blur.
+    if (!(SampleBilinear(image, p_cell.x(), p_cell.y()) > mid && SampleBilinear(image, p_next.x(), p_next.y()) > mid)) {
+      continue;
+    }
+    const double c = (p_out - p_in).dot(e.n);
+    if (!(c >= 4)) continue;
+    // The inner edge's profile along the same normal: bright (the white cell) inside, dark (the border) outside.
+    const Eigen::Vector2d base = e.a + s * e.u;
+    const double half = std::min(0.4 * c, 12.0);
+    const int nt = static_cast<int>(std::floor(2 * half / kProfileStepPx)) + 1;
+    values.assign(static_cast<size_t>(nt), 0);
+    bool ok = true;
+    for (int j = 0; j < nt && ok; ++j) {
+      const Eigen::Vector2d q = base + (-c - half + j * kProfileStepPx) * e.n;
+      values[static_cast<size_t>(j)] = SampleBilinear(image, q.x(), q.y());
+      ok = std::isfinite(values[static_cast<size_t>(j)]);
+    }
+    if (!ok) continue;
+    const double in_bright = 0.5 * (values[0] + values[1]);
+    const double in_dark = 0.5 * (values[static_cast<size_t>(nt - 1)] + values[static_cast<size_t>(nt - 2)]);
+    // The outer crossing's level: the border is a dark line between two white cells, and crossings of one level
+    // on a symmetric line lie symmetrically about its middle however much the blur joins its two edges.
+    const double in_mid = mid;
+    if (!(in_bright > in_mid && in_dark < in_mid)) continue;
+    const double at = LevelCrossing(values, in_mid, false);
+    if (!std::isfinite(at)) continue;
+    const double t_in = -c - half + at * kProfileStepPx;
+    shifts.push_back(0.5 * (c - (t - t_in)));
+    sharpness.push_back(rise > 0 ? c / rise : 1e9);
+  }
+  if (shifts.size() < 8) return std::nan("");
+  // Where the blur (the optics' and the refinement's smoothing) spans a third of the cell or more, the border's
+  // two edges reach the cells beyond them, whose colours differ (a black data cell next to the white one), and
+  // the line is no longer symmetric: on an independent tracer's webcam-like photos smoothed against moire (10-90%
+  // widths 3.5-4.5 px, cells 6-7 px) the shifts came out -0.1 to -0.5 px against +0.42-0.45 px at widths of 2-2.5
+  // px. Not measured there.
+  std::nth_element(sharpness.begin(), sharpness.begin() + static_cast<long>(sharpness.size() / 2), sharpness.end());
+  if (sharpness[sharpness.size() / 2] < kMinCellPerEdgeWidth) return std::nan("");
+  std::nth_element(shifts.begin(), shifts.begin() + shifts.size() / 2, shifts.end());
+  return shifts[shifts.size() / 2];
+}
+
+// One refinement pass from the current corners; false if any edge cannot be fitted. border_shift_px (if given):
+// the outer crossings' shift into the tag measured on this pass (BorderShiftPx; NaN where it cannot be).
+bool RefinePass(const cv::Mat& image, std::array<Eigen::Vector2d, 4>& px, double& rms_px, double* border_shift_px) {
   const Eigen::Vector2d centre = (px[0] + px[1] + px[2] + px[3]) / 4;
   double mean_edge = 0, min_edge = 1e18;
   for (int k = 0; k < 4; ++k) {
@@ -94,7 +200,7 @@ bool RefinePass(const cv::Mat& image, std::array<Eigen::Vector2d, 4>& px, double
 
   struct Profile {
     int edge;
-    double s, t, contrast;
+    double s, t, contrast, dark, bright, rise;
   };
   std::array<EdgeCurve, 4> edges;
   std::vector<Profile> profiles;
@@ -121,22 +227,13 @@ bool RefinePass(const cv::Mat& image, std::array<Eigen::Vector2d, 4>& px, double
       const double mid = 0.5 * (dark + bright);
       if (!(bright > dark)) continue;
       // The 50% crossing nearest to the steepest rise (dark inside, bright outside).
-      int steepest = 0;
-      for (int j = 1; j + 1 < nt; ++j) {
-        if (values[static_cast<size_t>(j + 1)] - values[static_cast<size_t>(j)] >
-            values[static_cast<size_t>(steepest + 1)] - values[static_cast<size_t>(steepest)]) {
-          steepest = j;
-        }
-      }
-      int best = -1;
-      for (int j = 0; j + 1 < nt; ++j) {
-        const double v0 = values[static_cast<size_t>(j)], v1 = values[static_cast<size_t>(j + 1)];
-        if (v0 < mid && v1 >= mid && (best < 0 || std::abs(j - steepest) < std::abs(best - steepest))) best = j;
-      }
-      if (best < 0) continue;
-      const double v0 = values[static_cast<size_t>(best)], v1 = values[static_cast<size_t>(best + 1)];
-      const double t = -half + (best + (mid - v0) / (v1 - v0)) * kProfileStepPx;
-      profiles.push_back({k, s, t, bright - dark});
+      const double at = LevelCrossing(values, mid, true);
+      if (!std::isfinite(at)) continue;
+      const double t = -half + at * kProfileStepPx;
+      // The edge's 10-90% width (samples between those levels), the blur the border's two edges share.
+      int between = 0;
+      for (double v : values) between += v > dark + 0.1 * (bright - dark) && v < dark + 0.9 * (bright - dark);
+      profiles.push_back({k, s, t, bright - dark, dark, bright, between * kProfileStepPx});
     }
   }
   if (profiles.empty()) return false;
@@ -145,6 +242,20 @@ bool RefinePass(const cv::Mat& image, std::array<Eigen::Vector2d, 4>& px, double
   for (const Profile& p : profiles) contrasts.push_back(p.contrast);
   std::nth_element(contrasts.begin(), contrasts.begin() + contrasts.size() / 2, contrasts.end());
   const double min_contrast = 0.5 * contrasts[contrasts.size() / 2];
+  // The crossings' shift into the tag (BorderShiftPx): zero where the patch is linear in light.
+  if (border_shift_px) {
+    *border_shift_px = BorderShiftPx(image, px, edges,
+                                     [&](int i, double* s, double* t, double* dark, double* bright, double* rise) {
+                                       if (i >= static_cast<int>(profiles.size())) return -1;
+                                       const Profile& p = profiles[static_cast<size_t>(i)];
+                                       *s = p.s;
+                                       *t = p.t;
+                                       *dark = p.dark;
+                                       *bright = p.bright;
+                                       *rise = p.rise;
+                                       return p.contrast >= min_contrast ? p.edge : 4;
+                                     });
+  }
   double sum2 = 0;
   int count = 0;
   for (int k = 0; k < 4; ++k) {
@@ -207,11 +318,19 @@ double SampleBilinear(const cv::Mat& image, double x, double y) {
   return (1 - fy) * ((1 - fx) * v00 + fx * v01) + fy * ((1 - fx) * v10 + fx * v11);
 }
 
-cv::Mat SmoothedPatch(const cv::Mat& image, cv::Rect roi, double sigma_px, cv::Point* origin) {
+cv::Mat SmoothedPatch(const cv::Mat& image, cv::Rect roi, double sigma_px, cv::Point* origin, double gamma) {
   roi &= cv::Rect(0, 0, image.cols, image.rows);
   *origin = roi.tl();
   cv::Mat patch;
   image(roi).convertTo(patch, CV_32F);
+  if (gamma != 1 && !patch.empty()) {
+    // Code values to light, (code / full scale)^gamma, kept on the code values' scale.
+    const double full = image.depth() == CV_8U ? 255.0 : image.depth() == CV_16U ? 65535.0 : 1.0;
+    cv::max(patch, 0.0, patch);
+    patch *= 1.0 / full;
+    cv::pow(patch, gamma, patch);
+    patch *= full;
+  }
   if (sigma_px > 0 && !patch.empty()) cv::GaussianBlur(patch, patch, cv::Size(0, 0), sigma_px, sigma_px, cv::BORDER_REFLECT);
   return patch;
 }
@@ -254,7 +373,7 @@ std::vector<DetectedTag> RunAprilTag(const cv::Mat& gray8, int decimate, int max
   return out;
 }
 
-bool RefineTagCorners(const cv::Mat& image, DetectedTag& tag, double sigma_px) {
+bool RefineTagCorners(const cv::Mat& image, DetectedTag& tag, double sigma_px, double gamma) {
   // The tag's neighbourhood: its corners plus the profile half-width (<= 12 px), the possible corner error and
   // 3 sigma of filter support.
   Eigen::Vector2d lo = tag.px[0], hi = tag.px[0];
@@ -267,18 +386,52 @@ bool RefineTagCorners(const cv::Mat& image, DetectedTag& tag, double sigma_px) {
                      static_cast<int>(std::ceil(hi.x() - lo.x())) + 2 * pad + 1,
                      static_cast<int>(std::ceil(hi.y() - lo.y())) + 2 * pad + 1);
   cv::Point origin;
-  const cv::Mat patch = SmoothedPatch(image, roi, sigma_px, &origin);
+  const cv::Mat patch = SmoothedPatch(image, roi, sigma_px, &origin, gamma);
   if (patch.cols < 2 || patch.rows < 2) return false;
   const Eigen::Vector2d shift(origin.x, origin.y);
   std::array<Eigen::Vector2d, 4> px;
   for (int k = 0; k < 4; ++k) px[static_cast<size_t>(k)] = tag.px[static_cast<size_t>(k)] - shift;
-  double rms = 0;
+  double rms = 0, border_shift = std::nan("");
   for (int pass = 0; pass < 2; ++pass) {
-    if (!RefinePass(patch, px, rms)) return false;
+    if (!RefinePass(patch, px, rms, pass == 1 ? &border_shift : nullptr)) return false;
   }
   for (int k = 0; k < 4; ++k) tag.px[static_cast<size_t>(k)] = px[static_cast<size_t>(k)] + shift;
   tag.edge_rms_px = rms;
+  tag.border_shift_px = border_shift;
   return true;
+}
+
+TagTone MeasureTagTone(const cv::Mat& image, const std::vector<DetectedTag>& tags) {
+  TagTone tone;
+  // Up to 24 tags, evenly through the list; each refined without smoothing at every exponent of the ladder.
+  constexpr size_t kMaxTags = 24;
+  const size_t step = std::max<size_t>(1, (tags.size() + kMaxTags - 1) / kMaxTags);
+  for (double gamma : {1.0, 1.5, 2.0, 2.5, 3.0}) {
+    std::vector<double> shifts;
+    for (size_t i = 0; i < tags.size(); i += step) {
+      DetectedTag probe = tags[i];
+      if (RefineTagCorners(image, probe, 0, gamma) && std::isfinite(probe.border_shift_px)) {
+        shifts.push_back(probe.border_shift_px);
+      }
+    }
+    if (shifts.size() < 3) break;
+    std::nth_element(shifts.begin(), shifts.begin() + static_cast<long>(shifts.size() / 2), shifts.end());
+    tone.ladder.emplace_back(gamma, shifts[shifts.size() / 2]);
+    tone.tags = std::max(tone.tags, static_cast<int>(shifts.size()));
+    if (tone.ladder.back().second <= 0) break;  // the zero is passed
+  }
+  if (tone.ladder.empty()) return tone;
+  tone.shift_px = tone.ladder.front().second;
+  if (tone.ladder.front().second <= 0) {
+    tone.gamma = 1;  // no compression of the highlights to undo (a linear photo)
+  } else if (tone.ladder.back().second > 0) {
+    tone.gamma = tone.ladder.back().first;  // still short at the ladder's top (or where it stopped): its top
+  } else {
+    const auto& [g0, b0] = tone.ladder[tone.ladder.size() - 2];
+    const auto& [g1, b1] = tone.ladder.back();
+    tone.gamma = g0 + (g1 - g0) * b0 / (b0 - b1);
+  }
+  return tone;
 }
 
 }  // namespace curvecheck::detect_internal

@@ -16,6 +16,8 @@ namespace {
 constexpr int kTagBorderCells = 8;      // tag36h11: outer edge of the black border, in cells
 constexpr double kProfileStepPx = 0.5;  // sample spacing along an edge normal
 constexpr double kMinEdgePx = 16;       // smaller tags have no clean border profile to fit
+// RefineTagCorners: the smoothing's sigma is at most the cell's width over this.
+constexpr double kCellPerSigma = 6;
 // BorderShiftPx: the cell's width over the edges' 10-90% width below which the border's shift is not measured.
 constexpr double kMinCellPerEdgeWidth = 2.5;
 
@@ -381,6 +383,11 @@ bool RefineTagCorners(const cv::Mat& image, DetectedTag& tag, double sigma_px, d
     lo = lo.cwiseMin(p);
     hi = hi.cwiseMax(p);
   }
+  // The smoothing stays within half the border's width (3 sigma <= a cell / 2): wider, it joins the border's two
+  // edges and the data cells beyond, whose colours differ, and moves the edges.
+  double mean_edge = 0;
+  for (int k = 0; k < 4; ++k) mean_edge += (tag.px[(k + 1) % 4] - tag.px[k]).norm() / 4;
+  sigma_px = std::min(sigma_px, mean_edge / kTagBorderCells / kCellPerSigma);
   const int pad = 16 + static_cast<int>(std::ceil(3 * sigma_px));
   const cv::Rect roi(static_cast<int>(std::floor(lo.x())) - pad, static_cast<int>(std::floor(lo.y())) - pad,
                      static_cast<int>(std::ceil(hi.x() - lo.x())) + 2 * pad + 1,

@@ -37,8 +37,9 @@ std::vector<DetectedTag> RunAprilTag(const cv::Mat& gray8, int decimate, int max
 // Returns false (tag unchanged) if an edge has too few usable points (e.g. cut by the image border) or the
 // tag is too small (edge < 16 px) to have a clean border profile. gamma != 1: the code values are first taken
 // to light, (code / full scale)^gamma (the photo's tone curve, MeasureTagTone). sigma_px > 0: the tag's
-// neighbourhood is then smoothed by a Gaussian of that sigma (suppresses the display's pixel grid; a symmetric
-// blur does not move a straight edge in light, but does in code values under a tone curve). The second pass
+// neighbourhood is then smoothed by a Gaussian of that sigma, at most a sixth of the tag's cell (suppresses the
+// display's pixel grid; a symmetric blur does not move a straight edge in light, but does in code values under a
+// tone curve, and does once it joins the border's two edges and the data cells beyond). The second pass
 // also measures border_shift_px (BorderShiftPx in detect_tags.cc): how far the outer 50% crossings sit inside
 // the tag. In code values a blurred edge's 50% crossing is where the light is 50% only if the photo is linear;
 // under sRGB it is where the light is 21%, a fraction of the blur into the dark. The border's inner edge beside

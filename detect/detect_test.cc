@@ -274,6 +274,20 @@ TEST(Detect, TagCornersAreReadInLightThroughTheToneCurve) {
       EXPECT_LT(std::abs(e.rms - e_code.rms), 0.1 * e_code.rms);
     }
   }
+  // Quarter resolution: the display's pixels alias into moire and the prefilter smooths by about 2.4 px, against
+  // tag cells of 6.4 px; the tags' smoothing stays within a sixth of their cell (wider, it joined the border's two
+  // edges to the data cells: 0.27 px RMS in light, 0.68 px as code values; 0.033 px now).
+  SyntheticScene s = LoadScene(Datasets() / "scenes" / "default.yaml");
+  s.camera = ScaledCamera(s.camera, 0.25);
+  const Shot shot = Photograph(s, spec);
+  const Detection d = DetectFeatures(shot.photo, shot.pattern, With("auto"));
+  ASSERT_EQ(d.failure, "");
+  const ErrorStats e = Compare(d, shot);
+  Print("tags, quarter resolution, moire", d, e);
+  EXPECT_GT(d.moire.filter_sigma_px, 1.5);
+  EXPECT_GT(d.tag_tone_gamma, 1.9);
+  EXPECT_EQ(e.n, 144);
+  EXPECT_LT(e.rms, 0.08);
 }
 
 // Kind "both": the tags give ids and orientation, the board corners are found around them.

@@ -636,6 +636,17 @@ void DetectTags(const cv::Mat& photo, const cv::Mat& gray8, const PatternFile& p
     if (o.refine_tags && !detect_internal::RefineTagCorners(photo, t, sigma, gamma)) ++unrefined;
     tags.push_back(t);
   }
+  double least = sigma, most = 0;
+  for (const DetectedTag& t : tags) {
+    if (t.edge_rms_px < 0) continue;  // not refined
+    least = std::min(least, t.smoothing_px);
+    most = std::max(most, t.smoothing_px);
+  }
+  if (o.refine_tags && sigma > 0 && least < sigma) {
+    out.notes.push_back(fmt::format("tags refined on a smoothing of {:.2f}-{:.2f} px instead of {:.2f}: at most a sixth "
+                                    "of their cell, so that it does not join the border's two edges",
+                                    least, most, sigma));
+  }
   if (unrefined > 0) {
     out.notes.push_back(fmt::format("{} of {} tags kept the detector's corners (border edges too small or cut by "
                                     "the image edge)",

@@ -405,6 +405,7 @@ bool RefineTagCorners(const cv::Mat& image, DetectedTag& tag, double sigma_px, d
   for (int k = 0; k < 4; ++k) tag.px[static_cast<size_t>(k)] = px[static_cast<size_t>(k)] + shift;
   tag.edge_rms_px = rms;
   tag.border_shift_px = border_shift;
+  tag.smoothing_px = sigma_px;
   return true;
 }
 

@@ -23,6 +23,7 @@ struct DetectedTag {
   // shift, RefineTagCorners); NaN = not measured (too few white data cells beside the border, cells under 4 px or
   // under 2.5 edge widths, not refined).
   double border_shift_px = std::nan("");
+  double smoothing_px = 0;  // the refinement's smoothing sigma (the caller's, at most a sixth of the tag's cell)
 };
 
 // Runs the detector on an 8-bit photo. decimate: the photo is shrunk by this integer factor with area averaging

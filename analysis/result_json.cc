@@ -226,6 +226,9 @@ nlohmann::json BudgetJson(const ModelFit& f, const std::string& first_photo) {
                  "uncertainty, a part of this row (not an extra one); the fitted surface, the rotations and the "
                  "deviations are the uncorrected fit's"}}},
       {"bound_px", b.systematic_bound_px},
+      {"white_scatter_px", Num(b.white_scatter_px)},
+      {"white_scatter_u_difference_px2", Num(b.white_scatter_u_difference_px2)},
+      {"white_scatter_triples", b.white_scatter_triples},
       {"smooth_fields_curvature_per_mm", Num(b.smooth_share_curvature_per_mm)},
       {"pixel_locking_correction_sigma_curvature_per_mm", Num(b.pixel_locking_share_curvature_per_mm)},
       {"bound_reason", b.systematic_bound_reason}};

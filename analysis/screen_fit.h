@@ -168,9 +168,17 @@ struct FitOptions {
   // coefficients over-state its effect on the radius 1.2-6 times (the detector's own error is absorbed more by
   // the poses), so b = 1 x the scatter does not under-state it in any slice. Where the photos measured the
   // random part r of their detections' error (PhotoObservations::random_error_px), the scatter's deterministic
-  // part replaces the scatter (screen_fit_internal.h SmoothBoundPx): random errors leave no smooth error.
+  // part replaces the scatter (screen_fit_internal.h SmoothBoundPx): random errors leave no smooth error. By
+  // default the scatter's part that lattice neighbours share replaces it (smooth_bound_from_neighbours below).
   std::optional<double> smooth_bias_px;
   double smooth_bias_scatter_fraction = 1.0;
+  // The scatter's part that is not smooth, measured on the residuals themselves (screen_fit_internal.h
+  // WhiteScatterPx: second differences along the pattern's lattice) where enough lattice neighbours were fitted:
+  // an error that neighbouring corners do not share (the sensor's noise, the refinement's response to a corner's
+  // own pixels, a pixel-locking remainder of random phase) is counted by the detection-noise row and cannot add
+  // up to a smooth field. It stands in for the refinement's noise response (random_error_px), which it contains.
+  // false: the noise response as before (2026-12-07).
+  bool smooth_bound_from_neighbours = true;
   // false: the pixel-locking signature is not fitted (no share in the detector-systematic row, the noise row
   // scaled by the whole residual noise, nothing removed before the misfit statistics): for tests of other rows on
   // detections with independent noise only, where a small patch cannot tell the signature from the curvature and
@@ -317,6 +325,12 @@ struct UncertaintyBudget {
   ResidualPixelLocking pixel_locking;
   double systematic_bound_px = 0;  // b: the smooth bias, RMS per coordinate of the fields (stated or scaled)
   std::string systematic_bound_reason;
+  // The scatter's part that lattice neighbours do not share (FitOptions::smooth_bound_from_neighbours), px per
+  // coordinate, the standard uncertainty of s^2 less its square under white errors (px^2), and the second
+  // differences it is taken from (0: too few; NaN values).
+  double white_scatter_px = std::numeric_limits<double>::quiet_NaN();
+  double white_scatter_u_difference_px2 = std::numeric_limits<double>::quiet_NaN();
+  int white_scatter_triples = 0;
   // The detector-systematic row's two parts, u(k) (1/mm): the smooth fields and the pixel-locking correction's
   // uncertainty.
   double smooth_share_curvature_per_mm = 0, pixel_locking_share_curvature_per_mm = 0;

@@ -1,7 +1,7 @@
 // The screen fit's uncertainty budget (analysis/screen_fit.h): its data-only part (the Legendre bias fields; the
 // misfit's field families are in misfit_fields.cc, the coverage factor in coverage_factor.cc, the lens covariance
 // sidecar is read in intrinsics_covariance.cc, the pixel-locking signature is fitted in
-// screen_fit_pixel_locking.cc), then the budget:
+// screen_fit_pixel_locking.cc, row 2's smooth bound in screen_fit_smooth_bound.cc), then the budget:
 // the fit's linearization and each source propagated through it (analysis/screen_fit_internal.h; the
 // lens-model-misfit row's measurement is in screen_fit_misfit.cc).
 #include <fmt/format.h>
@@ -274,16 +274,6 @@ std::vector<Eigen::Vector2d> DetectedPoints(const Setup& setup, const Linearizat
 }
 
 
-SmoothBound SmoothBoundPx(double scatter_px, double scatter_dof, double random_px, double random_u_px2) {
-  SmoothBound b;
-  const double s2 = scatter_px * scatter_px, r2 = random_px * random_px;
-  b.difference_px2 = std::max(0.0, s2 - r2);
-  const double u2 = (scatter_dof > 0 ? 2 * s2 * s2 / scatter_dof : 0) + random_u_px2 * random_u_px2;
-  b.margin_px2 = 1.645 * std::sqrt(u2);
-  b.bound_px = std::min(scatter_px, std::sqrt(b.difference_px2 + b.margin_px2));
-  return b;
-}
-
 std::vector<Eigen::Vector2d> LinearizedResiduals(const Setup& setup, const Linearization& lin, const ModelFit& fit) {
   std::vector<Eigen::Vector2d> res;
   res.reserve(lin.obs.size());
@@ -358,13 +348,42 @@ void Budget(const Setup& setup, ModelWork& w, int n_residuals, ModelFit* fit) {
   // 2. Detector systematic: the smooth detector bias (stated, or scaled by the scatter) and the pixel-locking
   // correction's uncertainty.
   {
+    NeighbourScatter white;
+    if (lin && !o.smooth_bias_px && o.smooth_bound_from_neighbours) {
+      white = WhiteScatterPx(setup, *lin, w.signature.residual_without, noise_px, c_noise.dof,
+                             signature_out ? 4 * kPixelLockingTerms : 0);
+    }
+    bud.white_scatter_px = white.white_px;
+    bud.white_scatter_u_difference_px2 = white.u_difference_px2;
+    bud.white_scatter_triples = white.triples;
+    const std::string random_note =
+        setup.random_error_samples > 0
+            ? fmt::format("; the refinement's response to the photo's own noise drawn again, r = {:.4f} px ({} corner "
+                          "coordinates; detect.h RefinementNoise), is a part of it",
+                          setup.random_error_px, setup.random_error_samples)
+            : std::string();
     if (o.smooth_bias_px) {
       bud.systematic_bound_px = *o.smooth_bias_px;
       bud.systematic_bound_reason = "the stated smooth detector bias FitOptions::smooth_bias_px (type B, not measured)";
-    } else if (setup.random_error_samples > 0) {
-      const SmoothBound sb = SmoothBoundPx(noise_px, c_noise.dof, setup.random_error_px, setup.random_error_u_px2);
+    } else if (white.triples > 0 || setup.random_error_samples > 0) {
+      // What cannot add up to a smooth field: what lattice neighbours do not share, else the measured random part.
+      const bool neighbours = white.triples > 0;
+      const SmoothBound sb =
+          neighbours ? SmoothBoundFromPart(noise_px, white.white_px, white.u_difference_px2)
+                     : SmoothBoundPx(noise_px, c_noise.dof, setup.random_error_px, setup.random_error_u_px2);
       bud.systematic_bound_px = o.smooth_bias_scatter_fraction * sb.bound_px;
-      bud.systematic_bound_reason = fmt::format(
+      bud.systematic_bound_reason = neighbours ? fmt::format(
+          "type B, scaled by measurements: {:g} x the part of the detector's scatter about the fit (without the "
+          "pixel-locking signature) that neighbouring corners share, on the assumption that a detector's smooth "
+          "error is no larger than it: an error that neighbours do not share is counted by the detection-noise row "
+          "and adds up to no smooth field. The scatter s = {:.4f} px (the detection noise row's, {:.0f} dof), its "
+          "part that neighbours do not share w = {:.4f} px (second differences of the residuals along the "
+          "pattern's lattice, {} triples of neighbours: w^2 = sum d^2 / 6 per coordinate{}); b^2 = max(0, s^2 - "
+          "w^2) + 1.645 x the standard uncertainty of s^2 - w^2 were every error white (a one-sided 95% bound: "
+          "{:.4f} + {:.4f} px^2), at most s (FitOptions::smooth_bias_scatter_fraction, ::smooth_bound_from_"
+          "neighbours; state b with analyze --smooth-bias-px)",
+          o.smooth_bias_scatter_fraction, noise_px, c_noise.dof, white.white_px, white.triples, random_note,
+          sb.difference_px2, sb.margin_px2) : fmt::format(
           "type B, scaled by measurements: {:g} x the deterministic part of the detector's scatter about the fit "
           "without the pixel-locking signature, on the assumption that a detector's smooth error is no larger than "
           "the part of its corner-to-corner scatter that is not random. The scatter s = {:.4f} px (the detection "

@@ -237,7 +237,8 @@ TEST(UncertaintyBudgetTest, SmoothBiasFollowsTheMeasuredScatterUnlessStated) {
   const auto fit = [&](double noise_px, const FitOptions& o) {
     return FitScreen(scene.monitor, scene.camera, {Clean(scene, noise_px, 7)}, o).Chosen();
   };
-  const FitOptions measured = CylinderOnly();
+  FitOptions measured = CylinderOnly();
+  measured.smooth_bound_from_neighbours = false;  // the scatter itself (the next tests: what neighbours share)
   ASSERT_FALSE(measured.smooth_bias_px.has_value());
   const ModelFit a = fit(0.05, measured), b = fit(0.1, measured);
   ASSERT_TRUE(a.budget.computed && b.budget.computed);
@@ -299,7 +300,9 @@ TEST(UncertaintyBudgetTest, SmoothBiasLeavesOutTheMeasuredRandomPart) {
   b.random_error_px = 0.06;
   b.random_error_u_px = 0.001;
   b.random_error_samples = 3000;
-  const ModelFit f = FitScreen(scene.monitor, scene.camera, {a, b}, CylinderOnly()).Chosen();
+  FitOptions response = CylinderOnly();
+  response.smooth_bound_from_neighbours = false;
+  const ModelFit f = FitScreen(scene.monitor, scene.camera, {a, b}, response).Chosen();
   ASSERT_TRUE(f.budget.computed);
   const double pooled = std::sqrt((1000 * 0.04 * 0.04 + 3000 * 0.06 * 0.06) / 4000);
   const double pooled_u_r2 = std::hypot(1000 * 2 * 0.04 * 0.002, 3000 * 2 * 0.06 * 0.001) / 4000;
@@ -313,11 +316,74 @@ TEST(UncertaintyBudgetTest, SmoothBiasLeavesOutTheMeasuredRandomPart) {
   // The smooth share follows b (the same fit without the measurement: b = s).
   PhotoObservations a0 = a, b0 = b;
   a0.random_error_samples = b0.random_error_samples = 0;
-  const ModelFit g = FitScreen(scene.monitor, scene.camera, {a0, b0}, CylinderOnly()).Chosen();
+  const ModelFit g = FitScreen(scene.monitor, scene.camera, {a0, b0}, response).Chosen();
   EXPECT_DOUBLE_EQ(g.budget.systematic_bound_px, g.budget.pixel_locking.noise_px);
   EXPECT_NEAR((f.budget.smooth_share_curvature_per_mm / g.budget.smooth_share_curvature_per_mm) /
                   (f.budget.systematic_bound_px / g.budget.systematic_bound_px),
               1.0, 0.05);
+}
+
+// By default b bounds only the part of the scatter that neighbouring features share (WhiteScatterPx: second
+// differences along the lattice). Independent errors leave b at the 95% bound of the two estimates' difference; a
+// smooth field that the fit does not absorb is kept whole; the difference's stated uncertainty is its spread.
+TEST(UncertaintyBudgetTest, SmoothBiasBoundsWhatNeighboursShare) {
+  using screen_fit_internal::SmoothBoundFromPart;
+  const SyntheticScene scene = DefaultScene();
+  const FitOptions o = CylinderOnly();
+  ASSERT_TRUE(o.smooth_bound_from_neighbours);
+  // White noise of 0.05 px, 24 seeds: w measures it, b is the margin alone.
+  std::vector<double> difference, u;
+  for (uint64_t seed = 1; seed <= 24; ++seed) {
+    const ModelFit f = FitScreen(scene.monitor, scene.camera, {Clean(scene, 0.05, seed)}, o).Chosen();
+    ASSERT_TRUE(f.budget.computed);
+    const UncertaintyBudget& b = f.budget;
+    const double s = b.pixel_locking.noise_px;
+    ASSERT_GT(b.white_scatter_triples, 400);  // 31 x 9 features: rows, columns and diagonals
+    EXPECT_NEAR(b.white_scatter_px, 0.05, 0.006) << seed;
+    EXPECT_LT(b.systematic_bound_px, 0.5 * s) << seed;
+    EXPECT_NEAR(b.systematic_bound_px, SmoothBoundFromPart(s, b.white_scatter_px, b.white_scatter_u_difference_px2).bound_px,
+                1e-15);
+    difference.push_back(s * s - b.white_scatter_px * b.white_scatter_px);
+    u.push_back(b.white_scatter_u_difference_px2);
+    if (seed == 1) {
+      EXPECT_NE(b.systematic_bound_reason.find("neighbouring corners share"), std::string::npos) << b.systematic_bound_reason;
+      EXPECT_NE(Row(f, "detector systematic").source.find(fmt::format("w = {:.4f} px", b.white_scatter_px)),
+                std::string::npos);
+    }
+  }
+  double mean = 0, var = 0;
+  for (double d : difference) mean += d / 24;
+  for (double d : difference) var += (d - mean) * (d - mean) / 23;
+  std::sort(u.begin(), u.end());
+  const double u_median = 0.5 * (u[11] + u[12]);
+  // The spread over seeds against the stated u (24 seeds know an SD to +-15%).
+  EXPECT_GT(std::sqrt(var) / u_median, 0.6) << std::sqrt(var) << " " << u_median;
+  EXPECT_LT(std::sqrt(var) / u_median, 1.5) << std::sqrt(var) << " " << u_median;
+  // Unbiased: within one standard error (the fit's pixel-locking shapes taken out of the second differences' share;
+  // without that, +3.6e-5 px^2 here, 1.9 standard errors).
+  EXPECT_LT(std::abs(mean), u_median / std::sqrt(24.0)) << mean;
+  // White noise of 0.03 px and a smooth field over the image (RMS 0.04 px per coordinate before the fit absorbs
+  // part of it): w is the white part, b at least what the fit left of the field.
+  PhotoObservations photo = Clean(scene, 0.03, 5);
+  const double w_img = scene.camera.width, h_img = scene.camera.height;
+  for (Eigen::Vector2d& q : photo.detected_px) {
+    const double x = 2 * q.x() / w_img - 1, y = 2 * q.y() / h_img - 1;
+    q += 0.04 * std::sqrt(2.0) * Eigen::Vector2d(std::sin(2.5 * kPi * x) * std::cos(1.5 * kPi * y),
+                                                  std::cos(2.0 * kPi * x + 0.7) * std::sin(1.5 * kPi * y));
+  }
+  const ModelFit f = FitScreen(scene.monitor, scene.camera, {photo}, o).Chosen();
+  ASSERT_TRUE(f.budget.computed);
+  const double s = f.budget.pixel_locking.noise_px;
+  EXPECT_NEAR(f.budget.white_scatter_px, 0.03, 0.004);
+  ASSERT_GT(s, 0.036);  // what the fit left of the field shows in the residuals
+  EXPECT_GT(f.budget.systematic_bound_px, 0.95 * std::sqrt(s * s - 0.03 * 0.03))
+      << s << " " << f.budget.white_scatter_px << " " << f.budget.systematic_bound_px;
+  // Switched off, b is the scatter (no random part measured).
+  FitOptions off = o;
+  off.smooth_bound_from_neighbours = false;
+  const ModelFit g = FitScreen(scene.monitor, scene.camera, {photo}, off).Chosen();
+  EXPECT_DOUBLE_EQ(g.budget.systematic_bound_px, g.budget.pixel_locking.noise_px);
+  EXPECT_EQ(g.budget.white_scatter_triples, 0);
 }
 
 TEST(UncertaintyBudgetTest, PixelPitchRowIsTheExactScaling) {

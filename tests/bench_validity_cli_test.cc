@@ -358,41 +358,60 @@ TEST_F(BenchValidityCli, TheDetectorsSystematicErrorIsMeasuredBesideItsRow) {
             << "), shift " << t.at("sys_shift_mm") << " mm, row 2 parts " << smooth << ", " << locking << " mm\n";
 }
 
-// Row 2's smooth bias b follows the detector across distance (b = its scatter without the pixel-locking signature, less
-// the corners' random part the detection measured, FitOptions::smooth_bias_px unset): the bench's statistical claim in
-// a small seeded form. The realistic chain at quarter resolution on axis, 8 trials at 1 m and 8 at 3 m (seed 51001),
-// with --detector-effect. b is each trial's scatter (result.json), grows with distance (medians 0.014 and 0.033 px
-// here; the colour filter array's moire at 3 m), and the detector's effect on the radius over row 2 (RMS over the
-// trials, in each trial's sigma) stays below 1: measured 0.32 +- 0.08 at 1 m and 0.87 +- 0.20 at 3 m (0.20 and 0.93 on
-// the 60 trials of the scale-0.25 slice on axis, docs/bench/validity_bench.txt). With the stated b = 0.02 px of before,
-// b did not grow and the ratio at 3 m was 1.6-1.9 on the slice and its ablation.
-TEST_F(BenchValidityCli, RowTwoFollowsTheDetectorAcrossDistance) {
+// The detection rows hold the detector's own effect across distance (row 2's b = the scatter without the
+// pixel-locking signature less the part that lattice neighbours do not share, FitOptions::smooth_bias_px unset):
+// the bench's statistical claim in a small seeded form. The realistic chain at quarter resolution on axis, 8 trials at
+// 1 m and 8 at 3 m (seed 51001), with --detector-effect. b is each trial's (result.json, recomputed here from its
+// parts). What a noise-free photo's detection error does to the radius (RMS over the trials, in each trial's sigma)
+// against the noise row and row 2 together: the part of that error that neighbours do not share is counted by the
+// noise row, only the shared part by row 2 (until 2026-12-07 row 2 held both, and the ratio to row 2 alone was
+// 0.87 +- 0.20 at 3 m here). Measured here: 0.37 at 1 m, 1.35 at 3 m. On the 180 trials of the 3 m slice
+// (docs/bench/validity_bench.txt, thirty-fifth section) effect / (rows 1 + 2) is 0.89 over all yaws but 1.26 on
+// axis (60 trials; 0.77 with the rule before): on axis at 3 m the detector's own error moves the radius more than
+// the detection rows say, and the other rows (the stated lens misfit, the pitch) carry the rest (58 of those 60
+// intervals hold the truth). The bound below is that figure's, not 1.
+TEST_F(BenchValidityCli, DetectionRowsHoldTheDetectorsEffectAcrossDistance) {
   const CliRun run = Curvecheck({"bench", "validity", "--scales", "0.25", "--distances-mm", "1000,3000", "--yaws-deg",
                                  "0", "--realism", "on", "--radius-factors", "1", "--trials", "8", "--seed", "51001",
                                  "--detector-effect", "--keep-results", "-o", (dir_ / "row2").string()});
   ASSERT_EQ(run.code, 0) << run.err << run.out;
   const auto trials = ReadCsv(dir_ / "row2" / "validity_trials.csv");
   ASSERT_EQ(trials.size(), 16u);
-  std::map<std::string, std::vector<double>> b, effect2, row2;
+  std::map<std::string, std::vector<double>> b, effect2, rows12;
   for (const auto& t : trials) {
     ASSERT_EQ(t.at("reason"), "") << t.at("detail");
     const std::string distance = t.at("distance_mm");
     const double sigma = Num(t, "radius_sigma_mm");
     b[distance].push_back(Num(t, "smooth_bias_px"));
     effect2[distance].push_back(std::pow(Num(t, "sys_shift_mm") / sigma, 2));
-    row2[distance].push_back((std::pow(Num(t, "smooth_share_mm"), 2) + std::pow(Num(t, "locking_share_mm"), 2)) /
-                             (sigma * sigma));
     const nlohmann::json result =
         nlohmann::json::parse(Slurp(dir_ / "row2" / "results" / ("trial-" + t.at("index") + ".result.json")));
     const nlohmann::json& budget = result.at("fit").at("uncertainty_budget");
+    double noise_row_mm = std::nan("");
+    for (const auto& c : budget.at("components")) {
+      if (c.at("name") == "detection noise") noise_row_mm = c.at("standard_uncertainty_mm").get<double>();
+    }
+    ASSERT_TRUE(std::isfinite(noise_row_mm));
+    rows12[distance].push_back((std::pow(Num(t, "smooth_share_mm"), 2) + std::pow(Num(t, "locking_share_mm"), 2) +
+                              noise_row_mm * noise_row_mm) /
+                             (sigma * sigma));
     const nlohmann::json& systematic = budget.at("detector_systematic");
     EXPECT_NEAR(Num(t, "smooth_bias_px"), systematic.at("bound_px").get<double>(), 1e-9);
-    // b = the scatter s less its random part r where the detection measured r (screen_fit_internal.h
-    // SmoothBoundPx: b^2 = max(0, s^2 - r^2) + 1.645 sqrt(2 s^4 / dof + u(r^2)^2), at most s; u(r^2) = 2 r u(r)).
+    // b = the scatter s less the part w that lattice neighbours do not share (screen_fit_internal.h WhiteScatterPx:
+    // b^2 = max(0, s^2 - w^2) + 1.645 u(s^2 - w^2), at most s); without enough neighbours, s less its random part r
+    // where the detection measured r (SmoothBoundPx: b^2 = max(0, s^2 - r^2) + 1.645 sqrt(2 s^4 / dof +
+    // u(r^2)^2), at most s; u(r^2) = 2 r u(r)).
     const double s = systematic.at("noise_without_signature_px").get<double>();
     double expected = s;
     const nlohmann::json& random = result.at("inputs").at("photos")[0].at("detection").at("refinement_noise");
-    if (random.is_object()) {
+    ASSERT_GT(systematic.at("white_scatter_triples").get<int>(), 400);  // a checkerboard of 248 corners
+    if (systematic.at("white_scatter_triples").get<int>() > 0) {
+      const double w = systematic.at("white_scatter_px").get<double>();
+      EXPECT_GT(w, 0.3 * s);
+      EXPECT_LE(w, 1.2 * s);
+      expected = std::min(s, std::sqrt(std::max(0.0, s * s - w * w) +
+                                       1.645 * systematic.at("white_scatter_u_difference_px2").get<double>()));
+    } else if (random.is_object()) {
       const double r = random.at("response_px").get<double>();
       const double u_r2 = 2 * r * random.at("response_u_px").get<double>();
       double dof = 0;
@@ -409,13 +428,12 @@ TEST_F(BenchValidityCli, RowTwoFollowsTheDetectorAcrossDistance) {
   const auto rms = [](const std::vector<double>& squares) {
     return std::sqrt(std::accumulate(squares.begin(), squares.end(), 0.0) / static_cast<double>(squares.size()));
   };
-  EXPECT_GT(Median(b["3000"]), 1.5 * Median(b["1000"]));
-  const double near = rms(effect2["1000"]) / rms(row2["1000"]), far = rms(effect2["3000"]) / rms(row2["3000"]);
+  const double near = rms(effect2["1000"]) / rms(rows12["1000"]), far = rms(effect2["3000"]) / rms(rows12["3000"]);
   std::cout << "b medians " << Median(b["1000"]) << ", " << Median(b["3000"])
-            << " px; effect / row 2: " << near << " at 1 m, " << far << " at 3 m\n";
+            << " px; effect / (noise row + row 2): " << near << " at 1 m, " << far << " at 3 m\n";
   EXPECT_LT(near, 1.0);
   EXPECT_GT(far, 0.4);  // not over-stated beyond use where the detector's error matters
-  EXPECT_LT(far, 1.3);
+  EXPECT_LT(far, 1.6);
   EXPECT_THAT(run.out, HasSubstr("realism on at 3000 mm: it moved the radius by"));
 }
 

@@ -1,0 +1,119 @@
+// The detector-systematic row's smooth bound b (analysis/screen_fit_internal.h SmoothBound): the detector's
+// scatter about the fit less the part that cannot add up to a smooth field, either the part that lattice
+// neighbours do not share (WhiteScatterPx, the residuals' second differences) or the corners' random part
+// that the detection measured (SmoothBoundPx); the budget (screen_fit_budget.cc) scales its Legendre fields
+// by b.
+#include <Eigen/Core>
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <utility>
+#include <vector>
+
+#include "analysis/screen_fit.h"
+#include "analysis/screen_fit_internal.h"
+
+namespace curvecheck::screen_fit_internal {
+
+SmoothBound SmoothBoundFromPart(double scatter_px, double part_px, double u_difference_px2) {
+  SmoothBound b;
+  b.difference_px2 = std::max(0.0, scatter_px * scatter_px - part_px * part_px);
+  b.margin_px2 = 1.645 * u_difference_px2;
+  b.bound_px = std::min(scatter_px, std::sqrt(b.difference_px2 + b.margin_px2));
+  return b;
+}
+
+SmoothBound SmoothBoundPx(double scatter_px, double scatter_dof, double random_px, double random_u_px2) {
+  const double s2 = scatter_px * scatter_px;
+  const double u2 = (scatter_dof > 0 ? 2 * s2 * s2 / scatter_dof : 0) + random_u_px2 * random_u_px2;
+  return SmoothBoundFromPart(scatter_px, random_px, std::sqrt(u2));
+}
+
+NeighbourScatter WhiteScatterPx(const Setup& setup, const Linearization& lin,
+                                const std::vector<Eigen::Vector2d>& residuals, double scatter_px,
+                                double scatter_dof, int rough_directions) {
+  NeighbourScatter out;
+  const size_t n = lin.obs.size();
+  if (residuals.size() != n || !(scatter_dof > 0) || !std::isfinite(scatter_px)) return out;
+  std::vector<std::vector<size_t>> in_photo(static_cast<size_t>(setup.photos));
+  for (size_t a = 0; a < n; ++a) in_photo[static_cast<size_t>(setup.obs[lin.obs[a]].photo)].push_back(a);
+  const auto at = [&](size_t a) {  // on the screen, mm (the display's pixels are square)
+    const Obs& o = setup.obs[lin.obs[a]];
+    return Eigen::Vector2d(o.s_mm, o.y_mm);
+  };
+  std::vector<std::array<size_t, 3>> triples;  // j, i, k: the stencil 1, -2, 1
+  std::vector<std::pair<double, size_t>> near;
+  for (const std::vector<size_t>& photo : in_photo) {
+    for (const size_t i : photo) {
+      near.clear();
+      for (const size_t j : photo) {
+        if (j != i) near.emplace_back((at(j) - at(i)).squaredNorm(), j);
+      }
+      const size_t keep = std::min(near.size(), kWhiteNeighbours);
+      std::partial_sort(near.begin(), near.begin() + static_cast<long>(keep), near.end());
+      near.resize(keep);
+      // j is i's lattice neighbour in its direction when no nearer one lies in the same direction.
+      const auto first_in_direction = [&](size_t x) {
+        const Eigen::Vector2d d = at(near[x].second) - at(i);
+        for (size_t y = 0; y < x; ++y) {
+          const Eigen::Vector2d e = at(near[y].second) - at(i);
+          if (d.dot(e) > 0 && std::abs(d.x() * e.y() - d.y() * e.x()) < 0.1 * d.norm() * e.norm())
+            return false;
+        }
+        return true;
+      };
+      for (size_t x = 0; x < near.size(); ++x) {
+        if (!first_in_direction(x)) continue;
+        const Eigen::Vector2d d = at(near[x].second) - at(i);
+        if (!(d.squaredNorm() > 0)) continue;
+        for (size_t y = x + 1; y < near.size(); ++y) {
+          if ((at(near[y].second) - at(i) + d).norm() <= 0.1 * d.norm() && first_in_direction(y)) {
+            triples.push_back({near[x].second, i, near[y].second});
+          }
+        }
+      }
+    }
+  }
+  if (triples.size() < static_cast<size_t>(kMinWhiteTriples)) return out;
+  constexpr std::array<double, 3> kStencil = {1, -2, 1};
+  double sum2 = 0;
+  std::vector<std::vector<std::pair<size_t, double>>> member(
+      n);  // per feature: (triple, its coefficient there)
+  for (size_t t = 0; t < triples.size(); ++t) {
+    Eigen::Vector2d d = Eigen::Vector2d::Zero();
+    for (size_t m = 0; m < 3; ++m) {
+      d += kStencil[m] * residuals[triples[t][m]];
+      member[triples[t][m]].emplace_back(t, kStencil[m]);
+    }
+    sum2 += d.squaredNorm();
+  }
+  // Q = sum over pairs of triples (itself included) of (a_t . a_t')^2, per coordinate.
+  double q = 0;
+  std::vector<std::pair<size_t, double>> dots;
+  for (size_t t = 0; t < triples.size(); ++t) {
+    dots.clear();
+    for (size_t m = 0; m < 3; ++m) {
+      for (const auto& [other, c] : member[triples[t][m]]) dots.emplace_back(other, kStencil[m] * c);
+    }
+    std::sort(dots.begin(), dots.end());
+    for (size_t x = 0; x < dots.size();) {
+      double dot = 0;
+      size_t y = x;
+      for (; y < dots.size() && dots[y].first == dots[x].first; ++y) dot += dots[y].second;
+      q += dot * dot;
+      x = y;
+    }
+  }
+  const double count = static_cast<double>(triples.size());
+  out.triples = static_cast<int>(triples.size());
+  const double kept = 1 - rough_directions / (2.0 * static_cast<double>(n));
+  if (!(kept > 0)) return out;
+  out.white_px = std::sqrt(sum2 / (12 * count * kept));
+  // tr(M^2) with s^2's own term exact (var s^2 = 2 sigma^4 / dof): 1 / dof - 2 / dof + 2 Q / (12 T)^2.
+  const double trace = std::max(0.0, 2 * q / (144 * count * count) - 1 / scatter_dof);
+  const double s2 = scatter_px * scatter_px;
+  out.u_difference_px2 = std::sqrt(2 * trace) * s2;
+  return out;
+}
+
+}  // namespace curvecheck::screen_fit_internal

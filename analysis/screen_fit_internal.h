@@ -265,8 +265,9 @@ SmoothBound SmoothBoundPx(double scatter_px, double scatter_dof, double random_p
 SmoothBound SmoothBoundFromPart(double scatter_px, double part_px, double u_difference_px2);
 // The part of the residuals' scatter that neighbouring features do not share, from second differences along the
 // pattern's lattice: in each photo, every feature i and two of its kWhiteNeighbours nearest on the screen (mm), j and
-// k on either side (x_j + x_k = 2 x_i within a tenth of the step) with none nearer in their directions, gives
-// d = r_j - 2 r_i + r_k per coordinate (along the lattice's rows, columns and diagonals), and
+// k on either side (x_j + x_k = 2 x_i within a tenth of the step), the shortest such step in each direction and
+// none over 1.5 times i's shortest, gives d = r_j - 2 r_i + r_k per coordinate (along a checkerboard's rows,
+// columns and diagonals; between the same corners of neighbouring tags), and
 // white^2 = sum d^2 / (6 x their count): an error independent from feature to feature contributes 6 x its variance to
 // each d, a smooth one (a field over many features: a bias field, the lens's misfit, a moire's beat longer than the
 // lattice step) almost nothing (its second difference). u_difference_px2 is the standard uncertainty of
@@ -277,14 +278,14 @@ SmoothBound SmoothBoundFromPart(double scatter_px, double part_px, double u_diff
 // the residuals (the pixel-locking shapes: their phases vary from corner to corner), which take their share
 // rough_directions / 2n of each stencil: white^2 is divided by 1 less that share (with 8 shapes of 558 residuals, the
 // mean of s^2 - white^2 over 24 seeds of white noise went from +1.4% of s^2 to -0.007%). triples = 0 when fewer than
-// kMinWhiteTriples were found (tags, whose corners are not evenly spaced, often find none).
+// kMinWhiteTriples were found.
 struct NeighbourScatter {
   double white_px = std::numeric_limits<double>::quiet_NaN();
   double u_difference_px2 = std::numeric_limits<double>::quiet_NaN();
   int triples = 0;
 };
 inline constexpr int kMinWhiteTriples = 24;
-inline constexpr size_t kWhiteNeighbours = 12;
+inline constexpr size_t kWhiteNeighbours = 24;
 NeighbourScatter WhiteScatterPx(const Setup& setup, const Linearization& lin,
                                 const std::vector<Eigen::Vector2d>& residuals, double scatter_px, double scatter_dof,
                                 int rough_directions);

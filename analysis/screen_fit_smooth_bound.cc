@@ -43,6 +43,7 @@ NeighbourScatter WhiteScatterPx(const Setup& setup, const Linearization& lin,
   };
   std::vector<std::array<size_t, 3>> triples;  // j, i, k: the stencil 1, -2, 1
   std::vector<std::pair<double, size_t>> near;
+  std::vector<Eigen::Vector2d> done;  // the directions (either sense) that gave i a triple
   for (const std::vector<size_t>& photo : in_photo) {
     for (const size_t i : photo) {
       near.clear();
@@ -52,23 +53,25 @@ NeighbourScatter WhiteScatterPx(const Setup& setup, const Linearization& lin,
       const size_t keep = std::min(near.size(), kWhiteNeighbours);
       std::partial_sort(near.begin(), near.begin() + static_cast<long>(keep), near.end());
       near.resize(keep);
-      // j is i's lattice neighbour in its direction when no nearer one lies in the same direction.
-      const auto first_in_direction = [&](size_t x) {
-        const Eigen::Vector2d d = at(near[x].second) - at(i);
-        for (size_t y = 0; y < x; ++y) {
-          const Eigen::Vector2d e = at(near[y].second) - at(i);
-          if (d.dot(e) > 0 && std::abs(d.x() * e.y() - d.y() * e.x()) < 0.1 * d.norm() * e.norm())
-            return false;
-        }
-        return true;
+      // In each direction the shortest step d whose mirror -d was fitted too (a checkerboard's next corner on either
+      // side; for tags, a cell-wide gap between tags of several cells, the same corner of the next tags), up to 1.5
+      // times i's shortest such step: rows, columns and diagonals of a square lattice, not its longer chords.
+      const auto same_line = [](const Eigen::Vector2d& d, const Eigen::Vector2d& e) {
+        return std::abs(d.x() * e.y() - d.y() * e.x()) < 0.1 * d.norm() * e.norm();
       };
+      done.clear();
       for (size_t x = 0; x < near.size(); ++x) {
-        if (!first_in_direction(x)) continue;
         const Eigen::Vector2d d = at(near[x].second) - at(i);
         if (!(d.squaredNorm() > 0)) continue;
-        for (size_t y = x + 1; y < near.size(); ++y) {
-          if ((at(near[y].second) - at(i) + d).norm() <= 0.1 * d.norm() && first_in_direction(y)) {
+        if (!done.empty() && d.squaredNorm() > 1.5 * 1.5 * done.front().squaredNorm()) break;
+        if (std::any_of(done.begin(), done.end(), [&](const Eigen::Vector2d& e) { return same_line(d, e); })) {
+          continue;
+        }
+        for (size_t y = 0; y < near.size(); ++y) {
+          if (y != x && (at(near[y].second) - at(i) + d).norm() <= 0.1 * d.norm()) {
             triples.push_back({near[x].second, i, near[y].second});
+            done.push_back(d);
+            break;
           }
         }
       }

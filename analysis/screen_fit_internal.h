@@ -15,6 +15,7 @@
 #include <limits>
 #include <map>
 #include <memory>
+#include <mutex>
 #include <optional>
 #include <string>
 #include <vector>
@@ -65,13 +66,22 @@ struct Setup {
   double random_error_px = 0;
   double random_error_u_px2 = 0;
   long random_error_samples = 0;
-  // The lens-model-misfit row's feature spacing (screen_fit_misfit.cc FeatureSpacing: the median distance to the
-  // nearest neighbour in the same photo, the unit of its candidate lengths): computed on first use, shared by
-  // copies of the setup (same observations).
-  struct MisfitCache {
-    double spacing_px = 0;
+  // What depends only on the observations, computed on first use and shared by copies of the setup (same
+  // observations): the lens-model-misfit row's feature spacing (screen_fit_misfit.cc FeatureSpacing: the median
+  // distance to the nearest neighbour in the same photo, the unit of its candidate lengths), and the smooth bound's
+  // lattice triples (screen_fit_smooth_bound.cc WhiteScatterPx), one set per set of active observations (every candidate model
+  // usually fits the same ones).
+  struct LatticeTriples {
+    std::vector<size_t> obs;                      // Setup::obs indices the triples were found among
+    std::vector<std::array<size_t, 3>> triples;   // Setup::obs indices j, i, k: the stencil 1, -2, 1
+    double overlap = 0;                           // Q = sum over pairs of triples of (a_t . a_t')^2
   };
-  std::shared_ptr<MisfitCache> misfit_cache = std::make_shared<MisfitCache>();
+  struct Cache {
+    double spacing_px = 0;  // written before the candidates' budgets run in parallel, read there
+    std::mutex mutex;       // guards `triples` (the candidates' budgets run in parallel)
+    std::vector<std::shared_ptr<const LatticeTriples>> triples;
+  };
+  std::shared_ptr<Cache> cache = std::make_shared<Cache>();
 };
 
 // The problem of one model over the active observations. Owns what Ceres does not.

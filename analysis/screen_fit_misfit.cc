@@ -55,9 +55,9 @@ std::vector<PhotoBlock> PhotoBlocks(const Setup& setup, const Linearization& lin
 }
 
 // The median distance from each observation to its nearest neighbour in the same photo, over all observations
-// (Setup::misfit_cache, computed once per fit): the unit of the lags and of the candidates' lengths.
+// (Setup::cache, computed once per fit): the unit of the lags and of the candidates' lengths.
 double FeatureSpacing(const Setup& setup) {
-  if (setup.misfit_cache->spacing_px > 0) return setup.misfit_cache->spacing_px;
+  if (setup.cache->spacing_px > 0) return setup.cache->spacing_px;
   std::vector<std::vector<size_t>> in_photo(static_cast<size_t>(setup.photos));
   for (size_t i = 0; i < setup.obs.size(); ++i) in_photo[static_cast<size_t>(setup.obs[i].photo)].push_back(i);
   std::vector<double> nn;
@@ -72,8 +72,8 @@ double FeatureSpacing(const Setup& setup) {
   }
   if (nn.size() < 8) return 0;
   std::nth_element(nn.begin(), nn.begin() + static_cast<long>(nn.size() / 2), nn.end());
-  setup.misfit_cache->spacing_px = nn[nn.size() / 2];
-  return setup.misfit_cache->spacing_px;
+  setup.cache->spacing_px = nn[nn.size() / 2];
+  return setup.cache->spacing_px;
 }
 
 // J_f^T Phi for both coordinates f (t x D each), Phi the basis of `features` at the active observations, summed

@@ -7,6 +7,8 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <memory>
+#include <mutex>
 #include <utility>
 #include <vector>
 
@@ -14,6 +16,9 @@
 #include "analysis/screen_fit_internal.h"
 
 namespace curvecheck::screen_fit_internal {
+
+constexpr std::array<double, 3> kStencil = {1, -2, 1};
+
 
 SmoothBound SmoothBoundFromPart(double scatter_px, double part_px, double u_difference_px2) {
   SmoothBound b;
@@ -29,19 +34,23 @@ SmoothBound SmoothBoundPx(double scatter_px, double scatter_dof, double random_p
   return SmoothBoundFromPart(scatter_px, random_px, std::sqrt(u2));
 }
 
-NeighbourScatter WhiteScatterPx(const Setup& setup, const Linearization& lin,
-                                const std::vector<Eigen::Vector2d>& residuals, double scatter_px,
-                                double scatter_dof, int rough_directions) {
-  NeighbourScatter out;
-  const size_t n = lin.obs.size();
-  if (residuals.size() != n || !(scatter_dof > 0) || !std::isfinite(scatter_px)) return out;
+namespace {
+
+// The lattice triples among the active observations lin.obs (Setup::obs indices), and their overlap Q: found once
+// per set of observations (Setup::cache), since every candidate model usually fits the same ones.
+std::shared_ptr<const Setup::LatticeTriples> FindLatticeTriples(const Setup& setup, const Linearization& lin) {
+  Setup::Cache& cache = *setup.cache;
+  const std::lock_guard<std::mutex> lock(cache.mutex);  // the others wait for the same triples
+  for (const auto& found : cache.triples) {
+    if (found->obs == lin.obs) return found;
+  }
+  auto out = std::make_shared<Setup::LatticeTriples>();
+  out->obs = lin.obs;
   std::vector<std::vector<size_t>> in_photo(static_cast<size_t>(setup.photos));
-  for (size_t a = 0; a < n; ++a) in_photo[static_cast<size_t>(setup.obs[lin.obs[a]].photo)].push_back(a);
+  for (const size_t a : lin.obs) in_photo[static_cast<size_t>(setup.obs[a].photo)].push_back(a);
   const auto at = [&](size_t a) {  // on the screen, mm (the display's pixels are square)
-    const Obs& o = setup.obs[lin.obs[a]];
-    return Eigen::Vector2d(o.s_mm, o.y_mm);
+    return Eigen::Vector2d(setup.obs[a].s_mm, setup.obs[a].y_mm);
   };
-  std::vector<std::array<size_t, 3>> triples;  // j, i, k: the stencil 1, -2, 1
   std::vector<std::pair<double, size_t>> near;
   std::vector<Eigen::Vector2d> done;  // the directions (either sense) that gave i a triple
   for (const std::vector<size_t>& photo : in_photo) {
@@ -69,7 +78,7 @@ NeighbourScatter WhiteScatterPx(const Setup& setup, const Linearization& lin,
         }
         for (size_t y = 0; y < near.size(); ++y) {
           if (y != x && (at(near[y].second) - at(i) + d).norm() <= 0.1 * d.norm()) {
-            triples.push_back({near[x].second, i, near[y].second});
+            out->triples.push_back({near[x].second, i, near[y].second});
             done.push_back(d);
             break;
           }
@@ -77,26 +86,18 @@ NeighbourScatter WhiteScatterPx(const Setup& setup, const Linearization& lin,
       }
     }
   }
-  if (triples.size() < static_cast<size_t>(kMinWhiteTriples)) return out;
-  constexpr std::array<double, 3> kStencil = {1, -2, 1};
-  double sum2 = 0;
-  std::vector<std::vector<std::pair<size_t, double>>> member(
-      n);  // per feature: (triple, its coefficient there)
-  for (size_t t = 0; t < triples.size(); ++t) {
-    Eigen::Vector2d d = Eigen::Vector2d::Zero();
-    for (size_t m = 0; m < 3; ++m) {
-      d += kStencil[m] * residuals[triples[t][m]];
-      member[triples[t][m]].emplace_back(t, kStencil[m]);
-    }
-    sum2 += d.squaredNorm();
-  }
   // Q = sum over pairs of triples (itself included) of (a_t . a_t')^2, per coordinate.
+  // per feature (Setup::obs index): (triple, its coefficient there)
+  std::vector<std::vector<std::pair<size_t, double>>> member(setup.obs.size());
+  for (size_t t = 0; t < out->triples.size(); ++t) {
+    for (size_t m = 0; m < 3; ++m) member[out->triples[t][m]].emplace_back(t, kStencil[m]);
+  }
   double q = 0;
   std::vector<std::pair<size_t, double>> dots;
-  for (size_t t = 0; t < triples.size(); ++t) {
+  for (const std::array<size_t, 3>& triple : out->triples) {
     dots.clear();
     for (size_t m = 0; m < 3; ++m) {
-      for (const auto& [other, c] : member[triples[t][m]]) dots.emplace_back(other, kStencil[m] * c);
+      for (const auto& [other, c] : member[triple[m]]) dots.emplace_back(other, kStencil[m] * c);
     }
     std::sort(dots.begin(), dots.end());
     for (size_t x = 0; x < dots.size();) {
@@ -107,13 +108,36 @@ NeighbourScatter WhiteScatterPx(const Setup& setup, const Linearization& lin,
       x = y;
     }
   }
+  out->overlap = q;
+  cache.triples.push_back(out);
+  return out;
+}
+
+}  // namespace
+
+NeighbourScatter WhiteScatterPx(const Setup& setup, const Linearization& lin,
+                                const std::vector<Eigen::Vector2d>& residuals, double scatter_px,
+                                double scatter_dof, int rough_directions) {
+  NeighbourScatter out;
+  const size_t n = lin.obs.size();
+  const double kept = 1 - rough_directions / (2.0 * static_cast<double>(n));
+  if (residuals.size() != n || !(scatter_dof > 0) || !std::isfinite(scatter_px) || !(kept > 0)) return out;
+  const std::shared_ptr<const Setup::LatticeTriples> found = FindLatticeTriples(setup, lin);
+  const std::vector<std::array<size_t, 3>>& triples = found->triples;
+  if (triples.size() < static_cast<size_t>(kMinWhiteTriples)) return out;
+  std::vector<size_t> column(setup.obs.size());  // Setup::obs index -> its position in lin.obs
+  for (size_t a = 0; a < n; ++a) column[lin.obs[a]] = a;
+  double sum2 = 0;
+  for (const std::array<size_t, 3>& triple : triples) {
+    Eigen::Vector2d d = Eigen::Vector2d::Zero();
+    for (size_t m = 0; m < 3; ++m) d += kStencil[m] * residuals[column[triple[m]]];
+    sum2 += d.squaredNorm();
+  }
   const double count = static_cast<double>(triples.size());
   out.triples = static_cast<int>(triples.size());
-  const double kept = 1 - rough_directions / (2.0 * static_cast<double>(n));
-  if (!(kept > 0)) return out;
   out.white_px = std::sqrt(sum2 / (12 * count * kept));
   // tr(M^2) with s^2's own term exact (var s^2 = 2 sigma^4 / dof): 1 / dof - 2 / dof + 2 Q / (12 T)^2.
-  const double trace = std::max(0.0, 2 * q / (144 * count * count) - 1 / scatter_dof);
+  const double trace = std::max(0.0, 2 * found->overlap / (144 * count * count) - 1 / scatter_dof);
   const double s2 = scatter_px * scatter_px;
   out.u_difference_px2 = std::sqrt(2 * trace) * s2;
   return out;

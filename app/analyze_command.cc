@@ -66,8 +66,9 @@ void AddAnalyzeCommand(CLI::App& app, std::function<int()>& run) {
   cmd->add_option("--smooth-bias-px", args->options.fit.smooth_bias_px,
                   "The detector's smooth bias (RMS per coordinate of a field smooth across the image and common to "
                   "the photos, px; type B, e.g. from a bench of your detector against a known target). Default: "
-                  "as large as the detector's measured scatter about the fit without the pixel-locking signature "
-                  "(the budget's detector-systematic row says which)");
+                  "the part of the detector's scatter about the fit (without the pixel-locking signature) that "
+                  "neighbouring corners share, a one-sided 95% bound (else the scatter less the corners' measured "
+                  "random part; result.json fit.uncertainty_budget.detector_systematic.bound_reason says which)");
   cmd->add_option("--pixel-locking-prior", args->options.fit.pixel_locking_prior_px,
                   "Prior standard deviation of each of the detector's pixel-locking coefficients, px (type B; 0: "
                   "none, the regression alone). It bounds the signature where the photos cannot determine it (the "

@@ -33,11 +33,12 @@ double CoverageStats::Coverage95() const {
 
 CoverageStats SummariseCoverage(const std::vector<IntervalSample>& samples) {
   CoverageStats s;
-  double sum_error = 0, sum_sigma = 0;
+  double sum_error = 0, sum_sigma = 0, sum_net = 0;
   for (const IntervalSample& x : samples) {
     if (!x.Valid()) continue;
     ++s.n;
     sum_error += x.estimate - x.truth;
+    sum_net += x.estimate - x.truth - x.known_error;
     sum_sigma += x.sigma;
     s.k68 += x.In68() ? 1 : 0;
     s.k95 += x.In95() ? 1 : 0;
@@ -48,13 +49,18 @@ CoverageStats SummariseCoverage(const std::vector<IntervalSample>& samples) {
   s.mean_error = sum_error / s.n;
   s.mean_sigma = sum_sigma / s.n;
   s.bias_sigma = s.mean_error / s.mean_sigma;
+  const double mean_net = sum_net / s.n;
+  s.net_bias_sigma = mean_net / s.mean_sigma;
   if (s.n >= 2) {
-    double ss = 0;
+    double ss = 0, ss_net = 0;
     for (const IntervalSample& x : samples) {
-      if (x.Valid()) ss += std::pow(x.estimate - x.truth - s.mean_error, 2);
+      if (!x.Valid()) continue;
+      ss += std::pow(x.estimate - x.truth - s.mean_error, 2);
+      ss_net += std::pow(x.estimate - x.truth - x.known_error - mean_net, 2);
     }
     s.sd_error = std::sqrt(ss / (s.n - 1));
     s.bias_sigma_se = s.sd_error / std::sqrt(static_cast<double>(s.n)) / s.mean_sigma;
+    s.net_bias_sigma_se = std::sqrt(ss_net / (s.n - 1)) / std::sqrt(static_cast<double>(s.n)) / s.mean_sigma;
     s.scatter_ratio = s.sd_error / s.mean_sigma;
   }
   return s;
@@ -62,7 +68,7 @@ CoverageStats SummariseCoverage(const std::vector<IntervalSample>& samples) {
 
 bool ValidityRule::Holds(const CoverageStats& s) const {
   const double c = s.Coverage95();
-  return s.n > 0 && c >= coverage95_lo && c <= coverage95_hi && std::abs(s.bias_sigma) < max_bias_sigma;
+  return s.n > 0 && c >= coverage95_lo && c <= coverage95_hi && std::abs(s.net_bias_sigma) < max_bias_sigma;
 }
 
 bool ValidityRule::CoverageConsistent(const CoverageStats& s) const {
@@ -71,7 +77,7 @@ bool ValidityRule::CoverageConsistent(const CoverageStats& s) const {
 
 ValidityRule::Outcome ValidityRule::Classify(const CoverageStats& s) const {
   if (Holds(s)) return Outcome::kMeets;
-  if (CoverageConsistent(s) && std::abs(s.bias_sigma) < max_bias_sigma) return Outcome::kConsistent;
+  if (CoverageConsistent(s) && std::abs(s.net_bias_sigma) < max_bias_sigma) return Outcome::kConsistent;
   return Outcome::kFails;
 }
 

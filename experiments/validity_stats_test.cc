@@ -109,6 +109,51 @@ TEST(ValidityStats, GaussianSamplesGiveTheExpectedRates) {
   EXPECT_FALSE(ValidityRule().Holds(s));
 }
 
+// A known part of the error (the bench's own draw of the true pixel pitch within its tolerance) is counted by the
+// coverage and taken out of the bias: the same expectation, a smaller standard error where it is large, and the
+// rule reads the net bias. 2000 seeded cells of 20 samples, each error a uniform known part of sd 0.8 sigma plus
+// N(0, 0.6^2 sigma^2) (total sd 1: the reported sigma is right): the raw and net biases both have mean 0 (within
+// 4 standard errors of their means), their spreads are 1 / sqrt(20) and 0.6 / sqrt(20), and a bias of 0.3
+// sigma shows in both.
+TEST(ValidityStats, KnownErrorsLeaveTheBiasAndShrinkItsStandardError) {
+  std::mt19937_64 rng(7);
+  std::normal_distribution<double> z(0, 1);
+  const double half = 0.8 * std::sqrt(3.0);  // a uniform of sd 0.8
+  std::uniform_real_distribution<double> known(-half, half);
+  const auto cell = [&](double bias) {
+    std::vector<IntervalSample> samples;
+    for (int i = 0; i < 20; ++i) {
+      const double k = known(rng);
+      IntervalSample x = SymmetricSample(100 + bias + k + 0.6 * z(rng), 100, 1);
+      x.known_error = k;
+      samples.push_back(x);
+    }
+    return SummariseCoverage(samples);
+  };
+  constexpr int kCells = 2000;
+  double raw = 0, raw2 = 0, net = 0, net2 = 0, se_net = 0;
+  for (int c = 0; c < kCells; ++c) {
+    const CoverageStats s = cell(0);
+    raw += s.bias_sigma, raw2 += s.bias_sigma * s.bias_sigma;
+    net += s.net_bias_sigma, net2 += s.net_bias_sigma * s.net_bias_sigma;
+    se_net += s.net_bias_sigma_se;
+  }
+  raw /= kCells, net /= kCells, se_net /= kCells;
+  const double sd_raw = std::sqrt(raw2 / kCells - raw * raw), sd_net = std::sqrt(net2 / kCells - net * net);
+  EXPECT_NEAR(raw, 0, 4 * sd_raw / std::sqrt(double{kCells}));
+  EXPECT_NEAR(net, 0, 4 * sd_net / std::sqrt(double{kCells}));
+  EXPECT_NEAR(sd_raw, 1 / std::sqrt(20.0), 0.02);
+  EXPECT_NEAR(sd_net, 0.6 / std::sqrt(20.0), 0.012);
+  EXPECT_NEAR(se_net, 0.6 / std::sqrt(20.0), 0.012);  // the reported standard error is the spread's
+  // A real bias of 0.3 sigma stays in the net bias (mean over the cells), and at 0.7 sigma the rule fails on it.
+  double shifted = 0;
+  for (int c = 0; c < kCells; ++c) shifted += cell(0.3).net_bias_sigma;
+  EXPECT_NEAR(shifted / kCells, 0.3, 4 * sd_net / std::sqrt(double{kCells}));
+  int fails = 0;
+  for (int c = 0; c < 200; ++c) fails += ValidityRule().Holds(cell(0.7)) ? 0 : 1;
+  EXPECT_GT(fails, 190);
+}
+
 TEST(ValidityStats, RuleOnPointEstimatesAndOnTheWilsonInterval) {
   // 19 of 20 covered, bias 0: holds. 20 of 20: 100% is above 98%, so the rule fails, but the Wilson interval
   // [83.9%, 100%] overlaps the band: consistent. 15 of 20 (75%, Wilson [53.1%, 88.8%]): neither.

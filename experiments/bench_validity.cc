@@ -168,7 +168,8 @@ std::vector<std::string> TrialColumns() {
                                 "sys_cell_signature_rest_px",
                                 "sys_shift_mm",
                                 "smooth_share_mm",
-                                "locking_share_mm"};
+                                "locking_share_mm",
+                                "noise_share_mm"};
   for (const char* f : kFrames) {
     for (const char* what :
          {"true_cam_{}_{}_mm", "cam_{}_{}_mm", "cam_{}_{}_sigma_mm", "cam_{}_{}_k95", "cam_{}_{}_k68"}) {
@@ -229,6 +230,9 @@ FeatureErrors ErrorsAgainstTruth(const TrueImages& truth, const Pattern& pattern
 struct DetectorEffect {
   DetectionErrors systematic;  // of the noise-free photo's detections
   double shift_mm = kNaN, smooth_share_mm = kNaN, locking_share_mm = kNaN;
+  // The budget's detection-noise row, u(R): the part of the detector's error that neighbouring corners do not share
+  // stands there (row 2 bounds only what they share), so rows 1 and 2 together are what is to cover the shift.
+  double noise_share_mm = kNaN;
 };
 DetectorEffect DetectorEffectOf(const SyntheticScene& scene, const TrialDisplay& display, const PhotoInput& input,
                                 const TrueImages& truth, const AnalysisResult& r, const AnalyzeOptions& a) {
@@ -276,6 +280,9 @@ DetectorEffect DetectorEffectOf(const SyntheticScene& scene, const TrialDisplay&
   const double k2 = chosen.curvature_per_mm * chosen.curvature_per_mm;
   e.smooth_share_mm = chosen.budget.smooth_share_curvature_per_mm / k2;
   e.locking_share_mm = chosen.budget.pixel_locking_share_curvature_per_mm / k2;
+  for (const BudgetComponent& c : chosen.budget.components) {
+    if (c.name == "detection noise") e.noise_share_mm = c.curvature_per_mm / k2;
+  }
   return e;
 }
 
@@ -459,7 +466,7 @@ std::vector<std::string> RunTrial(Bench& b, int index, std::string* line) {
         Cell(detector_effect.systematic.signature_remainder_px, kDigits),
         Cell(detector_effect.systematic.cell_signature_remainder_px, kDigits),
         Cell(detector_effect.shift_mm, kDigits), Cell(detector_effect.smooth_share_mm, kDigits),
-        Cell(detector_effect.locking_share_mm, kDigits)}) {
+        Cell(detector_effect.locking_share_mm, kDigits), Cell(detector_effect.noise_share_mm, kDigits)}) {
     row.push_back(c);
   }
   for (int f = 0; f < 2; ++f) {
@@ -829,7 +836,7 @@ std::string DetectionErrorLines(const SweepTable& trials) {
   // delta method on the mean of the squares (SE = sd(q) / sqrt(n) / (2 RMS), q the squares; no assumption on their
   // distribution), the ratio its own from the two (their correlation ignored).
   struct Squares {
-    std::vector<double> shift, row2, smooth, locking;
+    std::vector<double> shift, row2, smooth, locking, rows12;
   };
   const auto rms_of = [](const std::vector<double>& q) {
     const double m = std::accumulate(q.begin(), q.end(), 0.0) / static_cast<double>(q.size());
@@ -843,7 +850,8 @@ std::string DetectionErrorLines(const SweepTable& trials) {
   std::map<std::string, std::vector<double>> sys_smooth, sys_rms, sys_rest, sys_cell_rest;
   for (size_t r = 0; r < trials.rows.size(); ++r) {
     const double shift = trials.Num(r, "sys_shift_mm"), smooth_share = trials.Num(r, "smooth_share_mm"),
-                 locking = trials.Num(r, "locking_share_mm"), sigma = trials.Num(r, "radius_sigma_mm");
+                 locking = trials.Num(r, "locking_share_mm"), sigma = trials.Num(r, "radius_sigma_mm"),
+                 noise = trials.Num(r, "noise_share_mm");  // NaN in a bench before the column
     if (!trials.Str(r, "reason").empty() || !std::isfinite(shift) || !(sigma > 0)) continue;
     const std::string realism = trials.Str(r, "realism");
     for (const double distance : {-1.0, trials.Num(r, "distance_mm")}) {
@@ -852,6 +860,7 @@ std::string DetectionErrorLines(const SweepTable& trials) {
       q.smooth.push_back((smooth_share / sigma) * (smooth_share / sigma));
       q.locking.push_back((locking / sigma) * (locking / sigma));
       q.row2.push_back((smooth_share * smooth_share + locking * locking) / (sigma * sigma));
+      if (std::isfinite(noise)) q.rows12.push_back(q.row2.back() + (noise / sigma) * (noise / sigma));
     }
     sys_smooth[realism].push_back(trials.Num(r, "sys_smooth_px"));
     sys_rms[realism].push_back(trials.Num(r, "sys_rms_px"));
@@ -863,10 +872,16 @@ std::string DetectionErrorLines(const SweepTable& trials) {
     const auto [e, se_e] = rms_of(q.shift);
     const auto [r2, se_r2] = rms_of(q.row2);
     const double ratio = e / r2, se_ratio = ratio * std::hypot(se_e / e, se_r2 / r2);
-    const std::string measured = fmt::format(
+    std::string measured = fmt::format(
         "it moved the radius by {:.3f} +- {:.3f} sigma RMS over {} trials; the budget's row 2 is {:.3f} +- {:.3f} "
         "sigma RMS (smooth bias {:.3f}, pixel-locking correction {:.3f}): effect / row 2 = {:.2f} +- {:.2f}",
         e, se_e, q.shift.size(), r2, se_r2, rms_of(q.smooth).first, rms_of(q.locking).first, ratio, se_ratio);
+    if (q.rows12.size() == q.shift.size()) {  // every trial has the noise row
+      const auto [r12, se_r12] = rms_of(q.rows12);
+      const double ratio12 = e / r12;
+      measured += fmt::format("; effect / (noise row + row 2) = {:.2f} +- {:.2f} (rows 1 and 2 {:.3f} sigma RMS)",
+                              ratio12, ratio12 * std::hypot(se_e / e, se_r12 / r12), r12);
+    }
     if (distance < 0) {
       s += fmt::format(
           "the detector's systematic error (a noise-free photo's detections against the truth, medians: RMS {:.4f} "

@@ -203,13 +203,19 @@ nlohmann::json BudgetJson(const ModelFit& f, const std::string& first_photo) {
       {"pixel_locking_period2_amplitude_px", Vec(Eigen::Vector2d(b.pixel_locking.amplitude_px.col(1)))},
       {"pixel_locking_period2_sigma_px", Vec(Eigen::Vector2d(b.pixel_locking.sigma_px.col(1)))},
       {"pixel_locking_observations", b.pixel_locking.observations},
+      {"tag_border_shift_px", Vec(b.pixel_locking.tag_border_shift_px)},
+      {"tag_border_shift_sigma_px", Vec(b.pixel_locking.tag_border_shift_sigma_px)},
+      {"tag_border_corners", b.pixel_locking.tag_border_corners},
       {"noise_without_signature_px", Num(b.pixel_locking.noise_px)},
       {"method", "per coordinate and period (1 px; 2 px, a colour filter array's) the bias a sin 2 pi phi + b cos "
                  "2 pi phi, phi the phase of the fit's prediction in the period; the eight coefficients fitted to the "
                  "fit's residuals (detected - predicted) on the shapes' refit projections (I - J (J^T J)^+ J^T) sin, "
                  "cos, so that the part the fit absorbed counts; amplitude = sqrt(a^2 + b^2). The curvature (so the "
                  "radius) and the camera positions are corrected for the fitted signature by -G S b (the linearized "
-                 "fit with the coefficients as nuisance parameters); the correction's uncertainty is in this row"},
+                 "fit with the coefficients as nuisance parameters); the correction's uncertainty is in this row. "
+                 "With tags, two more coefficients in the same fit and correction: the shift of the tags' black "
+                 "border edges in x and y (px, outward), each corner moved by sqrt(2) times it along its tag's "
+                 "diagonal (tag_border_shift_px)"},
       {"correction",
        {{"curvature_per_mm", b.pixel_locking_correction_curvature_per_mm},
         {"radius_mm", Num(f.radius_mm ? *f.radius_mm - 1 / (f.curvature_per_mm -

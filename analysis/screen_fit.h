@@ -294,10 +294,16 @@ struct ResidualPixelLocking {
   Eigen::Matrix2d amplitude_px = Eigen::Matrix2d::Zero();
   Eigen::Matrix2d sigma_px = Eigen::Matrix2d::Zero();  // its standard uncertainty
   int observations = 0;
-  // The residuals' RMS per coordinate once the fitted signature is removed (over 2n - parameters - 8 degrees of
+  // The residuals' RMS per coordinate once the fitted signature is removed (over 2n - parameters - 8 [+ 2] degrees of
   // freedom): the independent detection noise, which the detection-noise row propagates (the fit's noise_px holds
   // the signature's power too, which the correction removes). NaN: not measured.
   double noise_px = std::numeric_limits<double>::quiet_NaN();
+  // Tags (screen_fit_internal.h PixelLockingShapes): the detector's shift of the tags' black border edges, x and y,
+  // px, positive outward, fitted with the signature and corrected for like it; its standard uncertainty; and the tag
+  // corners it was fitted on (0 and NaN: no tags, or fewer than four with all four corners).
+  Eigen::Vector2d tag_border_shift_px = Eigen::Vector2d::Constant(std::numeric_limits<double>::quiet_NaN());
+  Eigen::Vector2d tag_border_shift_sigma_px = Eigen::Vector2d::Constant(std::numeric_limits<double>::quiet_NaN());
+  int tag_border_corners = 0;
 };
 
 struct UncertaintyBudget {

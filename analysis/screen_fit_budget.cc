@@ -324,6 +324,7 @@ void Budget(const Setup& setup, ModelWork& w, int n_residuals, ModelFit* fit) {
   // without the signature: counted in both rows, its power had stood in row 1 as independent noise as well.
   const double noise_px = IndependentNoisePx(*fit);
   const bool signature_out = noise_px != fit->noise_px;
+  const int signature_columns = signature_out ? static_cast<int>(w.signature.shapes.cols()) : 0;
   const double rescale = signature_out ? (noise_px / fit->noise_px) * (noise_px / fit->noise_px) : 1.0;
   QuantityVariance noise(setup.photos);
   noise.var_k = rescale * fit->curvature_sigma_per_mm * fit->curvature_sigma_per_mm;
@@ -336,11 +337,11 @@ void Budget(const Setup& setup, ModelWork& w, int n_residuals, ModelFit* fit) {
   BudgetComponent c_noise;
   c_noise.name = "detection noise";
   c_noise.type = "A";
-  c_noise.dof = std::max(1, n_residuals - fit->parameters - (signature_out ? 4 * kPixelLockingTerms : 0));
+  c_noise.dof = std::max(1, n_residuals - fit->parameters - signature_columns);
   c_noise.source = fmt::format(
       "the fit's covariance (J^T J)^-1 scaled by its residual noise without the pixel-locking signature, {:.4f} px "
       "per coordinate ({} residuals, {} parameters, {} signature coefficients; with the signature {:.4f} px)",
-      noise_px, n_residuals, fit->parameters, signature_out ? 4 * kPixelLockingTerms : 0, fit->noise_px);
+      noise_px, n_residuals, fit->parameters, signature_columns, fit->noise_px);
   c_noise.assumption = "independent, isotropic Gaussian detection errors; the residual scatter measures them";
   bud.components.push_back(c_noise);
   vars.push_back(noise);
@@ -351,7 +352,7 @@ void Budget(const Setup& setup, ModelWork& w, int n_residuals, ModelFit* fit) {
     NeighbourScatter white;
     if (lin && !o.smooth_bias_px && o.smooth_bound_from_neighbours) {
       white = WhiteScatterPx(setup, *lin, w.signature.residual_without, noise_px, c_noise.dof,
-                             signature_out ? 4 * kPixelLockingTerms : 0);
+                             signature_columns);
     }
     bud.white_scatter_px = white.white_px;
     bud.white_scatter_u_difference_px2 = white.u_difference_px2;
@@ -412,12 +413,19 @@ void Budget(const Setup& setup, ModelWork& w, int n_residuals, ModelFit* fit) {
             ? fmt::format(
                   "the pixel-locking signature, fitted and corrected for: amplitudes in period 1 px x {:.4f} +- "
                   "{:.4f}, y {:.4f} +- {:.4f} px; in period 2 px (a colour filter array's) x {:.4f} +- {:.4f}, y "
-                  "{:.4f} +- {:.4f} px; the correction moved the curvature by {:.3g} 1/mm and the first camera by "
+                  "{:.4f} +- {:.4f} px{}; the correction moved the curvature by {:.3g} 1/mm and the first camera by "
                   "({:.3f}, {:.3f}, {:.3f}) mm, and its uncertainty (G S) C (G S)^T (the coefficients' posterior "
                   "covariance C from the residuals over {} degrees of freedom and the prior N(0, ({} px)^2) per "
                   "coefficient, counted here with the row's infinite ones) is this row's second part",
                   pl.amplitude_px(0, 0), pl.sigma_px(0, 0), pl.amplitude_px(1, 0), pl.sigma_px(1, 0),
                   pl.amplitude_px(0, 1), pl.sigma_px(0, 1), pl.amplitude_px(1, 1), pl.sigma_px(1, 1),
+                  pl.tag_border_corners == 0
+                      ? std::string()
+                      : fmt::format("; and the tags' border shift (outward) x {:.4f} +- {:.4f}, y {:.4f} +- {:.4f} px "
+                                    "on {} tag corners (prior N(0, ({} px)^2))",
+                                    pl.tag_border_shift_px.x(), pl.tag_border_shift_sigma_px.x(),
+                                    pl.tag_border_shift_px.y(), pl.tag_border_shift_sigma_px.y(),
+                                    pl.tag_border_corners, kTagBorderPriorPx),
                   bud.pixel_locking_correction_curvature_per_mm, bud.pixel_locking_correction_position_mm.x(),
                   bud.pixel_locking_correction_position_mm.y(), bud.pixel_locking_correction_position_mm.z(),
                   w.signature.dof, o.pixel_locking_prior_px)

@@ -165,7 +165,7 @@ struct Linearization {
 // shapes S (PixelLockingShapes) fitted to the residuals on the shapes' refit projections P S
 // (P = I - J (J^T J)^+ J^T) with the prior N(0, sigma_b^2 I) (FitOptions::pixel_locking_prior_px): the posterior
 // b = (A + lambda I)^-1 (P S)^T r and covariance C = s^2 (A + lambda I)^-1, A = S^T P S, lambda = s^2 / sigma_b^2,
-// s^2 the regression's residual variance over dof = 2n - parameters - 4 kPixelLockingTerms (noise_px = s: the
+// s^2 the regression's residual variance over dof = 2n - parameters - S's columns (noise_px = s: the
 // independent noise); and the residuals less the fitted P S b (the misfit statistics take these). Without a
 // prior (pixel_locking_prior_px = 0) lambda = 0. ok = false (and residual_without the residuals) when the
 // residuals are not finite, dof < 2, or, without a prior, a shape is absorbed whole (its projection below 1e-9 n)
@@ -176,7 +176,7 @@ struct Linearization {
 struct PixelLockingSignature {
   bool ok = false;
   int observations = 0, dof = 0;
-  Eigen::MatrixXd shapes;        // S, 2n x 4 kPixelLockingTerms
+  Eigen::MatrixXd shapes;        // S, 2n x (4 kPixelLockingTerms [+ kTagBorderColumns])
   Eigen::VectorXd coefficients;  // b, in S's column order
   Eigen::MatrixXd covariance;    // C
   Eigen::MatrixXd solve;         // M = (A + lambda I)^-1 (P S)^T, 4 kPixelLockingTerms x 2n: b = M r
@@ -248,6 +248,12 @@ std::vector<Eigen::Vector2d> DetectedPoints(const Setup& setup, const Linearizat
 Eigen::MatrixXd PixelLockingShapes(const Setup& setup, const Linearization& lin, const Eigen::VectorXd& residual);
 // The column of the sin shape of coordinate c in period kPixelLockingPeriods[t] (the cos shape is the next).
 inline long PixelLockingColumn(int c, int t) { return 2 * (kPixelLockingTerms * c + t); }
+// The tag border shift's columns (PixelLockingShapes), after the pixel-locking ones: x, then y. Their coefficients'
+// prior is N(0, kTagBorderPriorPx^2) each (type B: a tag's border one cell wide, blurred by the camera, is placed
+// within about a pixel); the photos determine them far more tightly wherever there are tags.
+inline constexpr long kTagBorderX = 4 * kPixelLockingTerms;
+inline constexpr long kTagBorderColumns = 2;
+inline constexpr double kTagBorderPriorPx = 1.0;
 // Residuals (one Vector2d per observation) as one vector, interleaved x, y.
 Eigen::VectorXd Stacked(const std::vector<Eigen::Vector2d>& residual);
 PixelLockingSignature FitPixelLocking(const Setup& setup, const Linearization& lin,

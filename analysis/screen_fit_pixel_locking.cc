@@ -7,6 +7,11 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <map>
+#include <string>
+#include <utility>
+#include <array>
+#include <cstdio>
 #include <vector>
 
 #include "analysis/screen_fit.h"
@@ -21,25 +26,82 @@ Eigen::VectorXd Stacked(const std::vector<Eigen::Vector2d>& residual) {
   return r;
 }
 
-// The pixel-locking signature's shapes at the active observations (2n x 4 kPixelLockingTerms, rows interleaved x,
-// y): columns PixelLockingColumn(c, t) and the next hold sin and cos of 2 pi x the phase of coordinate c in period
-// kPixelLockingPeriods[t] on that coordinate's rows, zero elsewhere. The phase is that of the fit's prediction
-// (detected - residual), not of the detection: the detection's own noise e moves its phase by 2 pi e / T, and the
-// shapes then correlate with the residual (-e) whatever the detector does (a regression on them found 0.29 +- 0.04
-// px in pure 0.1 px noise on a 9 x 9 patch; ScreenFitTest.RelativeCurvatureSigmaLimitDropsTheRadiusNumber).
+namespace {
+
+// The tag corners among the active observations: per tag (photo, tag id) the positions in lin.obs of its corners,
+// only tags whose four corners were all fitted ("t<id>.<k>", pattern.h: the corners of a tag36h11 tag's black
+// border); none when fewer than kMinBorderTags such tags.
+constexpr int kMinBorderTags = 4;
+std::vector<std::array<int, 4>> CompleteTags(const Setup& setup, const Linearization& lin) {
+  std::map<std::pair<int, int>, std::array<int, 4>> tags;
+  for (size_t i = 0; i < lin.obs.size(); ++i) {
+    const Obs& o = setup.obs[lin.obs[i]];
+    const std::string& id = setup.feature_ids[static_cast<size_t>(o.feature)];
+    int tag = -1, corner = -1;
+    char end = 0;
+    if (id.size() < 4 || id[0] != 't' || std::sscanf(id.c_str() + 1, "%d.%d%c", &tag, &corner, &end) != 2 ||
+        corner < 0 || corner > 3) {
+      continue;
+    }
+    auto [it, added] = tags.try_emplace({o.photo, tag}, std::array<int, 4>{-1, -1, -1, -1});
+    it->second[static_cast<size_t>(corner)] = static_cast<int>(i);
+  }
+  std::vector<std::array<int, 4>> complete;
+  for (const auto& [key, corners] : tags) {
+    if (std::all_of(corners.begin(), corners.end(), [](int c) { return c >= 0; })) complete.push_back(corners);
+  }
+  if (complete.size() < static_cast<size_t>(kMinBorderTags)) complete.clear();
+  return complete;
+}
+
+}  // namespace
+
+// The signature's shapes at the active observations (2n x columns, rows interleaved x, y).
+// Pixel-locking (the first 4 kPixelLockingTerms columns): columns PixelLockingColumn(c, t) and the next hold sin and
+// cos of 2 pi x the phase of coordinate c in period kPixelLockingPeriods[t] on that coordinate's rows, zero
+// elsewhere. The phase is that of the fit's prediction (detected - residual), not of the detection: the detection's
+// own noise e moves its phase by 2 pi e / T, and the shapes then correlate with the residual (-e) whatever the
+// detector does (a regression on them found 0.29 +- 0.04 px in pure 0.1 px noise on a 9 x 9 patch;
+// ScreenFitTest.RelativeCurvatureSigmaLimitDropsTheRadiusNumber).
+// The tag border shift (kTagBorderColumns more, where kMinBorderTags tags or more have all four corners): a
+// detector that places a tag's black border's edges a distance d outward of where they are (blur, the sensor's
+// tone, the border one cell wide) moves each corner by d along both edges' outward normals, sqrt(2) d along the
+// tag's diagonal for a square; column kTagBorderX holds sqrt(2) u_x on the x rows of tag corners and kTagBorderX + 1
+// sqrt(2) u_y on their y rows, u the unit vector from the tag's centre (its four predictions' mean) to the
+// corner's prediction: the coefficients are the border shifts in x and y, px, positive outward, common to every
+// tag and photo. The pose cannot take it up (a tag's centre does not move), but with the tags' size changing across
+// the photo it reads as curvature: 0.57 px inward per coordinate on 16 x 4 tags from 3 m at half resolution (the
+// synthetic camera's realistic chain) moved the radius by -8.3 mm, 1.1 of its sigma (2026-12-07).
 Eigen::MatrixXd PixelLockingShapes(const Setup& setup, const Linearization& lin, const Eigen::VectorXd& residual) {
   constexpr double kTwoPi = 6.283185307179586;
   const int n = static_cast<int>(lin.obs.size());
-  Eigen::MatrixXd shapes = Eigen::MatrixXd::Zero(2 * n, 4 * kPixelLockingTerms);
-  for (int i = 0; i < n; ++i) {
+  const std::vector<std::array<int, 4>> tags = CompleteTags(setup, lin);
+  const long columns = 4 * kPixelLockingTerms + (tags.empty() ? 0 : kTagBorderColumns);
+  Eigen::MatrixXd shapes = Eigen::MatrixXd::Zero(2 * n, columns);
+  const auto predicted = [&](int i) {
     Eigen::Vector2d q = setup.obs[lin.obs[static_cast<size_t>(i)]].detected;
     if (residual.size() == 2 * n && residual.segment<2>(2 * i).allFinite()) q -= residual.segment<2>(2 * i);
+    return q;
+  };
+  for (int i = 0; i < n; ++i) {
+    const Eigen::Vector2d q = predicted(i);
     for (int c = 0; c < 2; ++c) {
       for (int t = 0; t < kPixelLockingTerms; ++t) {
         const double u = q[c] / kPixelLockingPeriods[static_cast<size_t>(t)], phase = kTwoPi * (u - std::floor(u));
         shapes(2 * i + c, PixelLockingColumn(c, t)) = std::sin(phase);
         shapes(2 * i + c, PixelLockingColumn(c, t) + 1) = std::cos(phase);
       }
+    }
+  }
+  for (const std::array<int, 4>& tag : tags) {
+    Eigen::Vector2d centre = Eigen::Vector2d::Zero();
+    for (const int i : tag) centre += predicted(i) / 4;
+    for (const int i : tag) {
+      const Eigen::Vector2d d = predicted(i) - centre;
+      if (!(d.norm() > 0)) continue;
+      const Eigen::Vector2d u = std::sqrt(2.0) * d / d.norm();
+      shapes(2 * i, kTagBorderX) = u.x();
+      shapes(2 * i + 1, kTagBorderX + 1) = u.y();
     }
   }
   return shapes;
@@ -54,7 +116,8 @@ PixelLockingSignature FitPixelLocking(const Setup& setup, const Linearization& l
     throw Error("pixel-locking estimate", "residuals and linearization differ in number", "");
   }
   s.observations = n;
-  s.dof = 2 * n - parameters - 4 * kPixelLockingTerms;
+  const long columns = PixelLockingShapes(setup, lin, Eigen::VectorXd()).cols();
+  s.dof = 2 * n - parameters - static_cast<int>(columns);
   const Eigen::VectorXd r = Stacked(residual_px);
   if (s.dof < 2 || !r.allFinite()) return s;
   // The coefficients' prior N(0, sigma_b^2 I) (FitOptions::pixel_locking_prior_px, type B): the posterior mean and
@@ -92,8 +155,10 @@ PixelLockingSignature FitPixelLocking(const Setup& setup, const Linearization& l
     const Eigen::MatrixXd normal = projected.transpose() * projected;
     const long m = normal.rows();
     if (!bounded && !(normal.diagonal().minCoeff() > 1e-9 * n)) return s;
-    const double lambda = bounded ? s2 / (prior * prior) : 0.0;
-    ldlt.compute(normal + lambda * Eigen::MatrixXd::Identity(m, m));
+    // The tag border shift's coefficients have their own, wider prior (kTagBorderPriorPx).
+    Eigen::VectorXd lambda = Eigen::VectorXd::Constant(m, bounded ? s2 / (prior * prior) : 0.0);
+    if (bounded && m > kTagBorderX) lambda.tail(m - kTagBorderX).setConstant(s2 / (kTagBorderPriorPx * kTagBorderPriorPx));
+    ldlt.compute(normal + Eigen::MatrixXd(lambda.asDiagonal()));
     // Without the prior, two shapes nearly collinear after the refit would pass the diagonal test and give a huge
     // C and a meaningless correction.
     if (ldlt.info() != Eigen::Success || !(ldlt.rcond() > 1e-10)) return s;
@@ -131,6 +196,11 @@ ResidualPixelLocking PixelLockingAmplitudes(const PixelLockingSignature& s) {
       const double rms_sigma = std::sqrt(0.5 * cc.trace());
       out.sigma_px(c, t) = a > 3 * rms_sigma ? std::sqrt((ab / a).dot(cc * (ab / a))) : rms_sigma;
     }
+  }
+  if (s.coefficients.size() > kTagBorderX + 1) {
+    out.tag_border_shift_px = s.coefficients.segment<2>(kTagBorderX);
+    out.tag_border_shift_sigma_px = s.covariance.diagonal().segment<2>(kTagBorderX).cwiseSqrt();
+    out.tag_border_corners = static_cast<int>((s.shapes.col(kTagBorderX).array() != 0).count());
   }
   return out;
 }

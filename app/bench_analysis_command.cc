@@ -6,6 +6,7 @@
 #include <filesystem>
 #include <iostream>
 #include <memory>
+#include <tuple>
 
 #include "app/bench_command.h"
 #include "app/cli.h"
@@ -17,6 +18,7 @@
 #include "experiments/bench_validity.h"
 #include "experiments/bench_verdict.h"
 #include "experiments/scene_lookup.h"
+#include "render/scene_args.h"
 
 namespace curvecheck::app {
 namespace {
@@ -146,6 +148,7 @@ struct BenchValidityArgs {
   experiments::BenchValidityOptions options;
   std::string realism = "off,on";
   std::string shard = "1/1";
+  std::string tags = "16x4";
   std::string output = "bench-validity";
 };
 
@@ -214,6 +217,10 @@ void AddBenchValidity(CLI::App& bench, std::function<int()>& run) {
                 "without sensor noise, its detections' errors against the truth taken from the trial's detections, "
                 "the fit repeated; validity_trials.csv sys_shift_mm beside the budget's row 2 parts "
                 "(smooth_share_mm, locking_share_mm). A second photo and two more fits per trial");
+  cmd->add_option("--pattern", o.pattern,
+                  "The pattern shown: checkerboard (32x9 squares) or apriltag (a grid of tag36h11 tags, --tags)")
+      ->capture_default_str();
+  cmd->add_option("--tags", a->tags, "With --pattern apriltag: tags across x down (default 16x4)");
   cmd->add_flag("--keep-results", o.keep_results,
                 "Keep every trial's result.json in OUT/results (every candidate's fit, budget and model choice)");
   cmd->add_option("--shard", a->shard, "Run only shard i of n (trials k with k mod n = i - 1)")->capture_default_str();
@@ -243,6 +250,7 @@ void AddBenchValidity(CLI::App& bench, std::function<int()>& run) {
     run = [a] {
       a->options.realism = SplitList(a->realism);
       a->options.shard = experiments::ParseShard(a->shard);
+      std::tie(a->options.tag_cols, a->options.tag_rows) = ParseCount2(a->tags, "--tags");
       a->options.command_line = CommandLine();
       a->options.Check();
       std::vector<std::filesystem::path> inputs;

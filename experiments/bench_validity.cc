@@ -1046,6 +1046,11 @@ void BenchValidityOptions::Check() const {
     throw Error("--pixel-locking-prior", fmt::format("{:g} px is negative", pixel_locking_prior_px),
                 "give e.g. 0.1 (the analysis's default) or 0 (no prior)");
   }
+  if (ParsePatternKind(pattern, "--pattern") == PatternKind::kBoth) {
+    throw Error("--pattern", "'both' is not a pattern of this bench", "give checkerboard or apriltag");
+  }
+  CheckCount(tag_cols, 1, 64, "--tags");
+  CheckCount(tag_rows, 1, 64, "--tags");
   shard.Check();
 }
 
@@ -1061,8 +1066,11 @@ bool RunBenchValidity(const BenchValidityOptions& o, const fs::path& out, std::o
     throw Error("--scene", fmt::format("'{}' has a flat monitor", o.scene),
                 "bench validity measures the radius: give the scene of a curved monitor");
   }
+  b.spec.kind = ParsePatternKind(o.pattern, "--pattern");
   b.spec.cols = o.cols;
   b.spec.rows = o.rows;
+  b.spec.tag_cols = o.tag_cols;
+  b.spec.tag_rows = o.tag_rows;
   b.scratch = out / fmt::format(".validity-scratch-{}", o.shard.index);
   fs::create_directories(b.scratch);
   if (o.keep_results) {
@@ -1085,7 +1093,7 @@ bool RunBenchValidity(const BenchValidityOptions& o, const fs::path& out, std::o
   const std::string head = fmt::format(
       "{}\n{}\nbench validity: scene {} ({}, nominal R {:.0f} mm), camera {} {}x{} scaled by {}; distances "
       "{} mm; "
-      "yaws {} deg around the screen centre; realism {}; true radius x {}; {}x{} board, exact rendering for "
+      "yaws {} deg around the screen centre; realism {}; true radius x {}; {}, exact rendering for "
       "the "
       "camera's position; camera jitter {:g} mm and {:g} deg per axis (1 sigma); true pixel pitch the "
       "datasheet's x (1 + d), d uniform in +-{:g}%; the default analysis (the chosen model's numbers) with "
@@ -1094,7 +1102,9 @@ bool RunBenchValidity(const BenchValidityOptions& o, const fs::path& out, std::o
       o.command_line, machine, o.scene, first.monitor.name, 1 / first.monitor.curvature_per_mm,
       first.camera.lensmodel, first.camera.width, first.camera.height, fmt::join(o.scales, ","),
       fmt::join(o.distances_mm, ","), fmt::join(o.yaws_deg, ","), levels, fmt::join(o.radius_factors, ","),
-      o.cols, o.rows, o.jitter_mm, o.jitter_deg, o.pitch_tolerance_percent, o.lens_misfit_stated, b.grid.Cells(), o.trials, total, o.shard.index,
+      b.spec.kind == PatternKind::kAprilTag ? fmt::format("{}x{} tag36h11 tags", o.tag_cols, o.tag_rows)
+                                            : fmt::format("{}x{} board", o.cols, o.rows),
+      o.jitter_mm, o.jitter_deg, o.pitch_tolerance_percent, o.lens_misfit_stated, b.grid.Cells(), o.trials, total, o.shard.index,
       o.shard.count, mine.size(), o.seed);
   log << head << std::flush;
 
@@ -1121,6 +1131,8 @@ bool RunBenchValidity(const BenchValidityOptions& o, const fs::path& out, std::o
   grid["pixel_locking_prior_px"] = o.pixel_locking_prior_px;
   grid["detector_effect"] = o.detector_effect;
   grid["board"] = {o.cols, o.rows};
+  grid["pattern"] = o.pattern;
+  grid["tags"] = {o.tag_cols, o.tag_rows};
   json overrides = json::object();
   for (const std::string& level : o.realism) overrides[level] = RealismOverrides(level);
   grid["realism_overrides"] = overrides;

@@ -79,6 +79,11 @@ struct BenchValidityOptions {
   // to see why a trial missed.
   bool keep_results = false;
   int cols = 32, rows = 9;        // checkerboard squares
+  // The pattern shown: "checkerboard" (cols x rows squares) or "apriltag" (tag_cols x tag_rows tag36h11 tags, the
+  // tags' size fitted to the screen): the detection-noise row counts a tag's four corners as independent though
+  // they share the tag's own error, which only a tag bench tests.
+  std::string pattern = "checkerboard";
+  int tag_cols = 16, tag_rows = 4;
   Shard shard;
   std::string command_line;  // provenance
 

@@ -203,8 +203,11 @@ nlohmann::json BudgetJson(const ModelFit& f, const std::string& first_photo) {
       {"pixel_locking_period2_amplitude_px", Vec(Eigen::Vector2d(b.pixel_locking.amplitude_px.col(1)))},
       {"pixel_locking_period2_sigma_px", Vec(Eigen::Vector2d(b.pixel_locking.sigma_px.col(1)))},
       {"pixel_locking_observations", b.pixel_locking.observations},
-      {"tag_border_shift_px", Vec(b.pixel_locking.tag_border_shift_px)},
-      {"tag_border_shift_sigma_px", Vec(b.pixel_locking.tag_border_shift_sigma_px)},
+      {"tag_border_shift_px", b.pixel_locking.tag_border_corners > 0 ? Vec(b.pixel_locking.tag_border_shift_px)
+                                                                       : nlohmann::json(nullptr)},
+      {"tag_border_shift_sigma_px", b.pixel_locking.tag_border_corners > 0
+                                        ? Vec(b.pixel_locking.tag_border_shift_sigma_px)
+                                        : nlohmann::json(nullptr)},
       {"tag_border_corners", b.pixel_locking.tag_border_corners},
       {"noise_without_signature_px", Num(b.pixel_locking.noise_px)},
       {"method", "per coordinate and period (1 px; 2 px, a colour filter array's) the bias a sin 2 pi phi + b cos "

@@ -248,6 +248,10 @@ AnalysisResult AnalyzeWith(const CameraModel& camera, const std::filesystem::pat
     }
     try {
       r.fit = FitScreen(r.monitor, r.camera, observations, fit_options);
+    } catch (const TooFewObservationsError& e) {
+      r.fit_failure = e.what();
+      r.fit_failure_kind = FitFailure::kTooFewFeatures;
+      for (PhotoAnalysis& p : r.photos) p.fit_index = -1;
     } catch (const Error& e) {
       r.fit_failure = e.what();
       const bool too_few = std::any_of(observations.begin(), observations.end(), [&](const PhotoObservations& o) {

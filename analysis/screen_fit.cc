@@ -565,6 +565,11 @@ ScreenFitResult FitScreen(const Monitor& nominal, const CameraModel& camera,
     }
     work.emplace_back().kind = kind;
   }
+  if (work.empty()) {
+    throw TooFewObservationsError("screen fit", fmt::format("no screen model could be fitted: {}",
+                                                            fmt::join(result.skipped, "; ")),
+                                  "photograph the pattern larger or from nearer (more features), or add photos");
+  }
   std::vector<double> time_ms(work.size(), 0.0);
   const auto robust = [&](size_t i, const State* from) {
     const Stopwatch watch;

@@ -22,6 +22,7 @@
 
 #include "analysis/screen_model.h"
 #include "core/camera_model.h"
+#include "core/error.h"
 #include "core/monitor.h"
 #include "core/pose.h"
 
@@ -520,8 +521,16 @@ struct ScreenFitResult {
   const ModelFit& Chosen() const { return candidates.at(static_cast<size_t>(chosen)); }
 };
 
+// Too few observations for any model of FitOptions::models (3 residuals per parameter): FitScreen's typed error, so
+// that the pipeline reports too few features rather than a solver failure.
+class TooFewObservationsError : public Error {
+ public:
+  using Error::Error;
+};
+
 // Fits every model of options.models to the photos and picks one (see FitOptions). Throws Error for invalid
-// input (no photos, mismatched sizes, too few features, non-finite numbers, an invalid camera or monitor).
+// input (no photos, mismatched sizes, too few features, non-finite numbers, an invalid camera or monitor), and
+// TooFewObservationsError when no model has 3 residuals per parameter.
 // A fit that does not converge or is ill-conditioned is a result (ModelFit.converged, ill_conditioned), not
 // an error.
 ScreenFitResult FitScreen(const Monitor& nominal, const CameraModel& camera,

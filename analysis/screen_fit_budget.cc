@@ -352,7 +352,8 @@ void Budget(const Setup& setup, ModelWork& w, int n_residuals, ModelFit* fit) {
     NeighbourScatter white;
     if (lin && !o.smooth_bias_px && o.smooth_bound_from_neighbours) {
       white = WhiteScatterPx(setup, *lin, w.signature.residual_without, noise_px, c_noise.dof,
-                             signature_columns);
+                             // the tags' border shift is the same along a triple of like corners
+                             std::min<int>(signature_columns, kTagBorderX));
     }
     bud.white_scatter_px = white.white_px;
     bud.white_scatter_u_difference_px2 = white.u_difference_px2;

@@ -69,15 +69,15 @@ struct Setup {
   // What depends only on the observations, computed on first use and shared by copies of the setup (same
   // observations): the lens-model-misfit row's feature spacing (screen_fit_misfit.cc FeatureSpacing: the median
   // distance to the nearest neighbour in the same photo, the unit of its candidate lengths), and the smooth bound's
-  // lattice triples (screen_fit_smooth_bound.cc WhiteScatterPx), one set per set of active observations (every candidate model
-  // usually fits the same ones).
+  // lattice triples (screen_fit_smooth_bound.cc WhiteScatterPx), one set per set of active observations (every
+  // candidate model usually fits the same ones).
   struct LatticeTriples {
     std::vector<size_t> obs;                      // Setup::obs indices the triples were found among
     std::vector<std::array<size_t, 3>> triples;   // Setup::obs indices j, i, k: the stencil 1, -2, 1
     double overlap = 0;                           // Q = sum over pairs of triples of (a_t . a_t')^2
   };
   struct Cache {
-    double spacing_px = 0;  // written before the candidates' budgets run in parallel, read there
+    double spacing_px = 0;  // written outside the parallel loops (MeasureMisfitCorrelation), read within them
     std::mutex mutex;       // guards `triples` (the candidates' budgets run in parallel)
     std::vector<std::shared_ptr<const LatticeTriples>> triples;
   };

@@ -157,7 +157,9 @@ PixelLockingSignature FitPixelLocking(const Setup& setup, const Linearization& l
     if (!bounded && !(normal.diagonal().minCoeff() > 1e-9 * n)) return s;
     // The tag border shift's coefficients have their own, wider prior (kTagBorderPriorPx).
     Eigen::VectorXd lambda = Eigen::VectorXd::Constant(m, bounded ? s2 / (prior * prior) : 0.0);
-    if (bounded && m > kTagBorderX) lambda.tail(m - kTagBorderX).setConstant(s2 / (kTagBorderPriorPx * kTagBorderPriorPx));
+    if (bounded && m > kTagBorderX) {
+      lambda.tail(m - kTagBorderX).setConstant(s2 / (kTagBorderPriorPx * kTagBorderPriorPx));
+    }
     ldlt.compute(normal + Eigen::MatrixXd(lambda.asDiagonal()));
     // Without the prior, two shapes nearly collinear after the refit would pass the diagonal test and give a huge
     // C and a meaningless correction.

@@ -106,6 +106,23 @@ TEST(ScreenFitTest, IdealCylinderChoosesCylinderAndRecoversTheRadius) {
 }
 
 
+// Too few features for any model (3 residuals per parameter: 8 features give 16, the flat model has 6 parameters)
+// is a typed error naming what was skipped, not an out-of-range access on no candidates (a webcam tag trial from
+// 2 m found 8 tag corners; 2026-12-07).
+TEST(ScreenFitTest, TooFewFeaturesForAnyModelIsATypedError) {
+  const SyntheticScene scene = LoadScene(Scene("default"));
+  std::mt19937_64 rng(11);
+  const auto photo = Observe(scene, DisplayGrid(scene.monitor, 4, 2), kNoisePx, rng, SceneSurface(scene));
+  ASSERT_EQ(photo.ids.size(), 8u);
+  try {
+    FitScreen(scene.monitor, scene.camera, {photo}, FitOptions{});
+    ADD_FAILURE() << "no error";
+  } catch (const TooFewObservationsError& e) {
+    EXPECT_NE(std::string(e.what()).find("cylinder not tried: 8 observations give 16 residuals"), std::string::npos)
+        << e.what();
+  }
+}
+
 TEST(ScreenFitTest, RadiusEightPercentOffIsRecovered) {
   const SyntheticScene scene = LoadScene(Scene("radius-8pct"));
   ASSERT_NEAR(1 / scene.truth.curvature_per_mm, 1080, 1e-9);

@@ -557,7 +557,8 @@ std::vector<std::string> CellColumns() {
   std::vector<std::string> c = {"cell",          "scale",          "distance_mm", "yaw_deg", "realism",
                                 "radius_factor", "true_radius_mm", "trials",      "ok",      "failures"};
   const auto stats = [&c](const std::string& p) {
-    for (const char* s : {"n", "bias_sigma", "bias_sigma_se", "net_bias_sigma", "net_bias_sigma_se", "scatter_ratio", "mean_error_mm", "sd_error_mm",
+    for (const char* s : {"n", "bias_sigma", "bias_sigma_se", "net_bias_sigma", "net_bias_sigma_se", "scatter_ratio",
+                          "mean_error_mm", "sd_error_mm",
                           "mean_sigma_mm", "cov68_k", "cov68", "cov68_lo", "cov68_hi", "cov95_k", "cov95",
                           "cov95_lo", "cov95_hi"}) {
       c.push_back(p + s);

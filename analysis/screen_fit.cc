@@ -7,6 +7,7 @@
 #include <Eigen/Dense>
 #include <Eigen/Geometry>
 #include <algorithm>
+#include <limits>
 #include <cmath>
 #include <set>
 #include <unordered_map>
@@ -549,6 +550,7 @@ ScreenFitResult FitScreen(const Monitor& nominal, const CameraModel& camera,
   ScreenFitResult result;
   std::vector<ModelWork> work;
   const std::vector<bool> all(setup.obs.size(), true);
+  int fewest = std::numeric_limits<int>::max();  // parameters of the simplest model asked for
   for (ScreenModelKind kind : kinds) {
     // A model needs at least 3 residuals per parameter (shape and poses) to be worth fitting and comparing.
     const int shape_parameters =
@@ -556,6 +558,7 @@ ScreenFitResult FitScreen(const Monitor& nominal, const CameraModel& camera,
         (kind == ScreenModelKind::kCylinderDeviation ? options.deviation_nu * options.deviation_nv - 5 : 0);
     const int parameters =
         shape_parameters + 6 * setup.photos + (options.fit_intrinsics ? static_cast<int>(camera.intrinsics.size()) : 0);
+    fewest = std::min(fewest, parameters);
     if (2 * static_cast<int>(setup.obs.size()) < 3 * parameters) {
       result.skipped.push_back(fmt::format(
           "{} not tried: {} observations give {} residuals, fewer than 3 per parameter ({} parameters); use a "
@@ -566,9 +569,12 @@ ScreenFitResult FitScreen(const Monitor& nominal, const CameraModel& camera,
     work.emplace_back().kind = kind;
   }
   if (work.empty()) {
-    throw TooFewObservationsError("screen fit", fmt::format("no screen model could be fitted: {}",
-                                                            fmt::join(result.skipped, "; ")),
-                                  "photograph the pattern larger or from nearer (more features), or add photos");
+    throw TooFewObservationsError(
+        "screen fit",
+        fmt::format("no screen model could be fitted: {} observations in {} photo(s) give {} residuals, and the "
+                    "simplest model asked for has {} parameters (at least 3 residuals per parameter: {} observations)",
+                    setup.obs.size(), setup.photos, 2 * setup.obs.size(), fewest, (3 * fewest + 1) / 2),
+        "photograph the pattern larger or from nearer (more features), or add photos");
   }
   std::vector<double> time_ms(work.size(), 0.0);
   const auto robust = [&](size_t i, const State* from) {

@@ -5,13 +5,13 @@
 // (screen_fit_misfit.cc) take the residuals without it.
 #include <Eigen/Dense>
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 #include <map>
 #include <string>
 #include <utility>
-#include <array>
-#include <cstdio>
 #include <vector>
 
 #include "analysis/screen_fit.h"

@@ -118,7 +118,11 @@ TEST(ScreenFitTest, TooFewFeaturesForAnyModelIsATypedError) {
     FitScreen(scene.monitor, scene.camera, {photo}, FitOptions{});
     ADD_FAILURE() << "no error";
   } catch (const TooFewObservationsError& e) {
-    EXPECT_NE(std::string(e.what()).find("cylinder not tried: 8 observations give 16 residuals"), std::string::npos)
+    // The flat model is the simplest: 6 pose parameters, 18 residuals, 9 observations.
+    EXPECT_NE(std::string(e.what()).find("8 observations in 1 photo(s) give 16 residuals, and the simplest model "
+                                         "asked for has 6 parameters (at least 3 residuals per parameter: 9 "
+                                         "observations)"),
+              std::string::npos)
         << e.what();
   }
 }

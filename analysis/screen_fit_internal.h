@@ -244,8 +244,14 @@ std::optional<Linearization> Linearize(const Setup& setup, const ModelWork& w, B
 Eigen::MatrixXd JTimes(const Linearization& lin, const Eigen::MatrixXd& y);   // j_obs y
 Eigen::MatrixXd JtTimes(const Linearization& lin, const Eigen::MatrixXd& x);  // j_obs^T x
 std::vector<Eigen::Vector2d> DetectedPoints(const Setup& setup, const Linearization& lin);
-// residual: the fit's (2n, interleaved x, y; detected - predicted), the phases taken at the prediction.
-Eigen::MatrixXd PixelLockingShapes(const Setup& setup, const Linearization& lin, const Eigen::VectorXd& residual);
+// The tags whose four corners were all fitted: per tag (photo, tag id) the positions in lin.obs of its corners 0-3
+// ("t<id>.<k>", pattern.h: the corners of a tag36h11 tag's black border); none when fewer than four such tags.
+using TagCorners = std::vector<std::array<int, 4>>;
+TagCorners CompleteTags(const Setup& setup, const Linearization& lin);
+// residual: the fit's (2n, interleaved x, y; detected - predicted), the phases taken at the prediction; tags:
+// CompleteTags (the border shift's columns when not empty).
+Eigen::MatrixXd PixelLockingShapes(const Setup& setup, const Linearization& lin, const Eigen::VectorXd& residual,
+                                   const TagCorners& tags);
 // The column of the sin shape of coordinate c in period kPixelLockingPeriods[t] (the cos shape is the next).
 inline long PixelLockingColumn(int c, int t) { return 2 * (kPixelLockingTerms * c + t); }
 // The tag border shift's columns (PixelLockingShapes), after the pixel-locking ones: x, then y. Their coefficients'
@@ -254,6 +260,10 @@ inline long PixelLockingColumn(int c, int t) { return 2 * (kPixelLockingTerms * 
 inline constexpr long kTagBorderX = 4 * kPixelLockingTerms;
 inline constexpr long kTagBorderColumns = 2;
 inline constexpr double kTagBorderPriorPx = 1.0;
+// The signature's columns: the pixel-locking ones, and the border shift's where there are tags.
+inline long SignatureColumns(const std::vector<std::array<int, 4>>& tags) {
+  return 4 * kPixelLockingTerms + (tags.empty() ? 0 : kTagBorderColumns);
+}
 // Residuals (one Vector2d per observation) as one vector, interleaved x, y.
 Eigen::VectorXd Stacked(const std::vector<Eigen::Vector2d>& residual);
 PixelLockingSignature FitPixelLocking(const Setup& setup, const Linearization& lin,

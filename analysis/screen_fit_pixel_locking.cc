@@ -27,12 +27,10 @@ Eigen::VectorXd Stacked(const std::vector<Eigen::Vector2d>& residual) {
 }
 
 namespace {
-
-// The tag corners among the active observations: per tag (photo, tag id) the positions in lin.obs of its corners,
-// only tags whose four corners were all fitted ("t<id>.<k>", pattern.h: the corners of a tag36h11 tag's black
-// border); none when fewer than kMinBorderTags such tags.
 constexpr int kMinBorderTags = 4;
-std::vector<std::array<int, 4>> CompleteTags(const Setup& setup, const Linearization& lin) {
+}  // namespace
+
+TagCorners CompleteTags(const Setup& setup, const Linearization& lin) {
   std::map<std::pair<int, int>, std::array<int, 4>> tags;
   for (size_t i = 0; i < lin.obs.size(); ++i) {
     const Obs& o = setup.obs[lin.obs[i]];
@@ -54,8 +52,6 @@ std::vector<std::array<int, 4>> CompleteTags(const Setup& setup, const Lineariza
   return complete;
 }
 
-}  // namespace
-
 // The signature's shapes at the active observations (2n x columns, rows interleaved x, y).
 // Pixel-locking (the first 4 kPixelLockingTerms columns): columns PixelLockingColumn(c, t) and the next hold sin and
 // cos of 2 pi x the phase of coordinate c in period kPixelLockingPeriods[t] on that coordinate's rows, zero
@@ -72,11 +68,11 @@ std::vector<std::array<int, 4>> CompleteTags(const Setup& setup, const Lineariza
 // tag and photo. The pose cannot take it up (a tag's centre does not move), but with the tags' size changing across
 // the photo it reads as curvature: 0.57 px inward per coordinate on 16 x 4 tags from 3 m at half resolution (the
 // synthetic camera's realistic chain) moved the radius by -8.3 mm, 1.1 of its sigma (2026-12-07).
-Eigen::MatrixXd PixelLockingShapes(const Setup& setup, const Linearization& lin, const Eigen::VectorXd& residual) {
+Eigen::MatrixXd PixelLockingShapes(const Setup& setup, const Linearization& lin, const Eigen::VectorXd& residual,
+                                   const TagCorners& tags) {
   constexpr double kTwoPi = 6.283185307179586;
   const int n = static_cast<int>(lin.obs.size());
-  const std::vector<std::array<int, 4>> tags = CompleteTags(setup, lin);
-  const long columns = 4 * kPixelLockingTerms + (tags.empty() ? 0 : kTagBorderColumns);
+  const long columns = SignatureColumns(tags);
   Eigen::MatrixXd shapes = Eigen::MatrixXd::Zero(2 * n, columns);
   const auto predicted = [&](int i) {
     Eigen::Vector2d q = setup.obs[lin.obs[static_cast<size_t>(i)]].detected;
@@ -116,8 +112,8 @@ PixelLockingSignature FitPixelLocking(const Setup& setup, const Linearization& l
     throw Error("pixel-locking estimate", "residuals and linearization differ in number", "");
   }
   s.observations = n;
-  const long columns = PixelLockingShapes(setup, lin, Eigen::VectorXd()).cols();
-  s.dof = 2 * n - parameters - static_cast<int>(columns);
+  const TagCorners tags = CompleteTags(setup, lin);  // found once: they do not depend on the residuals
+  s.dof = 2 * n - parameters - static_cast<int>(SignatureColumns(tags));
   const Eigen::VectorXd r = Stacked(residual_px);
   if (s.dof < 2 || !r.allFinite()) return s;
   // The coefficients' prior N(0, sigma_b^2 I) (FitOptions::pixel_locking_prior_px, type B): the posterior mean and
@@ -150,7 +146,7 @@ PixelLockingSignature FitPixelLocking(const Setup& setup, const Linearization& l
   constexpr double kShiftTolerancePx = 1e-4;
   Eigen::MatrixXd projected;
   for (int pass = 0; pass < kMaxPasses; ++pass) {
-    s.shapes = PixelLockingShapes(setup, lin, r + absorbed_shift);
+    s.shapes = PixelLockingShapes(setup, lin, r + absorbed_shift, tags);
     projected = s.shapes - JTimes(lin, lin.normal_pinv * JtTimes(lin, s.shapes));
     const Eigen::MatrixXd normal = projected.transpose() * projected;
     const long m = normal.rows();

@@ -14,10 +14,11 @@ add_library(curvecheck_analysis_fit STATIC
   ${CMAKE_CURRENT_SOURCE_DIR}/intrinsics_covariance.cc
   ${CMAKE_CURRENT_SOURCE_DIR}/screen_fit_pixel_locking.cc
   ${CMAKE_CURRENT_SOURCE_DIR}/screen_fit_smooth_bound.cc
+  ${CMAKE_CURRENT_SOURCE_DIR}/screen_fit_linearize.cc
 )
 # Batches of four (the two heaviest files, screen_fit_misfit.cc and screen_fit_budget.cc, fall in the second, the
-# small sidecar reader, the coverage factor, the misfit's field families, the pixel-locking signature and the
-# smooth bound in a third; one batch of eight saves more CPU but is one 90 s job at the end of a 2-core build).
+# small sidecar reader, the coverage factor, the misfit's field families, the pixel-locking signature in a third, the
+# smooth bound and the linearization in a fourth; one batch of eight saves more CPU but is one 90 s job at the end of a 2-core build).
 curvecheck_unity(curvecheck_analysis_fit 4)
 target_link_libraries(curvecheck_analysis_fit PUBLIC curvecheck_core Ceres::ceres PRIVATE opencv_core opencv_calib3d)
 target_link_libraries(curvecheck_analysis INTERFACE curvecheck_analysis_fit)

@@ -3,7 +3,8 @@
 // functions that the fit's files share. Not installed, not included outside analysis/screen_fit*.cc.
 //   screen_fit.cc          FitScreen: the candidates' robust and final fits, radius, adequacy, deviations, warnings
 //   screen_fit_problem.cc  the Ceres problem: cost functions, solve, residuals, initial poses, covariances
-//   screen_fit_budget.cc   the uncertainty budget: linearization and propagation of each source
+//   screen_fit_linearize.cc the final fit's linearization (the Jacobian, the normal matrix's pseudo-inverse, G)
+//   screen_fit_budget.cc   the uncertainty budget: the propagation of each source through the linearization
 //   screen_fit_misfit.cc   the lens-model-misfit row: the misfit field measured from the residuals' correlation
 //   screen_fit_select.cc   model selection: held-out error, the lens-field adjustment, the choice
 #pragma once
@@ -239,10 +240,11 @@ double MadSigma(const std::vector<Eigen::Vector2d>& r);
 PoseBlock InitialPose(const Setup& setup, int photo);
 void Covariances(const Setup& setup, ModelWork& w, ModelFit* fit);
 
-// screen_fit_budget.cc: the final fit's linearization and the uncertainty budget.
+// screen_fit_linearize.cc: the final fit's linearization.
 std::optional<Linearization> Linearize(const Setup& setup, const ModelWork& w, BuiltProblem& b, std::string* note);
 Eigen::MatrixXd JTimes(const Linearization& lin, const Eigen::MatrixXd& y);   // j_obs y
 Eigen::MatrixXd JtTimes(const Linearization& lin, const Eigen::MatrixXd& x);  // j_obs^T x
+// screen_fit_budget.cc: the uncertainty budget.
 std::vector<Eigen::Vector2d> DetectedPoints(const Setup& setup, const Linearization& lin);
 // The tags whose four corners were all fitted: per tag (photo, tag id) the positions in lin.obs of its corners 0-3
 // ("t<id>.<k>", pattern.h: the corners of a tag36h11 tag's black border); none when fewer than four such tags.

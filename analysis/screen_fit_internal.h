@@ -247,7 +247,9 @@ Eigen::MatrixXd JtTimes(const Linearization& lin, const Eigen::MatrixXd& x);  //
 // screen_fit_budget.cc: the uncertainty budget.
 std::vector<Eigen::Vector2d> DetectedPoints(const Setup& setup, const Linearization& lin);
 // The tags whose four corners were all fitted: per tag (photo, tag id) the positions in lin.obs of its corners 0-3
-// ("t<id>.<k>", pattern.h: the corners of a tag36h11 tag's black border); none when fewer than four such tags.
+// ("t<id>.<k>", pattern.h: the corners of a tag36h11 tag's black border); none when fewer than kMinBorderTags such
+// tags (the border shift's two columns are then not fitted).
+inline constexpr int kMinBorderTags = 4;
 using TagCorners = std::vector<std::array<int, 4>>;
 TagCorners CompleteTags(const Setup& setup, const Linearization& lin);
 // residual: the fit's (2n, interleaved x, y; detected - predicted), the phases taken at the prediction; tags:
@@ -263,7 +265,7 @@ inline constexpr long kTagBorderX = 4 * kPixelLockingTerms;
 inline constexpr long kTagBorderColumns = 2;
 inline constexpr double kTagBorderPriorPx = 1.0;
 // The signature's columns: the pixel-locking ones, and the border shift's where there are tags.
-inline long SignatureColumns(const std::vector<std::array<int, 4>>& tags) {
+inline long SignatureColumns(const TagCorners& tags) {
   return 4 * kPixelLockingTerms + (tags.empty() ? 0 : kTagBorderColumns);
 }
 // Residuals (one Vector2d per observation) as one vector, interleaved x, y.

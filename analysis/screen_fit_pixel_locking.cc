@@ -26,10 +26,6 @@ Eigen::VectorXd Stacked(const std::vector<Eigen::Vector2d>& residual) {
   return r;
 }
 
-namespace {
-constexpr int kMinBorderTags = 4;
-}  // namespace
-
 TagCorners CompleteTags(const Setup& setup, const Linearization& lin) {
   std::map<std::pair<int, int>, std::array<int, 4>> tags;
   for (size_t i = 0; i < lin.obs.size(); ++i) {

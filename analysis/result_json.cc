@@ -209,16 +209,25 @@ nlohmann::json BudgetJson(const ModelFit& f, const std::string& first_photo) {
                                         ? Vec(b.pixel_locking.tag_border_shift_sigma_px)
                                         : nlohmann::json(nullptr)},
       {"tag_border_corners", b.pixel_locking.tag_border_corners},
+      {"polarity_px", b.pixel_locking.polarity_corners > 0 ? Vec(b.pixel_locking.polarity_px) : nlohmann::json(nullptr)},
+      {"polarity_sigma_px", b.pixel_locking.polarity_corners > 0 ? Vec(b.pixel_locking.polarity_sigma_px)
+                                                                 : nlohmann::json(nullptr)},
+      {"polarity_corners", b.pixel_locking.polarity_corners},
       {"noise_without_signature_px", Num(b.pixel_locking.noise_px)},
       {"method", "per coordinate and period (1 px; 2 px, a colour filter array's) the bias a sin 2 pi phi + b cos "
-                 "2 pi phi, phi the phase of the fit's prediction in the period; the eight coefficients fitted to the "
+                 "2 pi phi, phi the phase of the fit's prediction in the period; the coefficients fitted to the "
                  "fit's residuals (detected - predicted) on the shapes' refit projections (I - J (J^T J)^+ J^T) sin, "
                  "cos, so that the part the fit absorbed counts; amplitude = sqrt(a^2 + b^2). The curvature (so the "
                  "radius) and the camera positions are corrected for the fitted signature by -G S b (the linearized "
                  "fit with the coefficients as nuisance parameters); the correction's uncertainty is in this row. "
                  "With tags, two more coefficients in the same fit and correction: the shift of the tags' black "
                  "border edges in x and y (px, outward), each corner moved by sqrt(2) times it along its tag's "
-                 "diagonal (tag_border_shift_px)"},
+                 "diagonal (tag_border_shift_px). Also in the same fit, prior and correction: per coordinate the 2 px "
+                 "period's cross terms (sin, cos of the other coordinate's phase and the four products of the two "
+                 "phases' sin and cos: the error as a function of the position in a colour filter array's 2 x 2 "
+                 "cell), and on a checkerboard the corner's polarity p = +-1 (the parity of its row + column: the two "
+                 "mirror-image saddles alternate) times 1 and the two phases' sin and cos (polarity_px: the "
+                 "coefficients of p alone, the polarity's error at the cell's mean)"},
       {"correction",
        {{"curvature_per_mm", b.pixel_locking_correction_curvature_per_mm},
         {"radius_mm", Num(f.radius_mm ? *f.radius_mm - 1 / (f.curvature_per_mm -

@@ -185,8 +185,8 @@ struct FitOptions {
   // detections with independent noise only, where a small patch cannot tell the signature from the curvature and
   // the row would (rightly) widen the interval on its own.
   bool measure_pixel_locking = true;
-  // The pixel-locking signature's prior: each of its eight coefficients N(0, pixel_locking_prior_px^2) before the
-  // photos (type B; 0 = none, the regression alone). It bounds the coefficients the photos cannot determine
+  // The pixel-locking signature's prior: each of its coefficients (but the tag border's) N(0,
+  // pixel_locking_prior_px^2) before the photos (type B; 0 = none, the regression alone). It bounds the coefficients the photos cannot determine
   // (a shape whose refit projection is nearly nothing: the fit absorbs it) instead of fitting them to the noise, and
   // is negligible where they are determined. 0.1 px: a coefficient of 0.1 px is an amplitude of 0.14 px; the
   // well-determined amplitudes of the validity bench's synthetic detector reach 0.13 px at quarter resolution
@@ -287,7 +287,10 @@ struct BudgetComponent {
 // residuals on those projected shapes (screen_fit_internal.h FitPixelLocking): unbiased where the fit absorbs part
 // of the signature (a frontal view of a regular board, whose phases beat slowly across the image). The budget
 // corrects the curvature and the camera positions for the fitted signature (UncertaintyBudget::
-// pixel_locking_correction_*).
+// pixel_locking_correction_*). The same fit holds more of the detector's signature (screen_fit_internal.h
+// SignatureLayout): the 2 px period's cross-phase terms and, on a checkerboard, the corner's polarity; without them,
+// on a frontal board from 3 m at quarter resolution, the camera's lateral position was covered by 171 of 200 95%
+// intervals (docs/bench/validity_bench.txt, thirty-ninth section).
 inline constexpr int kPixelLockingTerms = 2;
 inline constexpr std::array<double, kPixelLockingTerms> kPixelLockingPeriods = {1.0, 2.0};  // px
 struct ResidualPixelLocking {
@@ -295,8 +298,8 @@ struct ResidualPixelLocking {
   Eigen::Matrix2d amplitude_px = Eigen::Matrix2d::Zero();
   Eigen::Matrix2d sigma_px = Eigen::Matrix2d::Zero();  // its standard uncertainty
   int observations = 0;
-  // The residuals' RMS per coordinate once the fitted signature is removed (over 2n - parameters - 8 [+ 2] degrees of
-  // freedom): the independent detection noise, which the detection-noise row propagates (the fit's noise_px holds
+  // The residuals' RMS per coordinate once the fitted signature is removed (over 2n - parameters - the signature's
+  // columns degrees of freedom: 20, + 2 with tags, + 10 on a checkerboard; screen_fit_internal.h SignatureLayout): the independent detection noise, which the detection-noise row propagates (the fit's noise_px holds
   // the signature's power too, which the correction removes). NaN: not measured.
   double noise_px = std::numeric_limits<double>::quiet_NaN();
   // Tags (screen_fit_internal.h PixelLockingShapes): the detector's shift of the tags' black border edges, x and y,
@@ -305,6 +308,13 @@ struct ResidualPixelLocking {
   Eigen::Vector2d tag_border_shift_px = Eigen::Vector2d::Constant(std::numeric_limits<double>::quiet_NaN());
   Eigen::Vector2d tag_border_shift_sigma_px = Eigen::Vector2d::Constant(std::numeric_limits<double>::quiet_NaN());
   int tag_border_corners = 0;
+  // Checkerboards (screen_fit_internal.h SignatureLayout): the part of the detector's error that changes sign with
+  // the corner's polarity (the two mirror-image saddles of a checkerboard alternate), x and y, px, at the mean over
+  // the colour filter array's 2 x 2 cell (its phase-dependent part is fitted too, not reported); its standard
+  // uncertainty; and the corners it was fitted on (0 and NaN: no checkerboard, or its layout unread).
+  Eigen::Vector2d polarity_px = Eigen::Vector2d::Constant(std::numeric_limits<double>::quiet_NaN());
+  Eigen::Vector2d polarity_sigma_px = Eigen::Vector2d::Constant(std::numeric_limits<double>::quiet_NaN());
+  int polarity_corners = 0;
 };
 
 struct UncertaintyBudget {

@@ -221,8 +221,7 @@ void Budget(const Setup& setup, ModelWork& w, int n_residuals, ModelFit* fit) {
     NeighbourScatter white;
     if (lin && !o.smooth_bias_px && o.smooth_bound_from_neighbours) {
       white = WhiteScatterPx(setup, *lin, w.signature.residual_without, noise_px, c_noise.dof,
-                             // the tags' border shift is the same along a triple of like corners
-                             std::min<int>(signature_columns, kTagBorderX));
+                             signature_out ? &w.signature : nullptr);
     }
     bud.white_scatter_px = white.white_px;
     bud.white_scatter_u_difference_px2 = white.u_difference_px2;
@@ -283,7 +282,7 @@ void Budget(const Setup& setup, ModelWork& w, int n_residuals, ModelFit* fit) {
             ? fmt::format(
                   "the pixel-locking signature, fitted and corrected for: amplitudes in period 1 px x {:.4f} +- "
                   "{:.4f}, y {:.4f} +- {:.4f} px; in period 2 px (a colour filter array's) x {:.4f} +- {:.4f}, y "
-                  "{:.4f} +- {:.4f} px{}; the correction moved the curvature by {:.3g} 1/mm and the first camera by "
+                  "{:.4f} +- {:.4f} px{}{}; the correction moved the curvature by {:.3g} 1/mm and the first camera by "
                   "({:.3f}, {:.3f}, {:.3f}) mm, and its uncertainty (G S) C (G S)^T (the coefficients' posterior "
                   "covariance C from the residuals over {} degrees of freedom and the prior N(0, ({} px)^2) per "
                   "coefficient, counted here with the row's infinite ones) is this row's second part",
@@ -296,6 +295,14 @@ void Budget(const Setup& setup, ModelWork& w, int n_residuals, ModelFit* fit) {
                                     pl.tag_border_shift_px.x(), pl.tag_border_shift_sigma_px.x(),
                                     pl.tag_border_shift_px.y(), pl.tag_border_shift_sigma_px.y(),
                                     pl.tag_border_corners, kTagBorderPriorPx),
+                  fmt::format("; the 2 x 2 cell's cross-phase terms (12 coefficients){}",
+                              pl.polarity_corners == 0
+                                  ? std::string()
+                                  : fmt::format("; and the checkerboard corners' polarity, x {:.4f} +- {:.4f}, y "
+                                                "{:.4f} +- {:.4f} px at the cell's mean, on {} corners (10 "
+                                                "coefficients)",
+                                                pl.polarity_px.x(), pl.polarity_sigma_px.x(), pl.polarity_px.y(),
+                                                pl.polarity_sigma_px.y(), pl.polarity_corners)),
                   bud.pixel_locking_correction_curvature_per_mm, bud.pixel_locking_correction_position_mm.x(),
                   bud.pixel_locking_correction_position_mm.y(), bud.pixel_locking_correction_position_mm.z(),
                   w.signature.dof, o.pixel_locking_prior_px)
@@ -312,11 +319,14 @@ void Budget(const Setup& setup, ModelWork& w, int n_residuals, ModelFit* fit) {
         "to every photo: Legendre fields of total degree <= {} with independent N(0,1) coefficients per "
         "coordinate, each scaled to RMS b ({} seeded draws); its standard uncertainty is the RMS effect. "
         "Pixel-locking is a bias a sin 2 pi phi + b cos 2 pi phi per coordinate, phi the phase of the fit's "
-        "prediction in periods of 1 px and 2 px (a colour filter array's demosaicing repeats every 2 px); its eight "
-        "coefficients fitted on the shapes' refit projections with the prior N(0, sigma_b^2) each (a coefficient "
-        "the photos cannot determine stays within the prior), the curvature and the camera positions corrected by "
-        "-G S b (the linearized fit with the coefficients as nuisance parameters: Frisch-Waugh-Lovell); higher "
-        "harmonics and other periods are not modelled",
+        "prediction in periods of 1 px and 2 px (a colour filter array's demosaicing repeats every 2 px); with it, "
+        "per coordinate, the 2 px period's cross terms (the other coordinate's phase and the products of the two: "
+        "the error as a function of the position in the array's 2 x 2 cell, to first order in each phase) and, on "
+        "a checkerboard, the corner's polarity (its saddle's orientation, alternating along rows and columns) times "
+        "1 and the two phases' sin and cos; every coefficient fitted on the shapes' refit projections with the "
+        "prior N(0, sigma_b^2) (a coefficient the photos cannot determine stays within the prior), the curvature "
+        "and the camera positions corrected by -G S b (the linearized fit with the coefficients as nuisance "
+        "parameters: Frisch-Waugh-Lovell); higher harmonics and other periods are not modelled",
         o.systematic_field_degree, o.systematic_field_draws);
     bud.components.push_back(c);
     QuantityVariance v(setup.photos);

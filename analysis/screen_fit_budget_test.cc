@@ -376,8 +376,11 @@ TEST(UncertaintyBudgetTest, SmoothBiasBoundsWhatNeighboursShare) {
   const double s = f.budget.pixel_locking.noise_px;
   EXPECT_NEAR(f.budget.white_scatter_px, 0.03, 0.004);
   ASSERT_GT(s, 0.036);  // what the fit left of the field shows in the residuals
-  EXPECT_GT(f.budget.systematic_bound_px, 0.95 * std::sqrt(s * s - 0.03 * 0.03))
-      << s << " " << f.budget.white_scatter_px << " " << f.budget.systematic_bound_px;
+  // b^2 at least the field's share of s^2 less twice the standard uncertainty of s^2 - w^2 (w's own scatter: 0.0327
+  // px here with 30 signature columns removed, 9% over the white 0.03).
+  const double b = f.budget.systematic_bound_px;
+  EXPECT_GT(b * b, s * s - 0.03 * 0.03 - 2 * f.budget.white_scatter_u_difference_px2)
+      << s << " " << f.budget.white_scatter_px << " " << b << " " << f.budget.white_scatter_u_difference_px2;
   // Switched off, b is the scatter (no random part measured).
   FitOptions off = o;
   off.smooth_bound_from_neighbours = false;
@@ -675,7 +678,10 @@ TEST(UncertaintyBudgetTest, PixelLockingCorrectionHoldsOnACorrectedBoard) {
                 << kSeeds << " in the 95% interval, mean u(R) " << u << " mm; largest fitted amplitude " << amplitude
                 << " px\n";
       if (prior > 0) {
-        EXPECT_GT(std::sqrt(uncorrected2), 3 * u) << spacing << ": the signature must matter for the test to fail";
+        // At 14.02 px the cross-phase terms (screen_fit_internal.h SignatureLayout) are nearly undetermined too and
+        // hold about their prior: u(R) 8.1 mm, against 3.2 mm at 14.25 px (2026-12-07).
+        EXPECT_GT(std::sqrt(uncorrected2), (spacing < 14.1 ? 2 : 3) * u)
+            << spacing << ": the signature must matter for the test to fail";
         EXPECT_GT(std::sqrt(z2), 0.6) << spacing;
         EXPECT_LT(std::sqrt(z2), 1.4) << spacing;
         EXPECT_GE(in95, 13) << spacing;
@@ -684,6 +690,89 @@ TEST(UncertaintyBudgetTest, PixelLockingCorrectionHoldsOnACorrectedBoard) {
         EXPECT_GT(amplitude, 1.0) << "without the prior the nearly undetermined coefficients run off";
       }
     }
+  }
+}
+
+// The colour filter array's 2 x 2 cell and the checkerboard corner's polarity (screen_fit_internal.h
+// SignatureLayout), on the corrected board from 3 m at quarter resolution: a detector error of the polarity p (+-1 by
+// row + column) times 0.05 px in x and -0.04 px in y, p sin(phase x) 0.03 px in x, and the cross terms 0.04
+// cos(phase x) sin(phase y) px in x and 0.03 sin(phase x) px in y (the phases in 2 px), with 0.03 px noise, 16
+// seeds. The fit finds p's coefficients (each within 4 of its sigma; over the seeds the mean within 4 standard
+// errors, the scatter below 1.5 sigma, sigma below the effect) and the corrected radius's error has an RMS of
+// 0.6-1.4 of its combined standard uncertainty, at least 13 of 16 intervals holding the truth, at two spacings:
+// 14.25 px, where the phases spread over the period, and 13.95 px, nearly seven periods of 2 px (the validity
+// bench's frontal geometry, there with the lens's distortion and the camera's jitter). This board is exactly regular
+// in the photo, its phases drift linearly, and at 13.95 px the cross terms are smooth fields the curvature takes
+// up: they stay within their prior and u(R) is some 22 mm (2026-12-07), the price of not knowing them. Under ids
+// that are not a checkerboard's no polarity is fitted.
+TEST(UncertaintyBudgetTest, CellAndPolarityTermsAreFittedAndCorrectedFor) {
+  SyntheticScene scene = DefaultScene();
+  scene.camera = ScaledCamera(scene.camera, 0.25);
+  scene.screen_from_cam.translation *= 2;  // 1.5 m -> 3 m
+  constexpr int kSeeds = 16;
+  constexpr double kTwoPi = 6.283185307179586;
+  for (const double spacing : {14.25, 13.95}) {
+  const std::vector<Eigen::Vector2d> board = CorrectedBoard(scene, spacing);
+  std::mt19937_64 unused(1);
+  const PhotoObservations exact = Observe(scene, board, 0, unused, SceneSurface(scene));
+  ASSERT_EQ(exact.ids.size(), board.size());
+  const double r0 = *FitScreen(scene.monitor, scene.camera, {exact}, CylinderOnly()).Chosen().radius_mm;
+  FitOptions o = CylinderOnly();
+  o.smooth_bias_px = 0;  // the rows tested: noise and the signature's correction
+  const Eigen::Vector2d polarity(0.05, -0.04);
+  double z2 = 0, uncorrected2 = 0, u = 0;
+  int in95 = 0;
+  std::array<std::vector<double>, 2> estimate;
+  Eigen::Vector2d sigma = Eigen::Vector2d::Zero();
+  for (int seed = 1; seed <= kSeeds; ++seed) {
+    std::mt19937_64 noise(static_cast<uint64_t>(seed));
+    PhotoObservations photo = Observe(scene, board, 0.03, noise, SceneSurface(scene));
+    for (size_t k = 0; k < photo.ids.size(); ++k) {
+      const int index = std::stoi(photo.ids[k].substr(1)), row = index / kNx, col = index % kNx;
+      const double p = (row + col) % 2 == 0 ? 1 : -1;
+      const Eigen::Vector2d q = exact.detected_px[k];
+      const double fx = kTwoPi * (q.x() / 2 - std::floor(q.x() / 2)), fy = kTwoPi * (q.y() / 2 - std::floor(q.y() / 2));
+      photo.detected_px[k] += Eigen::Vector2d(polarity.x() * p + 0.03 * p * std::sin(fx) +
+                                                  0.04 * std::cos(fx) * std::sin(fy),
+                                              polarity.y() * p + 0.03 * std::sin(fx));
+    }
+    const ModelFit f = FitScreen(scene.monitor, scene.camera, {photo}, o).Chosen();
+    const ResidualPixelLocking& pl = f.budget.pixel_locking;
+    ASSERT_EQ(pl.polarity_corners, static_cast<int>(board.size())) << seed;
+    for (int c = 0; c < 2; ++c) {
+      EXPECT_NEAR(pl.polarity_px[c], polarity[c], 4 * pl.polarity_sigma_px[c]) << seed << " " << c;
+      estimate[c].push_back(pl.polarity_px[c]);
+      sigma[c] += pl.polarity_sigma_px[c] / kSeeds;
+    }
+    const double uc = f.budget.combined.radius_mm, z = (*f.radius_mm - r0) / uc;
+    z2 += z * z / kSeeds;
+    in95 += std::abs(z) < f.budget.coverage_factor;
+    uncorrected2 += std::pow(UncorrectedRadiusMm(f) - r0, 2) / kSeeds;
+    u += uc / kSeeds;
+    if (seed == 1) {
+      PhotoObservations renamed = photo;
+      for (std::string& id : renamed.ids) id = "f" + id.substr(1);
+      EXPECT_EQ(FitScreen(scene.monitor, scene.camera, {renamed}, o).Chosen().budget.pixel_locking.polarity_corners, 0);
+    }
+  }
+  std::cout << "cell and polarity terms, spacing " << spacing << " px: uncorrected R off by " << std::sqrt(uncorrected2)
+            << " mm RMS; corrected: RMS z " << std::sqrt(z2) << ", " << in95 << "/" << kSeeds
+            << " in the 95% interval, mean u(R) " << u << " mm\n";
+  EXPECT_GT(std::sqrt(z2), 0.6) << spacing;
+  EXPECT_LT(std::sqrt(z2), 1.4) << spacing;
+  EXPECT_GE(in95, 13) << spacing;
+  // p's coefficient over the seeds: its mean within 4 standard errors of the truth, its scatter below 1.5 times the
+  // stated sigma and the sigma below the effect (the polarity is seen).
+  for (int c = 0; c < 2; ++c) {
+    double mean = 0, var = 0;
+    for (const double e : estimate[c]) mean += e / kSeeds;
+    for (const double e : estimate[c]) var += (e - mean) * (e - mean) / (kSeeds - 1);
+    std::cout << "  polarity " << c << ": mean " << mean << " px (truth " << polarity[c] << "), sd " << std::sqrt(var)
+              << ", mean sigma " << sigma[c] << "\n";
+    EXPECT_NEAR(mean, polarity[c], 4 * sigma[c] / std::sqrt(double{kSeeds})) << spacing << " " << c;
+    EXPECT_LT(std::sqrt(var), 1.5 * sigma[c]) << spacing << " " << c;
+    EXPECT_LT(sigma[c], std::abs(polarity[c])) << spacing << " " << c;
+  }
   }
 }
 

@@ -162,6 +162,46 @@ struct Linearization {
   int dropped_directions = 0;  // directions of the equilibrated J^T J cut from the pseudo-inverse (rank deficiency)
 };
 
+// The tags whose four corners were all fitted: per tag (photo, tag id) the positions in lin.obs of its corners 0-3
+// ("t<id>.<k>", pattern.h: the corners of a tag36h11 tag's black border); none when fewer than kMinBorderTags such
+// tags (the border shift's two columns are then not fitted).
+inline constexpr int kMinBorderTags = 4;
+using TagCorners = std::vector<std::array<int, 4>>;
+// The checkerboard corners' polarity, per position in lin.obs: +1 or -1 by the parity of the corner's row + column
+// on the board, 0 for features that are not checkerboard corners; empty when the board's layout could not be read
+// (fewer than kMinPolarityCorners checkerboard corners, or no consistent row stride). A checkerboard's inner corners
+// alternate between two mirror-image saddles (the dark squares top-left and bottom-right, or top-right and
+// bottom-left), and a detector's error on a corner that is not symmetric under that mirror (a demosaicing's
+// response to the colour filter array, a sensor's tone curve) changes sign with the polarity. The ids ("c<k>", k =
+// row x stride + column, pattern.h) do not carry the stride (the board's columns - 1): it is the Delta k to each
+// corner's nearest neighbour on the screen other than its row neighbours (|Delta k| = 1), the most common such value
+// over the corners of every photo, kept when it is at least half of them.
+inline constexpr int kMinPolarityCorners = 16;
+// The signature's columns (PixelLockingShapes, S, 2n rows interleaved x, y), in this order:
+//   own phase    4 kPixelLockingTerms: per coordinate c and period T (kPixelLockingPeriods) sin and cos of 2 pi x the
+//                phase of c in T (PixelLockingColumn), on c's rows
+//   tag border   kTagBorderColumns where there are tags (CompleteTags): the border shift in x and y (kTagBorderX)
+//   cell         kCellColumns: per coordinate c (6 each, from CellColumn(c)), on c's rows, the 2 px period's
+//                phases' cross terms: sin, cos of the other coordinate's phase, then sx sy, sx cy, cx sy, cx cy
+//                (s, c the sin and cos of the x and y phases): with the own-phase ones, every function of the
+//                position within a colour filter array's 2 x 2 cell to first order in each coordinate
+//   polarity     kPolarityColumns where the polarity is known (CheckerboardPolarity): per coordinate c (5 each, from
+//                PolarityColumn(c)), on c's rows, the polarity p times 1, sx, cx, sy, cy
+// Every coefficient but the border shift's has the prior N(0, FitOptions::pixel_locking_prior_px^2).
+struct SignatureLayout {
+  TagCorners tags;
+  std::vector<int> polarity;
+  long CellBegin() const { return kTagBorderX + (tags.empty() ? 0 : kTagBorderColumns); }
+  long CellColumn(int c) const { return CellBegin() + 6L * c; }
+  long PolarityBegin() const { return CellBegin() + kCellColumns; }
+  long PolarityColumn(int c) const { return PolarityBegin() + 5L * c; }
+  long Columns() const { return PolarityBegin() + (polarity.empty() ? 0 : kPolarityColumns); }
+  static inline constexpr long kTagBorderX = 4 * kPixelLockingTerms;
+  static inline constexpr long kTagBorderColumns = 2;
+  static inline constexpr long kCellColumns = 12;
+  static inline constexpr long kPolarityColumns = 10;
+};
+
 // The pixel-locking signature fitted once per candidate (Budget; ModelWork::signature): the coefficients b of the
 // shapes S (PixelLockingShapes) fitted to the residuals on the shapes' refit projections P S
 // (P = I - J (J^T J)^+ J^T) with the prior N(0, sigma_b^2 I) (FitOptions::pixel_locking_prior_px): the posterior
@@ -177,10 +217,12 @@ struct Linearization {
 struct PixelLockingSignature {
   bool ok = false;
   int observations = 0, dof = 0;
-  Eigen::MatrixXd shapes;        // S, 2n x (4 kPixelLockingTerms [+ kTagBorderColumns])
+  SignatureLayout layout;        // S's columns
+  Eigen::MatrixXd shapes;        // S, 2n x layout.Columns()
+  Eigen::MatrixXd projected;     // P S
   Eigen::VectorXd coefficients;  // b, in S's column order
   Eigen::MatrixXd covariance;    // C
-  Eigen::MatrixXd solve;         // M = (A + lambda I)^-1 (P S)^T, 4 kPixelLockingTerms x 2n: b = M r
+  Eigen::MatrixXd solve;         // M = (A + lambda I)^-1 (P S)^T, layout.Columns() x 2n: b = M r
   double noise_px = std::numeric_limits<double>::quiet_NaN();
   std::vector<Eigen::Vector2d> residual_without;
 };
@@ -195,13 +237,13 @@ struct PixelLockingCorrection {
   bool ok = false;
   Eigen::VectorXd dq;
   Eigen::MatrixXd covariance;
-  Eigen::MatrixXd gs;     // G S, (1 + 3 P) x 4 kPixelLockingTerms
+  Eigen::MatrixXd gs;     // G S, (1 + 3 P) x the signature's columns
   Eigen::MatrixXd solve;  // M (PixelLockingSignature::solve)
   // G x - G S M x for perturbations x (2n x m, interleaved x, y), given gx = G x.
   Eigen::MatrixXd Response(const Eigen::MatrixXd& gx, const Eigen::MatrixXd& x) const;
   // The same for a field on coordinate c's rows only: x's rows 2i + c = field's row i, the others 0.
   Eigen::MatrixXd Response(const Eigen::MatrixXd& gx, const Eigen::MatrixXd& field, int c) const;
-  // M's columns of coordinate c (4 kPixelLockingTerms x n): M x for such a field is SolveColumns(c) field.
+  // M's columns of coordinate c (the signature's columns x n): M x for such a field is SolveColumns(c) field.
   Eigen::MatrixXd SolveColumns(int c) const;
 };
 
@@ -246,28 +288,20 @@ Eigen::MatrixXd JTimes(const Linearization& lin, const Eigen::MatrixXd& y);   //
 Eigen::MatrixXd JtTimes(const Linearization& lin, const Eigen::MatrixXd& x);  // j_obs^T x
 // screen_fit_budget.cc: the uncertainty budget.
 std::vector<Eigen::Vector2d> DetectedPoints(const Setup& setup, const Linearization& lin);
-// The tags whose four corners were all fitted: per tag (photo, tag id) the positions in lin.obs of its corners 0-3
-// ("t<id>.<k>", pattern.h: the corners of a tag36h11 tag's black border); none when fewer than kMinBorderTags such
-// tags (the border shift's two columns are then not fitted).
-inline constexpr int kMinBorderTags = 4;
-using TagCorners = std::vector<std::array<int, 4>>;
 TagCorners CompleteTags(const Setup& setup, const Linearization& lin);
-// residual: the fit's (2n, interleaved x, y; detected - predicted), the phases taken at the prediction; tags:
-// CompleteTags (the border shift's columns when not empty).
+std::vector<int> CheckerboardPolarity(const Setup& setup, const Linearization& lin);
+SignatureLayout SignatureLayoutOf(const Setup& setup, const Linearization& lin);
+// residual: the fit's (2n, interleaved x, y; detected - predicted), the phases taken at the prediction.
 Eigen::MatrixXd PixelLockingShapes(const Setup& setup, const Linearization& lin, const Eigen::VectorXd& residual,
-                                   const TagCorners& tags);
+                                   const SignatureLayout& layout);
 // The column of the sin shape of coordinate c in period kPixelLockingPeriods[t] (the cos shape is the next).
 inline long PixelLockingColumn(int c, int t) { return 2 * (kPixelLockingTerms * c + t); }
-// The tag border shift's columns (PixelLockingShapes), after the pixel-locking ones: x, then y. Their coefficients'
-// prior is N(0, kTagBorderPriorPx^2) each (type B: a tag's border one cell wide, blurred by the camera, is placed
-// within about a pixel); the photos determine them far more tightly wherever there are tags.
-inline constexpr long kTagBorderX = 4 * kPixelLockingTerms;
-inline constexpr long kTagBorderColumns = 2;
+// The tag border shift's columns, after the own-phase ones: x, then y. Their coefficients' prior is
+// N(0, kTagBorderPriorPx^2) each (type B: a tag's border one cell wide, blurred by the camera, is placed within about
+// a pixel); the photos determine them far more tightly wherever there are tags.
+inline constexpr long kTagBorderX = SignatureLayout::kTagBorderX;
+inline constexpr long kTagBorderColumns = SignatureLayout::kTagBorderColumns;
 inline constexpr double kTagBorderPriorPx = 1.0;
-// The signature's columns: the pixel-locking ones, and the border shift's where there are tags.
-inline long SignatureColumns(const TagCorners& tags) {
-  return 4 * kPixelLockingTerms + (tags.empty() ? 0 : kTagBorderColumns);
-}
 // Residuals (one Vector2d per observation) as one vector, interleaved x, y.
 Eigen::VectorXd Stacked(const std::vector<Eigen::Vector2d>& residual);
 PixelLockingSignature FitPixelLocking(const Setup& setup, const Linearization& lin,
@@ -303,12 +337,13 @@ SmoothBound SmoothBoundFromPart(double scatter_px, double part_px, double u_diff
 // lattice step) almost nothing (its second difference). u_difference_px2 is the standard uncertainty of
 // s^2 - white^2 were every error white (s^2 = sum r^2 / dof over all residuals): e^T M e with M = I / dof -
 // sum_d a_d a_d^T / (12 T) (T triples, both coordinates), var = 2 s^4 tr(M^2), s^2's own term taken as exact
-// (2 s^4 / dof) and the overlapping stencils counted exactly. The fit absorbs
-// next to nothing of a second difference (its columns are smooth) but for the rough_directions it removed from
-// the residuals (the pixel-locking shapes: their phases vary from corner to corner), which take their share
-// rough_directions / 2n of each stencil: white^2 is divided by 1 less that share (with 8 shapes of 558 residuals, the
-// mean of s^2 - white^2 over 24 seeds of white noise went from +1.4% of s^2 to -0.007%). triples = 0 when fewer than
-// kMinWhiteTriples were found.
+// (2 s^4 / dof) and the overlapping stencils counted exactly. The fit absorbs next to nothing of a second
+// difference (its columns are smooth), but the fitted signature `removed` (when given and ok) does: its shapes
+// change from corner to corner (phases, polarity). white^2 is divided by the share of a white error's second
+// differences that survives its removal, 1 - (2 tr X K X^T - tr X K A K X^T) / (12 T), X = D P S the projected
+// shapes' second differences, K = C / s^2, A = (P S)^T P S (with 8 shapes of 558 residuals, a share of 8 / 558 took
+// the mean of s^2 - white^2 over 24 seeds of white noise from +1.4% of s^2 to -0.007%; UncertaintyBudgetTest.
+// SmoothBiasBoundsWhatNeighboursShare). triples = 0 when fewer than kMinWhiteTriples were found.
 struct NeighbourScatter {
   double white_px = std::numeric_limits<double>::quiet_NaN();
   double u_difference_px2 = std::numeric_limits<double>::quiet_NaN();
@@ -318,7 +353,7 @@ inline constexpr int kMinWhiteTriples = 24;
 inline constexpr size_t kWhiteNeighbours = 24;
 NeighbourScatter WhiteScatterPx(const Setup& setup, const Linearization& lin,
                                 const std::vector<Eigen::Vector2d>& residuals, double scatter_px, double scatter_dof,
-                                int rough_directions);
+                                const PixelLockingSignature* removed);
 inline constexpr size_t kMisfitRow = 3;  // the lens-model-misfit row's index in UncertaintyBudget::components
 std::vector<Eigen::Vector2d> LinearizedResiduals(const Setup& setup, const Linearization& lin, const ModelFit& fit);
 void Budget(const Setup& setup, ModelWork& w, int n_residuals, ModelFit* fit);

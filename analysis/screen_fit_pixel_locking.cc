@@ -48,6 +48,60 @@ TagCorners CompleteTags(const Setup& setup, const Linearization& lin) {
   return complete;
 }
 
+std::vector<int> CheckerboardPolarity(const Setup& setup, const Linearization& lin) {
+  const size_t n = lin.obs.size();
+  std::vector<long> k(n, -1);  // the board index of each checkerboard corner
+  int corners = 0;
+  for (size_t i = 0; i < n; ++i) {
+    const std::string& id = setup.feature_ids[static_cast<size_t>(setup.obs[lin.obs[i]].feature)];
+    long v = -1;
+    char end = 0;
+    if (id.size() >= 2 && id[0] == 'c' && std::sscanf(id.c_str() + 1, "%ld%c", &v, &end) == 1 && v >= 0) {
+      k[i] = v;
+      ++corners;
+    }
+  }
+  if (corners < kMinPolarityCorners) return {};
+  std::map<long, int> strides;
+  int counted = 0;
+  for (size_t i = 0; i < n; ++i) {
+    if (k[i] < 0) continue;
+    const Obs& a = setup.obs[lin.obs[i]];
+    double nearest = std::numeric_limits<double>::infinity();
+    long stride = 0;
+    for (size_t j = 0; j < n; ++j) {
+      const Obs& b = setup.obs[lin.obs[j]];
+      const long dk = std::labs(k[j] - k[i]);
+      if (k[j] < 0 || dk <= 1 || b.photo != a.photo) continue;
+      const double d = std::hypot(a.s_mm - b.s_mm, a.y_mm - b.y_mm);
+      if (d < nearest) {
+        nearest = d;
+        stride = dk;
+      }
+    }
+    if (stride > 1) {
+      ++strides[stride];
+      ++counted;
+    }
+  }
+  const auto most = std::max_element(strides.begin(), strides.end(),
+                                     [](const auto& x, const auto& y) { return x.second < y.second; });
+  if (most == strides.end() || 2 * most->second < counted) return {};
+  const long stride = most->first;
+  std::vector<int> polarity(n, 0);
+  for (size_t i = 0; i < n; ++i) {
+    if (k[i] >= 0) polarity[i] = (k[i] / stride + k[i] % stride) % 2 == 0 ? 1 : -1;
+  }
+  return polarity;
+}
+
+SignatureLayout SignatureLayoutOf(const Setup& setup, const Linearization& lin) {
+  SignatureLayout layout;
+  layout.tags = CompleteTags(setup, lin);
+  layout.polarity = CheckerboardPolarity(setup, lin);
+  return layout;
+}
+
 // The signature's shapes at the active observations (2n x columns, rows interleaved x, y).
 // Pixel-locking (the first 4 kPixelLockingTerms columns): columns PixelLockingColumn(c, t) and the next hold sin and
 // cos of 2 pi x the phase of coordinate c in period kPixelLockingPeriods[t] on that coordinate's rows, zero
@@ -65,10 +119,11 @@ TagCorners CompleteTags(const Setup& setup, const Linearization& lin) {
 // the photo it reads as curvature: 0.57 px inward per coordinate on 16 x 4 tags from 3 m at half resolution (the
 // synthetic camera's realistic chain) moved the radius by -8.3 mm, 1.1 of its sigma (2026-12-07).
 Eigen::MatrixXd PixelLockingShapes(const Setup& setup, const Linearization& lin, const Eigen::VectorXd& residual,
-                                   const TagCorners& tags) {
+                                   const SignatureLayout& layout) {
   constexpr double kTwoPi = 6.283185307179586;
   const int n = static_cast<int>(lin.obs.size());
-  const long columns = SignatureColumns(tags);
+  const long columns = layout.Columns();
+  const bool polarity = !layout.polarity.empty();
   Eigen::MatrixXd shapes = Eigen::MatrixXd::Zero(2 * n, columns);
   const auto predicted = [&](int i) {
     Eigen::Vector2d q = setup.obs[lin.obs[static_cast<size_t>(i)]].detected;
@@ -84,8 +139,27 @@ Eigen::MatrixXd PixelLockingShapes(const Setup& setup, const Linearization& lin,
         shapes(2 * i + c, PixelLockingColumn(c, t) + 1) = std::cos(phase);
       }
     }
+    // The 2 px period's phases of x and y: sin, cos (the colour filter array's 2 x 2 cell).
+    std::array<std::array<double, 2>, 2> f{};
+    for (int c = 0; c < 2; ++c) {
+      const double u = q[c] / 2, phase = kTwoPi * (u - std::floor(u));
+      f[static_cast<size_t>(c)] = {std::sin(phase), std::cos(phase)};
+    }
+    const double p = polarity ? layout.polarity[static_cast<size_t>(i)] : 0.0;
+    for (int c = 0; c < 2; ++c) {
+      const long cell = layout.CellColumn(c);
+      const std::array<double, 2>& other = f[static_cast<size_t>(1 - c)];
+      const std::array<double, 6> cell_shapes = {other[0],         other[1],         f[0][0] * f[1][0],
+                                                 f[0][0] * f[1][1], f[0][1] * f[1][0], f[0][1] * f[1][1]};
+      for (long x = 0; x < 6; ++x) shapes(2 * i + c, cell + x) = cell_shapes[static_cast<size_t>(x)];
+      if (p != 0) {
+        const long col = layout.PolarityColumn(c);
+        const std::array<double, 5> polarity_shapes = {1, f[0][0], f[0][1], f[1][0], f[1][1]};
+        for (long x = 0; x < 5; ++x) shapes(2 * i + c, col + x) = p * polarity_shapes[static_cast<size_t>(x)];
+      }
+    }
   }
-  for (const std::array<int, 4>& tag : tags) {
+  for (const std::array<int, 4>& tag : layout.tags) {
     Eigen::Vector2d centre = Eigen::Vector2d::Zero();
     for (const int i : tag) centre += predicted(i) / 4;
     for (const int i : tag) {
@@ -108,8 +182,8 @@ PixelLockingSignature FitPixelLocking(const Setup& setup, const Linearization& l
     throw Error("pixel-locking estimate", "residuals and linearization differ in number", "");
   }
   s.observations = n;
-  const TagCorners tags = CompleteTags(setup, lin);  // found once: they do not depend on the residuals
-  s.dof = 2 * n - parameters - static_cast<int>(SignatureColumns(tags));
+  s.layout = SignatureLayoutOf(setup, lin);  // found once: it does not depend on the residuals
+  s.dof = 2 * n - parameters - static_cast<int>(s.layout.Columns());
   const Eigen::VectorXd r = Stacked(residual_px);
   if (s.dof < 2 || !r.allFinite()) return s;
   // The coefficients' prior N(0, sigma_b^2 I) (FitOptions::pixel_locking_prior_px, type B): the posterior mean and
@@ -142,15 +216,15 @@ PixelLockingSignature FitPixelLocking(const Setup& setup, const Linearization& l
   constexpr double kShiftTolerancePx = 1e-4;
   Eigen::MatrixXd projected;
   for (int pass = 0; pass < kMaxPasses; ++pass) {
-    s.shapes = PixelLockingShapes(setup, lin, r + absorbed_shift, tags);
+    s.shapes = PixelLockingShapes(setup, lin, r + absorbed_shift, s.layout);
     projected = s.shapes - JTimes(lin, lin.normal_pinv * JtTimes(lin, s.shapes));
     const Eigen::MatrixXd normal = projected.transpose() * projected;
     const long m = normal.rows();
     if (!bounded && !(normal.diagonal().minCoeff() > 1e-9 * n)) return s;
     // The tag border shift's coefficients have their own, wider prior (kTagBorderPriorPx).
     Eigen::VectorXd lambda = Eigen::VectorXd::Constant(m, bounded ? s2 / (prior * prior) : 0.0);
-    if (bounded && m > kTagBorderX) {
-      lambda.tail(m - kTagBorderX).setConstant(s2 / (kTagBorderPriorPx * kTagBorderPriorPx));
+    if (bounded && !s.layout.tags.empty()) {
+      lambda.segment(kTagBorderX, kTagBorderColumns).setConstant(s2 / (kTagBorderPriorPx * kTagBorderPriorPx));
     }
     ldlt.compute(normal + Eigen::MatrixXd(lambda.asDiagonal()));
     // Without the prior, two shapes nearly collinear after the refit would pass the diagonal test and give a huge
@@ -168,6 +242,7 @@ PixelLockingSignature FitPixelLocking(const Setup& setup, const Linearization& l
   }
   s.noise_px = std::sqrt(s2);
   s.covariance = s2 * ldlt.solve(Eigen::MatrixXd::Identity(projected.cols(), projected.cols()));
+  s.projected = std::move(projected);
   for (int i = 0; i < n; ++i) s.residual_without[static_cast<size_t>(i)] -= fitted.segment<2>(2 * i);
   s.ok = true;
   return s;
@@ -191,10 +266,19 @@ ResidualPixelLocking PixelLockingAmplitudes(const PixelLockingSignature& s) {
       out.sigma_px(c, t) = a > 3 * rms_sigma ? std::sqrt((ab / a).dot(cc * (ab / a))) : rms_sigma;
     }
   }
-  if (s.coefficients.size() > kTagBorderX + 1) {
+  if (!s.layout.tags.empty()) {
     out.tag_border_shift_px = s.coefficients.segment<2>(kTagBorderX);
     out.tag_border_shift_sigma_px = s.covariance.diagonal().segment<2>(kTagBorderX).cwiseSqrt();
     out.tag_border_corners = static_cast<int>((s.shapes.col(kTagBorderX).array() != 0).count());
+  }
+  if (!s.layout.polarity.empty()) {
+    for (int c = 0; c < 2; ++c) {
+      const long col = s.layout.PolarityColumn(c);
+      out.polarity_px[c] = s.coefficients[col];
+      out.polarity_sigma_px[c] = std::sqrt(s.covariance(col, col));
+    }
+    out.polarity_corners = static_cast<int>(
+        std::count_if(s.layout.polarity.begin(), s.layout.polarity.end(), [](int p) { return p != 0; }));
   }
   return out;
 }

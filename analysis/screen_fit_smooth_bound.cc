@@ -117,23 +117,46 @@ std::shared_ptr<const Setup::LatticeTriples> FindLatticeTriples(const Setup& set
 
 NeighbourScatter WhiteScatterPx(const Setup& setup, const Linearization& lin,
                                 const std::vector<Eigen::Vector2d>& residuals, double scatter_px,
-                                double scatter_dof, int rough_directions) {
+                                double scatter_dof, const PixelLockingSignature* removed) {
   NeighbourScatter out;
   const size_t n = lin.obs.size();
-  const double kept = 1 - rough_directions / (2.0 * static_cast<double>(n));
-  if (residuals.size() != n || !(scatter_dof > 0) || !std::isfinite(scatter_px) || !(kept > 0)) return out;
+  if (residuals.size() != n || !(scatter_dof > 0) || !std::isfinite(scatter_px)) return out;
   const std::shared_ptr<const Setup::LatticeTriples> found = FindLatticeTriples(setup, lin);
   const std::vector<std::array<size_t, 3>>& triples = found->triples;
   if (triples.size() < static_cast<size_t>(kMinWhiteTriples)) return out;
   std::vector<size_t> column(setup.obs.size());  // Setup::obs index -> its position in lin.obs
   for (size_t a = 0; a < n; ++a) column[lin.obs[a]] = a;
+  const bool signature = removed != nullptr && removed->ok && removed->projected.rows() == 2 * static_cast<long>(n) &&
+                         removed->noise_px > 0;
+  // X = D P S, the second differences of the signature's projected shapes (2 rows per triple).
+  Eigen::MatrixXd x(signature ? 2 * static_cast<long>(triples.size()) : 0, signature ? removed->projected.cols() : 0);
   double sum2 = 0;
-  for (const std::array<size_t, 3>& triple : triples) {
+  for (size_t t = 0; t < triples.size(); ++t) {
     Eigen::Vector2d d = Eigen::Vector2d::Zero();
-    for (size_t m = 0; m < 3; ++m) d += kStencil[m] * residuals[column[triple[m]]];
+    for (size_t m = 0; m < 3; ++m) d += kStencil[m] * residuals[column[triples[t][m]]];
     sum2 += d.squaredNorm();
+    if (!signature) continue;
+    for (long c = 0; c < 2; ++c) {
+      x.row(2 * static_cast<long>(t) + c).setZero();
+      for (size_t m = 0; m < 3; ++m) {
+        x.row(2 * static_cast<long>(t) + c) +=
+            kStencil[m] * removed->projected.row(2 * static_cast<long>(column[triples[t][m]]) + c);
+      }
+    }
   }
   const double count = static_cast<double>(triples.size());
+  // White noise e's second differences after the signature's removal, D (I - Q) e with Q = P S K (P S)^T
+  // (K = (A + lambda I)^-1 = C / s^2): E |D (I - Q) e|^2 = sigma^2 (tr D D^T - 2 tr D Q D^T + |D Q|^2), tr D D^T =
+  // 12 T, tr D Q D^T = tr X K X^T, |D Q|^2 = tr X K A K X^T. The fit's own columns are smooth and take next to
+  // nothing of a second difference.
+  double kept = 1;
+  if (signature) {
+    const Eigen::MatrixXd k = removed->covariance / (removed->noise_px * removed->noise_px);
+    const Eigen::MatrixXd xk = x * k;
+    const Eigen::MatrixXd a = removed->projected.transpose() * removed->projected;
+    kept = 1 - (2 * xk.cwiseProduct(x).sum() - (xk * a).cwiseProduct(xk).sum()) / (12 * count);
+  }
+  if (!(kept > 0)) return out;
   out.triples = static_cast<int>(triples.size());
   out.white_px = std::sqrt(sum2 / (12 * count * kept));
   // tr(M^2) with s^2's own term exact (var s^2 = 2 sigma^4 / dof): 1 / dof - 2 / dof + 2 Q / (12 T)^2.

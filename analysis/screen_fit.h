@@ -186,12 +186,12 @@ struct FitOptions {
   // the row would (rightly) widen the interval on its own.
   bool measure_pixel_locking = true;
   // The pixel-locking signature's prior: each of its coefficients (but the tag border's) N(0,
-  // pixel_locking_prior_px^2) before the photos (type B; 0 = none, the regression alone). It bounds the coefficients the photos cannot determine
-  // (a shape whose refit projection is nearly nothing: the fit absorbs it) instead of fitting them to the noise, and
-  // is negligible where they are determined. 0.1 px: a coefficient of 0.1 px is an amplitude of 0.14 px; the
-  // well-determined amplitudes of the validity bench's synthetic detector reach 0.13 px at quarter resolution
-  // (median 0.05 px), and pixel-locking of sub-pixel estimators on sharp, undersampled edges is a fraction of a
-  // pixel.
+  // pixel_locking_prior_px^2) before the photos (type B; 0 = none, the regression alone). It bounds the
+  // coefficients the photos cannot determine (a shape whose refit projection is nearly nothing: the fit absorbs it)
+  // instead of fitting them to the noise, and is negligible where they are determined. 0.1 px: a coefficient of
+  // 0.1 px is an amplitude of 0.14 px; the well-determined amplitudes of the validity bench's synthetic detector
+  // reach 0.13 px at quarter resolution (median 0.05 px), and pixel-locking of sub-pixel estimators on sharp,
+  // undersampled edges is a fraction of a pixel.
   double pixel_locking_prior_px = 0.1;
   int systematic_field_draws = 2000;
   unsigned systematic_field_seed = 20261201;
@@ -299,8 +299,9 @@ struct ResidualPixelLocking {
   Eigen::Matrix2d sigma_px = Eigen::Matrix2d::Zero();  // its standard uncertainty
   int observations = 0;
   // The residuals' RMS per coordinate once the fitted signature is removed (over 2n - parameters - the signature's
-  // columns degrees of freedom: 20, + 2 with tags, + 10 on a checkerboard; screen_fit_internal.h SignatureLayout): the independent detection noise, which the detection-noise row propagates (the fit's noise_px holds
-  // the signature's power too, which the correction removes). NaN: not measured.
+  // columns degrees of freedom: 20, + 2 with tags, + 10 on a checkerboard; screen_fit_internal.h SignatureLayout):
+  // the independent detection noise, which the detection-noise row propagates (the fit's noise_px holds the
+  // signature's power too, which the correction removes). NaN: not measured.
   double noise_px = std::numeric_limits<double>::quiet_NaN();
   // Tags (screen_fit_internal.h PixelLockingShapes): the detector's shift of the tags' black border edges, x and y,
   // px, positive outward, fitted with the signature and corrected for like it; its standard uncertainty; and the tag
@@ -444,8 +445,8 @@ struct ModelFit {
   // pixel-locking signature (budget.pixel_locking_correction_curvature_per_mm; `shape` and `extra` are the
   // uncorrected fit's), and its sigma: the combined standard uncertainty of the budget (every source);
   // curvature_noise_sigma_per_mm is the detection noise's share alone (the covariance scaled by the residual noise
-  // without the signature, budget.pixel_locking.noise_px). radius_sigma_mm, radius_ci95_mm and the cameras' sigmas are the
-  // combined ones; the interval is k +- coverage_factor u_c(k), inverted.
+  // without the signature, budget.pixel_locking.noise_px). radius_sigma_mm, radius_ci95_mm and the cameras' sigmas
+  // are the combined ones; the interval is k +- coverage_factor u_c(k), inverted.
   double curvature_per_mm = 0, curvature_sigma_per_mm = 0, curvature_noise_sigma_per_mm = 0;
   UncertaintyBudget budget;
   std::optional<double> radius_mm, radius_sigma_mm;  // empty when flat is inside the 95% interval
@@ -571,8 +572,9 @@ std::vector<Eigen::Vector3d> FittedSurfacePointsInCamera(const Monitor& nominal,
 
 // Cramer-Rao bound of the radius (mm) of the `cylinder` model for isotropic Gaussian pixel noise sigma_px
 // (per coordinate) at the given true configuration: monitor (its curvature is the truth, must be non-zero),
-// one camera pose (centre_from_cam) and one list of display positions per photo. sigma_R = sigma_px sqrt([(J^T J)^-1]_kk) / k^2, with
-// J the Jacobian of all residuals with respect to the poses and k at the truth.
+// one camera pose (centre_from_cam) and one list of display positions per photo.
+// sigma_R = sigma_px sqrt([(J^T J)^-1]_kk) / k^2, with J the Jacobian of all residuals with respect to the poses and
+// k at the truth.
 double RadiusCramerRaoBoundMm(const Monitor& true_monitor, const CameraModel& camera,
                               const std::vector<Pose>& centre_from_cams,
                               const std::vector<std::vector<Eigen::Vector2d>>& display_px, double sigma_px);

@@ -50,6 +50,8 @@ struct State {
   std::vector<double> intr;  // the lens intrinsics when they are free (FitOptions::fit_intrinsics), else empty
 };
 
+struct SignatureLayout;  // below: the pixel-locking signature's columns
+
 struct Setup {
   const Monitor* nominal = nullptr;
   const CameraModel* camera = nullptr;
@@ -79,8 +81,10 @@ struct Setup {
   };
   struct Cache {
     double spacing_px = 0;  // written outside the parallel loops (MeasureMisfitCorrelation), read within them
-    std::mutex mutex;       // guards `triples` (the candidates' budgets run in parallel)
+    std::mutex mutex;       // guards `triples` and `layouts` (the candidates' budgets run in parallel)
     std::vector<std::shared_ptr<const LatticeTriples>> triples;
+    // The pixel-locking signature's layout (SignatureLayoutOf), per set of active observations (lin.obs).
+    std::vector<std::pair<std::vector<size_t>, std::shared_ptr<const SignatureLayout>>> layouts;
   };
   std::shared_ptr<Cache> cache = std::make_shared<Cache>();
 };
@@ -220,6 +224,7 @@ struct PixelLockingSignature {
   SignatureLayout layout;        // S's columns
   Eigen::MatrixXd shapes;        // S, 2n x layout.Columns()
   Eigen::MatrixXd projected;     // P S
+  Eigen::MatrixXd normal;        // A = (P S)^T P S
   Eigen::VectorXd coefficients;  // b, in S's column order
   Eigen::MatrixXd covariance;    // C
   Eigen::MatrixXd solve;         // M = (A + lambda I)^-1 (P S)^T, layout.Columns() x 2n: b = M r
@@ -290,17 +295,16 @@ Eigen::MatrixXd JtTimes(const Linearization& lin, const Eigen::MatrixXd& x);  //
 std::vector<Eigen::Vector2d> DetectedPoints(const Setup& setup, const Linearization& lin);
 TagCorners CompleteTags(const Setup& setup, const Linearization& lin);
 std::vector<int> CheckerboardPolarity(const Setup& setup, const Linearization& lin);
+// Found once per set of active observations (Setup::Cache::layouts): it depends on nothing else.
 SignatureLayout SignatureLayoutOf(const Setup& setup, const Linearization& lin);
 // residual: the fit's (2n, interleaved x, y; detected - predicted), the phases taken at the prediction.
 Eigen::MatrixXd PixelLockingShapes(const Setup& setup, const Linearization& lin, const Eigen::VectorXd& residual,
                                    const SignatureLayout& layout);
 // The column of the sin shape of coordinate c in period kPixelLockingPeriods[t] (the cos shape is the next).
 inline long PixelLockingColumn(int c, int t) { return 2 * (kPixelLockingTerms * c + t); }
-// The tag border shift's columns, after the own-phase ones: x, then y. Their coefficients' prior is
-// N(0, kTagBorderPriorPx^2) each (type B: a tag's border one cell wide, blurred by the camera, is placed within about
-// a pixel); the photos determine them far more tightly wherever there are tags.
-inline constexpr long kTagBorderX = SignatureLayout::kTagBorderX;
-inline constexpr long kTagBorderColumns = SignatureLayout::kTagBorderColumns;
+// The tag border shift's columns (SignatureLayout::kTagBorderX, after the own-phase ones): x, then y. Their
+// coefficients' prior is N(0, kTagBorderPriorPx^2) each (type B: a tag's border one cell wide, blurred by the
+// camera, is placed within about a pixel); the photos determine them far more tightly wherever there are tags.
 inline constexpr double kTagBorderPriorPx = 1.0;
 // Residuals (one Vector2d per observation) as one vector, interleaved x, y.
 Eigen::VectorXd Stacked(const std::vector<Eigen::Vector2d>& residual);

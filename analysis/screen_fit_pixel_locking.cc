@@ -96,10 +96,16 @@ std::vector<int> CheckerboardPolarity(const Setup& setup, const Linearization& l
 }
 
 SignatureLayout SignatureLayoutOf(const Setup& setup, const Linearization& lin) {
-  SignatureLayout layout;
-  layout.tags = CompleteTags(setup, lin);
-  layout.polarity = CheckerboardPolarity(setup, lin);
-  return layout;
+  Setup::Cache& cache = *setup.cache;
+  const std::lock_guard<std::mutex> lock(cache.mutex);  // the others wait for the same layout
+  for (const auto& [obs, found] : cache.layouts) {
+    if (obs == lin.obs) return *found;
+  }
+  auto layout = std::make_shared<SignatureLayout>();
+  layout->tags = CompleteTags(setup, lin);
+  layout->polarity = CheckerboardPolarity(setup, lin);
+  cache.layouts.emplace_back(lin.obs, layout);
+  return *layout;
 }
 
 // The signature's shapes at the active observations (2n x columns, rows interleaved x, y).
@@ -109,10 +115,10 @@ SignatureLayout SignatureLayoutOf(const Setup& setup, const Linearization& lin) 
 // own noise e moves its phase by 2 pi e / T, and the shapes then correlate with the residual (-e) whatever the
 // detector does (a regression on them found 0.29 +- 0.04 px in pure 0.1 px noise on a 9 x 9 patch;
 // ScreenFitTest.RelativeCurvatureSigmaLimitDropsTheRadiusNumber).
-// The tag border shift (kTagBorderColumns more, where kMinBorderTags tags or more have all four corners): a
-// detector that places a tag's black border's edges a distance d outward of where they are (blur, the sensor's
-// tone, the border one cell wide) moves each corner by d along both edges' outward normals, sqrt(2) d along the
-// tag's diagonal for a square; column kTagBorderX holds sqrt(2) u_x on the x rows of tag corners and kTagBorderX + 1
+// The tag border shift (SignatureLayout::kTagBorderColumns more, where kMinBorderTags tags or more have all four
+// corners): a detector that places a tag's black border's edges a distance d outward of where they are (blur, the
+// sensor's tone, the border one cell wide) moves each corner by d along both edges' outward normals, sqrt(2) d along
+// the tag's diagonal for a square; column kTagBorderX holds sqrt(2) u_x on the x rows of tag corners and kTagBorderX + 1
 // sqrt(2) u_y on their y rows, u the unit vector from the tag's centre (its four predictions' mean) to the
 // corner's prediction: the coefficients are the border shifts in x and y, px, positive outward, common to every
 // tag and photo. The pose cannot take it up (a tag's centre does not move), but with the tags' size changing across
@@ -166,8 +172,8 @@ Eigen::MatrixXd PixelLockingShapes(const Setup& setup, const Linearization& lin,
       const Eigen::Vector2d d = predicted(i) - centre;
       if (!(d.norm() > 0)) continue;
       const Eigen::Vector2d u = std::sqrt(2.0) * d / d.norm();
-      shapes(2 * i, kTagBorderX) = u.x();
-      shapes(2 * i + 1, kTagBorderX + 1) = u.y();
+      shapes(2 * i, SignatureLayout::kTagBorderX) = u.x();
+      shapes(2 * i + 1, SignatureLayout::kTagBorderX + 1) = u.y();
     }
   }
   return shapes;
@@ -182,7 +188,7 @@ PixelLockingSignature FitPixelLocking(const Setup& setup, const Linearization& l
     throw Error("pixel-locking estimate", "residuals and linearization differ in number", "");
   }
   s.observations = n;
-  s.layout = SignatureLayoutOf(setup, lin);  // found once: it does not depend on the residuals
+  s.layout = SignatureLayoutOf(setup, lin);
   s.dof = 2 * n - parameters - static_cast<int>(s.layout.Columns());
   const Eigen::VectorXd r = Stacked(residual_px);
   if (s.dof < 2 || !r.allFinite()) return s;
@@ -218,15 +224,16 @@ PixelLockingSignature FitPixelLocking(const Setup& setup, const Linearization& l
   for (int pass = 0; pass < kMaxPasses; ++pass) {
     s.shapes = PixelLockingShapes(setup, lin, r + absorbed_shift, s.layout);
     projected = s.shapes - JTimes(lin, lin.normal_pinv * JtTimes(lin, s.shapes));
-    const Eigen::MatrixXd normal = projected.transpose() * projected;
-    const long m = normal.rows();
-    if (!bounded && !(normal.diagonal().minCoeff() > 1e-9 * n)) return s;
+    s.normal = projected.transpose() * projected;
+    const long m = s.normal.rows();
+    if (!bounded && !(s.normal.diagonal().minCoeff() > 1e-9 * n)) return s;
     // The tag border shift's coefficients have their own, wider prior (kTagBorderPriorPx).
     Eigen::VectorXd lambda = Eigen::VectorXd::Constant(m, bounded ? s2 / (prior * prior) : 0.0);
     if (bounded && !s.layout.tags.empty()) {
-      lambda.segment(kTagBorderX, kTagBorderColumns).setConstant(s2 / (kTagBorderPriorPx * kTagBorderPriorPx));
+      lambda.segment(SignatureLayout::kTagBorderX, SignatureLayout::kTagBorderColumns)
+          .setConstant(s2 / (kTagBorderPriorPx * kTagBorderPriorPx));
     }
-    ldlt.compute(normal + Eigen::MatrixXd(lambda.asDiagonal()));
+    ldlt.compute(s.normal + Eigen::MatrixXd(lambda.asDiagonal()));
     // Without the prior, two shapes nearly collinear after the refit would pass the diagonal test and give a huge
     // C and a meaningless correction.
     if (ldlt.info() != Eigen::Success || !(ldlt.rcond() > 1e-10)) return s;
@@ -267,9 +274,10 @@ ResidualPixelLocking PixelLockingAmplitudes(const PixelLockingSignature& s) {
     }
   }
   if (!s.layout.tags.empty()) {
-    out.tag_border_shift_px = s.coefficients.segment<2>(kTagBorderX);
-    out.tag_border_shift_sigma_px = s.covariance.diagonal().segment<2>(kTagBorderX).cwiseSqrt();
-    out.tag_border_corners = static_cast<int>((s.shapes.col(kTagBorderX).array() != 0).count());
+    constexpr long kBorder = SignatureLayout::kTagBorderX;
+    out.tag_border_shift_px = s.coefficients.segment<2>(kBorder);
+    out.tag_border_shift_sigma_px = s.covariance.diagonal().segment<2>(kBorder).cwiseSqrt();
+    out.tag_border_corners = static_cast<int>((s.shapes.col(kBorder).array() != 0).count());
   }
   if (!s.layout.polarity.empty()) {
     for (int c = 0; c < 2; ++c) {

@@ -153,8 +153,7 @@ NeighbourScatter WhiteScatterPx(const Setup& setup, const Linearization& lin,
   if (signature) {
     const Eigen::MatrixXd k = removed->covariance / (removed->noise_px * removed->noise_px);
     const Eigen::MatrixXd xk = x * k;
-    const Eigen::MatrixXd a = removed->projected.transpose() * removed->projected;
-    kept = 1 - (2 * xk.cwiseProduct(x).sum() - (xk * a).cwiseProduct(xk).sum()) / (12 * count);
+    kept = 1 - (2 * xk.cwiseProduct(x).sum() - (xk * removed->normal).cwiseProduct(xk).sum()) / (12 * count);
   }
   if (!(kept > 0)) return out;
   out.triples = static_cast<int>(triples.size());

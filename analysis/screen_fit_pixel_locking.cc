@@ -117,12 +117,12 @@ SignatureLayout SignatureLayoutOf(const Setup& setup, const Linearization& lin) 
 // ScreenFitTest.RelativeCurvatureSigmaLimitDropsTheRadiusNumber).
 // The tag border shift (SignatureLayout::kTagBorderColumns more, where kMinBorderTags tags or more have all four
 // corners): a detector that places a tag's black border's edges a distance d outward of where they are (blur, the
-// sensor's tone, the border one cell wide) moves each corner by d along both edges' outward normals, sqrt(2) d
-// along the tag's diagonal for a square; column kTagBorderX holds sqrt(2) u_x on the x rows of tag corners and
-// kTagBorderX + 1 sqrt(2) u_y on their y rows, u the unit vector from the tag's centre (its four predictions'
-// mean) to the corner's prediction: the coefficients are the border shifts in x and y, px, positive outward, common
-// to every tag and photo. The pose cannot take it up (a tag's centre does not move), but with the tags' size
-// changing across the photo it reads as curvature: 0.57 px inward per coordinate on 16 x 4 tags from 3 m at half resolution (the
+// sensor's tone, the border one cell wide) moves each corner by d along both edges' outward normals, sqrt(2) d along
+// the tag's diagonal for a square; column kTagBorderX holds sqrt(2) u_x on the x rows of tag corners and
+// kTagBorderX + 1 sqrt(2) u_y on their y rows, u the unit vector from the tag's centre (its four predictions' mean) to
+// the corner's prediction: the coefficients are the border shifts in x and y, px, positive outward, common to every
+// tag and photo. The pose cannot take it up (a tag's centre does not move), but with the tags' size changing across
+// the photo it reads as curvature: 0.57 px inward per coordinate on 16 x 4 tags from 3 m at half resolution (the
 // synthetic camera's realistic chain) moved the radius by -8.3 mm, 1.1 of its sigma (2026-12-07).
 Eigen::MatrixXd PixelLockingShapes(const Setup& setup, const Linearization& lin, const Eigen::VectorXd& residual,
                                    const SignatureLayout& layout) {

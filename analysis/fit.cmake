@@ -20,7 +20,8 @@ add_library(curvecheck_analysis_fit STATIC
 # small sidecar reader, the coverage factor, the misfit's field families, the pixel-locking signature in a third, the
 # smooth bound and the linearization in a fourth; one batch of eight saves more CPU but is one 90 s job at the end of a 2-core build).
 curvecheck_unity(curvecheck_analysis_fit 4)
-target_link_libraries(curvecheck_analysis_fit PUBLIC curvecheck_core Ceres::ceres PRIVATE opencv_core opencv_calib3d)
+target_link_libraries(curvecheck_analysis_fit PUBLIC curvecheck_core Ceres::ceres
+                      PRIVATE curvecheck_pattern opencv_core opencv_calib3d)  # pattern: feature_id.h
 target_link_libraries(curvecheck_analysis INTERFACE curvecheck_analysis_fit)
 
 # Tests draw their observations from the synthetic camera's truth (synth).

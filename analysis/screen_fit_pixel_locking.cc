@@ -10,6 +10,7 @@
 #include <cstdio>
 #include <limits>
 #include <map>
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -17,6 +18,7 @@
 #include "analysis/screen_fit.h"
 #include "analysis/screen_fit_internal.h"
 #include "core/error.h"
+#include "pattern/feature_id.h"
 
 namespace curvecheck::screen_fit_internal {
 
@@ -53,11 +55,10 @@ std::vector<int> CheckerboardPolarity(const Setup& setup, const Linearization& l
   std::vector<long> k(n, -1);  // the board index of each checkerboard corner
   int corners = 0;
   for (size_t i = 0; i < n; ++i) {
-    const std::string& id = setup.feature_ids[static_cast<size_t>(setup.obs[lin.obs[i]].feature)];
-    long v = -1;
-    char end = 0;
-    if (id.size() >= 2 && id[0] == 'c' && std::sscanf(id.c_str() + 1, "%ld%c", &v, &end) == 1 && v >= 0) {
-      k[i] = v;
+    const std::optional<long> v =
+        CornerIndexOfId(setup.feature_ids[static_cast<size_t>(setup.obs[lin.obs[i]].feature)]);
+    if (v) {
+      k[i] = *v;
       ++corners;
     }
   }

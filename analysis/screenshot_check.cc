@@ -12,6 +12,7 @@
 #include <sstream>
 
 #include "core/error.h"
+#include "pattern/feature_id.h"
 
 namespace curvecheck {
 namespace {
@@ -82,17 +83,6 @@ Quadratic FitQuadratic(const EdgeSamples& s) {
   const Eigen::Matrix3d cov = (a.transpose() * a).inverse() * s2;
   q.sigma_p0 = std::sqrt(std::max(0.0, cov(0, 0)));
   return q;
-}
-
-// Id "c<k>" -> k, else -1.
-int CornerIndex(const std::string& id) {
-  if (id.size() < 2 || id[0] != 'c') return -1;
-  int k = 0;
-  for (size_t i = 1; i < id.size(); ++i) {
-    if (id[i] < '0' || id[i] > '9') return -1;
-    k = k * 10 + (id[i] - '0');
-  }
-  return k;
 }
 
 double Percentile(std::vector<double> v, double q) {
@@ -308,7 +298,7 @@ ScreenshotCheck CheckScreenshot(const cv::Mat& image, const PatternFile& pattern
     sf.detected_px = d->px;
     sf.refinement = det.detector;
     sf.sigma_px = o.detector_floor_px;
-    const int k = CornerIndex(d->id);
+    const int k = static_cast<int>(CornerIndexOfId(d->id).value_or(-1));
     const size_t dot = d->id.rfind('.');
     if (d->id[0] == 't' && dot != std::string::npos) {
       // Tag corner t<id>.<j>: the black border's two sides run toward corners j + 1 and j + 3 (mod 4).

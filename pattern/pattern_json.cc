@@ -13,6 +13,7 @@
 #include "core/image_hash.h"
 #include "core/monitor_json.h"
 #include "core/screen_geometry.h"
+#include "pattern/feature_id.h"
 
 namespace curvecheck {
 namespace {
@@ -152,10 +153,7 @@ bool ParseCount(std::string_view text, long limit, long& out) {
 // "c<k>" (kind "corner") or "t<id>.<k>" with id < 587 and k in 0..3 (kind "tag_corner"); else "" .
 std::string KindOfId(const std::string& id) {
   long n = 0;
-  if (id.size() >= 2 && id[0] == 'c' &&
-      ParseCount(std::string_view(id).substr(1), std::numeric_limits<int>::max(), n)) {
-    return "corner";
-  }
+  if (CornerIndexOfId(id)) return "corner";
   const size_t dot = id.find('.');
   if (id.size() >= 4 && id[0] == 't' && dot != std::string::npos &&
       ParseCount(std::string_view(id).substr(1, dot - 1), kTag36h11Codes, n) &&

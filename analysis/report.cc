@@ -224,6 +224,13 @@ std::string BudgetTable(const json& fit) {
     << " mm, coverage factor " << ValueSpan("budget-coverage-factor", Opt(b["coverage_factor"]), 3) << " ("
     << Html(Str(b.value("interval_note", json("")))) << "). " << Html(Str(b.value("correlations", json(""))))
     << ".</p>\n";
+  if (b.contains("detection_noise_independence") && b["detection_noise_independence"].value("tested", false)) {
+    const json& ni = b["detection_noise_independence"];
+    s << "<p id=\"noise-independence\" data-independent=\"" << (ni.value("independent", true) ? "true" : "false")
+      << "\">The detection-noise row's assumption, "
+      << (ni.value("independent", true) ? "independent errors" : "<b>independent errors, contradicted</b>") << ": "
+      << Html(Str(ni["summary"])) << ".</p>\n";
+  }
   return s.str();
 }
 

@@ -197,6 +197,25 @@ nlohmann::json BudgetJson(const ModelFit& f, const std::string& first_photo) {
     }
     j["camera_position"] = pos;
   }
+  const UncertaintyBudget::NoiseIndependence& ni = b.noise_independence;
+  const auto matrix = [](const Eigen::Matrix2d& m) {  // rows x, y; columns along the screen's rows, its columns
+    return nlohmann::json{{"x", {Num(m(0, 0)), Num(m(0, 1))}}, {"y", {Num(m(1, 0)), Num(m(1, 1))}}};
+  };
+  j["detection_noise_independence"] = {
+      {"tested", ni.tested},
+      {"independent", ni.tested ? nlohmann::json(ni.independent) : nlohmann::json(nullptr)},
+      {"pairs", {{"along_rows", ni.pairs[0]}, {"along_columns", ni.pairs[1]}}},
+      {"correlation", matrix(ni.correlation)},
+      {"correlation_if_independent", matrix(ni.null_correlation)},
+      {"z", matrix(ni.z)},
+      {"z_threshold", UncertaintyBudget::kNoiseIndependenceZ},
+      {"summary", ni.summary},
+      {"method", "a test of the detection-noise row's assumption, not used by it: pairs of lattice neighbours on the "
+                 "screen (the white scatter's triples' steps along the screen's rows and along its columns; "
+                 "correlation, its expectation and z: rows x, y camera px, columns along the rows, along the "
+                 "columns); r the correlation of the residuals without the pixel-locking signature, r0 its "
+                 "expectation were the errors independent (-mean H_ab / mean (1 - H_ii), H the fit's hat matrix), "
+                 "z = (r - r0) sqrt(pairs); independent when every measured |z| < z_threshold"}};
   j["detector_systematic"] = {
       {"pixel_locking_amplitude_px", Vec(Eigen::Vector2d(b.pixel_locking.amplitude_px.col(0)))},
       {"pixel_locking_sigma_px", Vec(Eigen::Vector2d(b.pixel_locking.sigma_px.col(0)))},

@@ -349,6 +349,25 @@ struct UncertaintyBudget {
   double white_scatter_px = std::numeric_limits<double>::quiet_NaN();
   double white_scatter_u_difference_px2 = std::numeric_limits<double>::quiet_NaN();
   int white_scatter_triples = 0;
+  // The detection-noise row's assumption tested (screen_fit_internal.h NoiseIndependenceCheck): are the residuals
+  // (without the pixel-locking signature) of lattice neighbours independent? Pairs of neighbours on the screen from
+  // the white scatter's triples, along its rows (s) and along its columns (y). Per coordinate (row: camera x, y) and
+  // direction (column: along the screen's rows, along its columns) the neighbours' correlation r, its expectation
+  // r0 were the errors independent (what the fit makes of them) and z = (r - r0) sqrt(pairs). A check, not used by
+  // the row (docs/bench/validity_bench.txt, forty-first section): at 3 m, 40 deg, quarter resolution, the detector's
+  // error alternates from row to row and the row overstates the camera's height (fortieth section). tested = false:
+  // fewer than kMinWhiteTriples triples, or no linearization; NaN entries: fewer than kMinWhiteTriples pairs.
+  static constexpr double kNoiseIndependenceZ = 3;
+  struct NoiseIndependence {
+    bool tested = false;
+    bool independent = true;  // every measured |z| < kNoiseIndependenceZ (3)
+    std::array<int, 2> pairs = {0, 0};  // along the screen's rows, along its columns
+    Eigen::Matrix2d correlation = Eigen::Matrix2d::Constant(std::numeric_limits<double>::quiet_NaN());
+    Eigen::Matrix2d null_correlation = Eigen::Matrix2d::Constant(std::numeric_limits<double>::quiet_NaN());
+    Eigen::Matrix2d z = Eigen::Matrix2d::Constant(std::numeric_limits<double>::quiet_NaN());
+    std::string summary;  // one sentence, also appended to the detection-noise row's assumption
+  };
+  NoiseIndependence noise_independence;
   // The detector-systematic row's two parts, u(k) (1/mm): the smooth fields and the pixel-locking correction's
   // uncertainty.
   double smooth_share_curvature_per_mm = 0, pixel_locking_share_curvature_per_mm = 0;

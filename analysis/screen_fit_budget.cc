@@ -212,6 +212,10 @@ void Budget(const Setup& setup, ModelWork& w, int n_residuals, ModelFit* fit) {
       "per coordinate ({} residuals, {} parameters, {} signature coefficients; with the signature {:.4f} px)",
       noise_px, n_residuals, fit->parameters, signature_columns, fit->noise_px);
   c_noise.assumption = "independent, isotropic Gaussian detection errors; the residual scatter measures them";
+  if (lin) {
+    bud.noise_independence = NoiseIndependenceCheck(setup, *lin, w.signature.residual_without);
+    if (bud.noise_independence.tested) c_noise.assumption += "; " + bud.noise_independence.summary;
+  }
   bud.components.push_back(c_noise);
   vars.push_back(noise);
 

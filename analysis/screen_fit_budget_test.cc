@@ -27,6 +27,7 @@
 #include "core/test_util.h"
 #include "core/screen_geometry.h"
 #include "core/look_at.h"
+#include "pattern/feature_id.h"
 #include "synth/lens_misfit.h"
 #include "synth/scene.h"
 #include "synth/synthetic_camera.h"
@@ -323,6 +324,17 @@ TEST(UncertaintyBudgetTest, SmoothBiasLeavesOutTheMeasuredRandomPart) {
               1.0, 0.05);
 }
 
+// The photo plus a smooth field over the image, RMS 0.04 px per coordinate before a fit absorbs part of it.
+PhotoObservations WithSmoothField(const SyntheticScene& scene, PhotoObservations photo) {
+  const double w_img = scene.camera.width, h_img = scene.camera.height;
+  for (Eigen::Vector2d& q : photo.detected_px) {
+    const double x = 2 * q.x() / w_img - 1, y = 2 * q.y() / h_img - 1;
+    q += 0.04 * std::sqrt(2.0) * Eigen::Vector2d(std::sin(2.5 * kPi * x) * std::cos(1.5 * kPi * y),
+                                                  std::cos(2.0 * kPi * x + 0.7) * std::sin(1.5 * kPi * y));
+  }
+  return photo;
+}
+
 // By default b bounds only the part of the scatter that neighbouring features share (WhiteScatterPx: second
 // differences along the lattice). Independent errors leave b at the 95% bound of the two estimates' difference; a
 // smooth field that the fit does not absorb is kept whole; the difference's stated uncertainty is its spread.
@@ -364,13 +376,7 @@ TEST(UncertaintyBudgetTest, SmoothBiasBoundsWhatNeighboursShare) {
   EXPECT_LT(std::abs(mean), u_median / std::sqrt(24.0)) << mean;
   // White noise of 0.03 px and a smooth field over the image (RMS 0.04 px per coordinate before the fit absorbs
   // part of it): w is the white part, b at least what the fit left of the field.
-  PhotoObservations photo = Clean(scene, 0.03, 5);
-  const double w_img = scene.camera.width, h_img = scene.camera.height;
-  for (Eigen::Vector2d& q : photo.detected_px) {
-    const double x = 2 * q.x() / w_img - 1, y = 2 * q.y() / h_img - 1;
-    q += 0.04 * std::sqrt(2.0) * Eigen::Vector2d(std::sin(2.5 * kPi * x) * std::cos(1.5 * kPi * y),
-                                                  std::cos(2.0 * kPi * x + 0.7) * std::sin(1.5 * kPi * y));
-  }
+  const PhotoObservations photo = WithSmoothField(scene, Clean(scene, 0.03, 5));
   const ModelFit f = FitScreen(scene.monitor, scene.camera, {photo}, o).Chosen();
   ASSERT_TRUE(f.budget.computed);
   const double s = f.budget.pixel_locking.noise_px;
@@ -387,6 +393,70 @@ TEST(UncertaintyBudgetTest, SmoothBiasBoundsWhatNeighboursShare) {
   const ModelFit g = FitScreen(scene.monitor, scene.camera, {photo}, off).Chosen();
   EXPECT_DOUBLE_EQ(g.budget.systematic_bound_px, g.budget.pixel_locking.noise_px);
   EXPECT_EQ(g.budget.white_scatter_triples, 0);
+}
+
+// The detection-noise row's independence is tested on the lattice (NoiseIndependenceCheck). White noise passes
+// the test, its z centred on 0 with unit spread (24 seeds); a y error that alternates from row to row of the board
+// (the detector's error at 3 m, 40 deg: docs/bench/validity_bench.txt, fortieth section) fails it, negatively
+// correlated along the screen's columns and positively along its rows; a smooth field that the fit leaves fails it
+// with positive correlation.
+TEST(UncertaintyBudgetTest, DetectionNoiseIndependenceIsTested) {
+  const SyntheticScene scene = DefaultScene();
+  const FitOptions o = CylinderOnly();
+  constexpr int kSeeds = 24;
+  int independent = 0;
+  Eigen::Matrix2d z_sum = Eigen::Matrix2d::Zero(), z2_sum = Eigen::Matrix2d::Zero();
+  for (uint64_t seed = 1; seed <= kSeeds; ++seed) {
+    const ModelFit f = FitScreen(scene.monitor, scene.camera, {Clean(scene, 0.05, seed)}, o).Chosen();
+    const UncertaintyBudget::NoiseIndependence& ni = f.budget.noise_independence;
+    ASSERT_TRUE(ni.tested) << seed;
+    // 31 x 9 corners: 30 x 9 pairs along the screen's rows, 31 x 8 along its columns.
+    EXPECT_EQ(ni.pairs[0], 270);
+    EXPECT_EQ(ni.pairs[1], 248);
+    ASSERT_TRUE(ni.z.allFinite());
+    independent += ni.independent ? 1 : 0;
+    z_sum += ni.z;
+    z2_sum += ni.z.cwiseAbs2();
+    // What the fit makes of independent errors: slightly negative (-H_ab), a few hundredths.
+    EXPECT_LT(ni.null_correlation.maxCoeff(), 0) << seed;
+    EXPECT_GT(ni.null_correlation.minCoeff(), -0.1) << seed;
+    if (seed == 1) {
+      EXPECT_NE(Row(f, "detection noise").assumption.find(ni.summary), std::string::npos);
+      EXPECT_NE(ni.summary.find("consistent with independence"), std::string::npos) << ni.summary;
+    }
+  }
+  // Four z per seed at |z| < 3: a seed fails by chance with probability ~1%.
+  EXPECT_GE(independent, kSeeds - 2);
+  // Each z has mean 0 and variance 1 under independence: over 24 seeds the mean within 4 standard errors (0.2) of
+  // 0, the mean square within 0.45-1.8 (chi-square of 24 dof: 1st and 99.9th percentiles 0.45 and 2.1).
+  std::cerr << "mean z " << (z_sum / kSeeds).transpose() << ", mean z^2 " << (z2_sum / kSeeds).transpose() << "\n";
+  EXPECT_LT((z_sum / kSeeds).cwiseAbs().maxCoeff(), 0.8) << z_sum / kSeeds;
+  EXPECT_GT((z2_sum / kSeeds).minCoeff(), 0.45) << z2_sum / kSeeds;
+  EXPECT_LT((z2_sum / kSeeds).maxCoeff(), 2.1) << z2_sum / kSeeds;
+  // White noise of 0.03 px and a y error of +-0.05 px alternating from row to row of the board.
+  PhotoObservations photo = Clean(scene, 0.03, 7);
+  ASSERT_EQ(photo.detected_px.size(), 31u * 9u);
+  for (size_t k = 0; k < photo.detected_px.size(); ++k) photo.detected_px[k].y() += (k / 31) % 2 ? 0.05 : -0.05;
+  const ModelFit alternating = FitScreen(scene.monitor, scene.camera, {photo}, o).Chosen();
+  const UncertaintyBudget::NoiseIndependence& na = alternating.budget.noise_independence;
+  ASSERT_TRUE(na.tested);
+  EXPECT_FALSE(na.independent);
+  // y: its alternating part's share of y's variance, 0.05^2 / (0.05^2 + 0.03^2) = 0.74, with the sign of the step.
+  EXPECT_NEAR(na.correlation(1, 1), -0.74, 0.1) << na.summary;  // along the screen's columns
+  EXPECT_NEAR(na.correlation(1, 0), 0.74, 0.1) << na.summary;   // along its rows
+  EXPECT_LT(na.z(1, 1), -8) << na.summary;
+  EXPECT_LT(std::abs(na.z(0, 0)), 3) << na.summary;  // x untouched
+  EXPECT_LT(std::abs(na.z(0, 1)), 3) << na.summary;
+  EXPECT_NE(Row(alternating, "detection noise").assumption.find("not independent"), std::string::npos);
+  // A smooth field over the image (the test above's): positively correlated.
+  const UncertaintyBudget::NoiseIndependence ns =
+      FitScreen(scene.monitor, scene.camera, {WithSmoothField(scene, Clean(scene, 0.03, 5))}, o)
+          .Chosen()
+          .budget.noise_independence;
+  ASSERT_TRUE(ns.tested);
+  EXPECT_FALSE(ns.independent);
+  EXPECT_GT(ns.z.maxCoeff(), 3) << ns.summary;
+  EXPECT_GT(ns.z.minCoeff(), -3) << ns.summary;
 }
 
 TEST(UncertaintyBudgetTest, PixelPitchRowIsTheExactScaling) {
@@ -712,67 +782,71 @@ TEST(UncertaintyBudgetTest, CellAndPolarityTermsAreFittedAndCorrectedFor) {
   constexpr int kSeeds = 16;
   constexpr double kTwoPi = 6.283185307179586;
   for (const double spacing : {14.25, 13.95}) {
-  const std::vector<Eigen::Vector2d> board = CorrectedBoard(scene, spacing);
-  std::mt19937_64 unused(1);
-  const PhotoObservations exact = Observe(scene, board, 0, unused, SceneSurface(scene));
-  ASSERT_EQ(exact.ids.size(), board.size());
-  const double r0 = *FitScreen(scene.monitor, scene.camera, {exact}, CylinderOnly()).Chosen().radius_mm;
-  FitOptions o = CylinderOnly();
-  o.smooth_bias_px = 0;  // the rows tested: noise and the signature's correction
-  const Eigen::Vector2d polarity(0.05, -0.04);
-  double z2 = 0, uncorrected2 = 0, u = 0;
-  int in95 = 0;
-  std::array<std::vector<double>, 2> estimate;
-  Eigen::Vector2d sigma = Eigen::Vector2d::Zero();
-  for (int seed = 1; seed <= kSeeds; ++seed) {
-    std::mt19937_64 noise(static_cast<uint64_t>(seed));
-    PhotoObservations photo = Observe(scene, board, 0.03, noise, SceneSurface(scene));
-    for (size_t k = 0; k < photo.ids.size(); ++k) {
-      const int index = std::stoi(photo.ids[k].substr(1)), row = index / kNx, col = index % kNx;
-      const double p = (row + col) % 2 == 0 ? 1 : -1;
-      const Eigen::Vector2d q = exact.detected_px[k];
-      const double fx = kTwoPi * (q.x() / 2 - std::floor(q.x() / 2)), fy = kTwoPi * (q.y() / 2 - std::floor(q.y() / 2));
-      photo.detected_px[k] += Eigen::Vector2d(polarity.x() * p + 0.03 * p * std::sin(fx) +
-                                                  0.04 * std::cos(fx) * std::sin(fy),
-                                              polarity.y() * p + 0.03 * std::sin(fx));
+    const std::vector<Eigen::Vector2d> board = CorrectedBoard(scene, spacing);
+    std::mt19937_64 unused(1);
+    const PhotoObservations exact = Observe(scene, board, 0, unused, SceneSurface(scene));
+    ASSERT_EQ(exact.ids.size(), board.size());
+    const double r0 = *FitScreen(scene.monitor, scene.camera, {exact}, CylinderOnly()).Chosen().radius_mm;
+    FitOptions o = CylinderOnly();
+    o.smooth_bias_px = 0;  // the rows tested: noise and the signature's correction
+    const Eigen::Vector2d polarity(0.05, -0.04);
+    double z2 = 0, uncorrected2 = 0, u = 0;
+    int in95 = 0;
+    std::array<std::vector<double>, 2> estimate;
+    Eigen::Vector2d sigma = Eigen::Vector2d::Zero();
+    for (int seed = 1; seed <= kSeeds; ++seed) {
+      std::mt19937_64 noise(static_cast<uint64_t>(seed));
+      PhotoObservations photo = Observe(scene, board, 0.03, noise, SceneSurface(scene));
+      for (size_t k = 0; k < photo.ids.size(); ++k) {
+        const std::optional<long> index = CornerIndexOfId(photo.ids[k]);
+        ASSERT_TRUE(index) << photo.ids[k];
+        const long row = *index / kNx, col = *index % kNx;
+        const double p = (row + col) % 2 == 0 ? 1 : -1;
+        const Eigen::Vector2d q = exact.detected_px[k];
+        const double fx = kTwoPi * (q.x() / 2 - std::floor(q.x() / 2));
+        const double fy = kTwoPi * (q.y() / 2 - std::floor(q.y() / 2));
+        photo.detected_px[k] += Eigen::Vector2d(polarity.x() * p + 0.03 * p * std::sin(fx) +
+                                                    0.04 * std::cos(fx) * std::sin(fy),
+                                                polarity.y() * p + 0.03 * std::sin(fx));
+      }
+      const ModelFit f = FitScreen(scene.monitor, scene.camera, {photo}, o).Chosen();
+      const ResidualPixelLocking& pl = f.budget.pixel_locking;
+      ASSERT_EQ(pl.polarity_corners, static_cast<int>(board.size())) << seed;
+      for (int c = 0; c < 2; ++c) {
+        EXPECT_NEAR(pl.polarity_px[c], polarity[c], 4 * pl.polarity_sigma_px[c]) << seed << " " << c;
+        estimate[c].push_back(pl.polarity_px[c]);
+        sigma[c] += pl.polarity_sigma_px[c] / kSeeds;
+      }
+      const double uc = f.budget.combined.radius_mm, z = (*f.radius_mm - r0) / uc;
+      z2 += z * z / kSeeds;
+      in95 += std::abs(z) < f.budget.coverage_factor;
+      uncorrected2 += std::pow(UncorrectedRadiusMm(f) - r0, 2) / kSeeds;
+      u += uc / kSeeds;
+      if (seed == 1) {
+        PhotoObservations renamed = photo;
+        for (std::string& id : renamed.ids) id = "f" + id.substr(1);
+        EXPECT_EQ(
+            FitScreen(scene.monitor, scene.camera, {renamed}, o).Chosen().budget.pixel_locking.polarity_corners, 0);
+      }
     }
-    const ModelFit f = FitScreen(scene.monitor, scene.camera, {photo}, o).Chosen();
-    const ResidualPixelLocking& pl = f.budget.pixel_locking;
-    ASSERT_EQ(pl.polarity_corners, static_cast<int>(board.size())) << seed;
+    std::cout << "cell and polarity terms, spacing " << spacing << " px: uncorrected R off by "
+              << std::sqrt(uncorrected2) << " mm RMS; corrected: RMS z " << std::sqrt(z2) << ", " << in95 << "/"
+              << kSeeds << " in the 95% interval, mean u(R) " << u << " mm\n";
+    EXPECT_GT(std::sqrt(z2), 0.6) << spacing;
+    EXPECT_LT(std::sqrt(z2), 1.4) << spacing;
+    EXPECT_GE(in95, 13) << spacing;
+    // p's coefficient over the seeds: its mean within 4 standard errors of the truth, its scatter below 1.5 times the
+    // stated sigma and the sigma below the effect (the polarity is seen).
     for (int c = 0; c < 2; ++c) {
-      EXPECT_NEAR(pl.polarity_px[c], polarity[c], 4 * pl.polarity_sigma_px[c]) << seed << " " << c;
-      estimate[c].push_back(pl.polarity_px[c]);
-      sigma[c] += pl.polarity_sigma_px[c] / kSeeds;
+      double mean = 0, var = 0;
+      for (const double e : estimate[c]) mean += e / kSeeds;
+      for (const double e : estimate[c]) var += (e - mean) * (e - mean) / (kSeeds - 1);
+      std::cout << "  polarity " << c << ": mean " << mean << " px (truth " << polarity[c] << "), sd " << std::sqrt(var)
+                << ", mean sigma " << sigma[c] << "\n";
+      EXPECT_NEAR(mean, polarity[c], 4 * sigma[c] / std::sqrt(double{kSeeds})) << spacing << " " << c;
+      EXPECT_LT(std::sqrt(var), 1.5 * sigma[c]) << spacing << " " << c;
+      EXPECT_LT(sigma[c], std::abs(polarity[c])) << spacing << " " << c;
     }
-    const double uc = f.budget.combined.radius_mm, z = (*f.radius_mm - r0) / uc;
-    z2 += z * z / kSeeds;
-    in95 += std::abs(z) < f.budget.coverage_factor;
-    uncorrected2 += std::pow(UncorrectedRadiusMm(f) - r0, 2) / kSeeds;
-    u += uc / kSeeds;
-    if (seed == 1) {
-      PhotoObservations renamed = photo;
-      for (std::string& id : renamed.ids) id = "f" + id.substr(1);
-      EXPECT_EQ(FitScreen(scene.monitor, scene.camera, {renamed}, o).Chosen().budget.pixel_locking.polarity_corners, 0);
-    }
-  }
-  std::cout << "cell and polarity terms, spacing " << spacing << " px: uncorrected R off by " << std::sqrt(uncorrected2)
-            << " mm RMS; corrected: RMS z " << std::sqrt(z2) << ", " << in95 << "/" << kSeeds
-            << " in the 95% interval, mean u(R) " << u << " mm\n";
-  EXPECT_GT(std::sqrt(z2), 0.6) << spacing;
-  EXPECT_LT(std::sqrt(z2), 1.4) << spacing;
-  EXPECT_GE(in95, 13) << spacing;
-  // p's coefficient over the seeds: its mean within 4 standard errors of the truth, its scatter below 1.5 times the
-  // stated sigma and the sigma below the effect (the polarity is seen).
-  for (int c = 0; c < 2; ++c) {
-    double mean = 0, var = 0;
-    for (const double e : estimate[c]) mean += e / kSeeds;
-    for (const double e : estimate[c]) var += (e - mean) * (e - mean) / (kSeeds - 1);
-    std::cout << "  polarity " << c << ": mean " << mean << " px (truth " << polarity[c] << "), sd " << std::sqrt(var)
-              << ", mean sigma " << sigma[c] << "\n";
-    EXPECT_NEAR(mean, polarity[c], 4 * sigma[c] / std::sqrt(double{kSeeds})) << spacing << " " << c;
-    EXPECT_LT(std::sqrt(var), 1.5 * sigma[c]) << spacing << " " << c;
-    EXPECT_LT(sigma[c], std::abs(polarity[c])) << spacing << " " << c;
-  }
   }
 }
 

@@ -358,6 +358,16 @@ inline constexpr size_t kWhiteNeighbours = 24;
 NeighbourScatter WhiteScatterPx(const Setup& setup, const Linearization& lin,
                                 const std::vector<Eigen::Vector2d>& residuals, double scatter_px, double scatter_dof,
                                 const PixelLockingSignature* removed);
+// UncertaintyBudget::NoiseIndependence from the residuals of lin.obs (without the signature, as the detection-noise
+// row's scatter), on the white scatter's lattice triples (found once per set of observations). Under independent
+// errors of equal variance the residuals are e = (I - H) eps, H = J (J^T J)^+ J^T, so E[e_a e_b] = -sigma^2 H_ab and
+// E[e_i^2] = sigma^2 (1 - H_ii): r0 = -mean H_ab / mean (1 - H_ii) over the pairs and the features, per
+// coordinate. Under independence r - r0 has the standard error 1 / sqrt(pairs) (the products of distinct pairs are
+// uncorrelated); z = (r - r0) sqrt(pairs). A neighbour pair: a triple's step within 14 deg (sine 0.25) of the
+// screen's rows (s) or columns (y); diagonal steps are not used. Entries with fewer than kMinWhiteTriples pairs stay
+// NaN.
+UncertaintyBudget::NoiseIndependence NoiseIndependenceCheck(const Setup& setup, const Linearization& lin,
+                                                            const std::vector<Eigen::Vector2d>& residuals);
 inline constexpr size_t kMisfitRow = 3;  // the lens-model-misfit row's index in UncertaintyBudget::components
 std::vector<Eigen::Vector2d> LinearizedResiduals(const Setup& setup, const Linearization& lin, const ModelFit& fit);
 void Budget(const Setup& setup, ModelWork& w, int n_residuals, ModelFit* fit);

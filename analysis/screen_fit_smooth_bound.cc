@@ -2,13 +2,16 @@
 // scatter about the fit less the part that cannot add up to a smooth field, either the part that lattice
 // neighbours do not share (WhiteScatterPx, the residuals' second differences) or the corners' random part
 // that the detection measured (SmoothBoundPx); the budget (screen_fit_budget.cc) scales its Legendre fields
-// by b.
+// by b. On the same lattice, the test of the detection-noise row's independence (NoiseIndependenceCheck).
 #include <Eigen/Core>
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <array>
 #include <cmath>
 #include <memory>
 #include <mutex>
+#include <string>
 #include <utility>
 #include <vector>
 
@@ -162,6 +165,91 @@ NeighbourScatter WhiteScatterPx(const Setup& setup, const Linearization& lin,
   const double trace = std::max(0.0, 2 * found->overlap / (144 * count * count) - 1 / scatter_dof);
   const double s2 = scatter_px * scatter_px;
   out.u_difference_px2 = std::sqrt(2 * trace) * s2;
+  return out;
+}
+
+UncertaintyBudget::NoiseIndependence NoiseIndependenceCheck(const Setup& setup, const Linearization& lin,
+                                                            const std::vector<Eigen::Vector2d>& residuals) {
+  UncertaintyBudget::NoiseIndependence out;
+  const size_t n = lin.obs.size();
+  if (residuals.size() != n || lin.j_obs.rows() != 2 * static_cast<long>(n) ||
+      lin.normal_pinv.rows() != lin.j_obs.cols()) {
+    return out;
+  }
+  const std::shared_ptr<const Setup::LatticeTriples> found = FindLatticeTriples(setup, lin);
+  if (found->triples.size() < static_cast<size_t>(kMinWhiteTriples)) return out;
+  std::vector<size_t> column(setup.obs.size());  // Setup::obs index -> its position in lin.obs
+  for (size_t a = 0; a < n; ++a) column[lin.obs[a]] = a;
+  // The neighbour pairs (positions in lin.obs) of the triples' steps, once each, along the screen's rows (0) or
+  // columns (1); diagonal steps are left out.
+  std::vector<std::pair<size_t, size_t>> edges;
+  for (const std::array<size_t, 3>& triple : found->triples) {
+    for (size_t m = 0; m < 2; ++m) {
+      const size_t a = column[triple[m]], b = column[triple[m + 1]];
+      edges.emplace_back(std::min(a, b), std::max(a, b));
+    }
+  }
+  std::sort(edges.begin(), edges.end());
+  edges.erase(std::unique(edges.begin(), edges.end()), edges.end());
+  // The hat matrix's entries H_ab = J_a (J^T J)^+ J_b^T through JN = J (J^T J)^+.
+  const Eigen::MatrixXd jn = lin.j_obs * lin.normal_pinv;
+  const auto hat = [&](long row_a, long row_b) { return jn.row(row_a).dot(lin.j_obs.row(row_b)); };
+  Eigen::Matrix2d product = Eigen::Matrix2d::Zero(), hat_sum = Eigen::Matrix2d::Zero();
+  for (const auto& [a, b] : edges) {
+    const Obs& oa = setup.obs[lin.obs[a]];
+    const Obs& ob = setup.obs[lin.obs[b]];
+    const double ds = std::abs(ob.s_mm - oa.s_mm), dy = std::abs(ob.y_mm - oa.y_mm), d = std::hypot(ds, dy);
+    const int direction = dy < 0.25 * d ? 0 : ds < 0.25 * d ? 1 : -1;
+    if (direction < 0) continue;
+    ++out.pairs[static_cast<size_t>(direction)];
+    for (long c = 0; c < 2; ++c) {
+      product(c, direction) += residuals[a][c] * residuals[b][c];
+      hat_sum(c, direction) += hat(2 * static_cast<long>(a) + c, 2 * static_cast<long>(b) + c);
+    }
+  }
+  // Per coordinate: the mean square and its expectation's factor under independence, mean 1 - H_ii.
+  Eigen::Vector2d sum_sq = Eigen::Vector2d::Zero(), sum_keep = Eigen::Vector2d::Zero();
+  for (size_t i = 0; i < n; ++i) {
+    for (long c = 0; c < 2; ++c) {
+      const long r = 2 * static_cast<long>(i) + c;
+      sum_sq[c] += residuals[i][c] * residuals[i][c];
+      sum_keep[c] += 1 - hat(r, r);
+    }
+  }
+  for (long d = 0; d < 2; ++d) {
+    const int count = out.pairs[static_cast<size_t>(d)];
+    for (long c = 0; c < 2; ++c) {
+      if (count < kMinWhiteTriples || !(sum_sq[c] > 0) || !(sum_keep[c] > 0)) continue;
+      out.correlation(c, d) = (product(c, d) / count) / (sum_sq[c] / static_cast<double>(n));
+      out.null_correlation(c, d) = -(hat_sum(c, d) / count) / (sum_keep[c] / static_cast<double>(n));
+      out.z(c, d) = (out.correlation(c, d) - out.null_correlation(c, d)) * std::sqrt(static_cast<double>(count));
+      if (std::abs(out.z(c, d)) >= UncertaintyBudget::kNoiseIndependenceZ) out.independent = false;
+    }
+  }
+  out.tested = out.z.array().isFinite().any();
+  if (!out.tested) {
+    out.independent = true;
+    return out;
+  }
+  const auto entry = [](double r, double z) {
+    return std::isfinite(z) ? fmt::format("{:+.2f} (z {:+.1f})", r, z) : std::string("not measured");
+  };
+  const Eigen::Array22d null = out.null_correlation.array();
+  out.summary = fmt::format(
+      "tested on {} row and {} column pairs of lattice neighbours on the screen, their residuals' correlation along "
+      "the screen's rows x {}, y {}, along its columns x {}, y {} (z against independence, under which the fit makes "
+      "it {:+.3f} on average); {}",
+      out.pairs[0], out.pairs[1], entry(out.correlation(0, 0), out.z(0, 0)), entry(out.correlation(1, 0), out.z(1, 0)),
+      entry(out.correlation(0, 1), out.z(0, 1)), entry(out.correlation(1, 1), out.z(1, 1)),
+      null.isFinite().select(null, 0.0).sum() / static_cast<double>(std::max<long>(1, null.isFinite().count())),
+      out.independent
+          ? fmt::format("consistent with independence (every |z| < {:g})", UncertaintyBudget::kNoiseIndependenceZ)
+          : fmt::format("not independent (|z| >= {:g}): where neighbours' errors alternate (negative), this row "
+                        "overstates what they do to a smooth quantity, and where they are shared (positive) it "
+                        "understates it, the part that the detector-systematic and lens-model-misfit rows are to "
+                        "hold; the validity bench measures the intervals' coverage with such errors "
+                        "(docs/bench/validity_bench.txt)",
+                        UncertaintyBudget::kNoiseIndependenceZ));
   return out;
 }
 

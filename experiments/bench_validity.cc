@@ -41,6 +41,7 @@ namespace fs = std::filesystem;
 using nlohmann::json;
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+constexpr double kInf = std::numeric_limits<double>::infinity();
 constexpr const char* kFormat = "curvecheck.bench.validity/1";
 // Significant digits of the measured and true values in validity_trials.csv, from which every statistic is
 // computed: a camera 1500 mm away with a 0.01 mm sigma needs more than the table's usual 6.
@@ -169,7 +170,10 @@ std::vector<std::string> TrialColumns() {
                                 "sys_shift_mm",
                                 "smooth_share_mm",
                                 "locking_share_mm",
-                                "noise_share_mm"};
+                                "noise_share_mm",
+                                "noise_independent",
+                                "noise_z_min",
+                                "noise_z_max"};
   for (const char* f : kFrames) {
     for (const char* what :
          {"true_cam_{}_{}_mm", "cam_{}_{}_mm", "cam_{}_{}_sigma_mm", "cam_{}_{}_k95", "cam_{}_{}_k68"}) {
@@ -334,6 +338,10 @@ std::vector<std::string> RunTrial(Bench& b, int index, std::string* line) {
   double render_ms = kNaN, photo_ms = kNaN, detect_ms = kNaN, fit_ms = kNaN;
   double radius = kNaN, sigma = kNaN, lo = kNaN, hi = kNaN, lo68 = kNaN, hi68 = kNaN;
   double smooth_bias_px = kNaN;  // the budget's b (FitOptions::smooth_bias_px: stated or scaled by the scatter)
+  // The detection-noise row's independence test (UncertaintyBudget::NoiseIndependence): "1", "0" or "" (not
+  // tested), and its most negative and most positive z.
+  std::string noise_independent;
+  double noise_z_min = kNaN, noise_z_max = kNaN;
   DetectionErrors detection_errors;
   DetectorEffect detector_effect;
   Eigen::Vector3d estimate[2], estimate_sigma[2], coverage_factor[2], coverage_factor68[2];
@@ -404,6 +412,12 @@ std::vector<std::string> RunTrial(Bench& b, int index, std::string* line) {
         const ModelFit& m = r.fit->Chosen();
         chosen = m.model;
         if (m.budget.computed) smooth_bias_px = m.budget.systematic_bound_px;
+        if (const UncertaintyBudget::NoiseIndependence& ni = m.budget.noise_independence; ni.tested) {
+          noise_independent = ni.independent ? "1" : "0";
+          const Eigen::Array22d z = ni.z.array();
+          noise_z_min = z.isFinite().select(z, kInf).minCoeff();
+          noise_z_max = z.isFinite().select(z, -kInf).maxCoeff();
+        }
         if (!m.converged) {
           outcome = TrialOutcome::kFitFailed;
           detail = "the chosen model did not converge: " + m.condition_note;
@@ -466,7 +480,8 @@ std::vector<std::string> RunTrial(Bench& b, int index, std::string* line) {
         Cell(detector_effect.systematic.signature_remainder_px, kDigits),
         Cell(detector_effect.systematic.cell_signature_remainder_px, kDigits),
         Cell(detector_effect.shift_mm, kDigits), Cell(detector_effect.smooth_share_mm, kDigits),
-        Cell(detector_effect.locking_share_mm, kDigits), Cell(detector_effect.noise_share_mm, kDigits)}) {
+        Cell(detector_effect.locking_share_mm, kDigits), Cell(detector_effect.noise_share_mm, kDigits),
+        noise_independent, Cell(noise_z_min, kDigits), Cell(noise_z_max, kDigits)}) {
     row.push_back(c);
   }
   for (int f = 0; f < 2; ++f) {
@@ -804,6 +819,39 @@ void WriteChart(const std::vector<CellStats>& cells, const ValidityRule& rule, c
                     ChartSize{std::max(900, 40 * static_cast<int>(cells.size()) + 200), 1000});
 }
 
+// The detection-noise row's independence test (noise_independent, noise_z_min, noise_z_max) per cell: how many
+// trials passed it, and the medians of the most negative and the most positive z. "" when no trial was tested (a
+// bench from before the columns).
+std::string NoiseIndependenceLines(const SweepTable& trials) {
+  struct Tally {
+    std::string what;
+    int tested = 0, independent = 0;
+    std::vector<double> z_min, z_max;
+  };
+  std::map<int, Tally> cells;
+  for (size_t r = 0; r < trials.rows.size(); ++r) {
+    const std::string verdict = trials.Col("noise_independent") >= 0 ? trials.Str(r, "noise_independent") : "";
+    if (verdict.empty()) continue;
+    Tally& t = cells[static_cast<int>(trials.Num(r, "cell"))];
+    t.what = fmt::format("{} x{:g} {:g} mm {:g} deg R x{:g}", trials.Str(r, "realism"), trials.Num(r, "scale"),
+                         trials.Num(r, "distance_mm"), trials.Num(r, "yaw_deg"), trials.Num(r, "radius_factor"));
+    ++t.tested;
+    t.independent += verdict == "1" ? 1 : 0;
+    t.z_min.push_back(trials.Num(r, "noise_z_min"));
+    t.z_max.push_back(trials.Num(r, "noise_z_max"));
+  }
+  if (cells.empty()) return "";
+  std::string s = fmt::format(
+      "the detection-noise row's assumption, independent errors (neighbours' residual correlation, |z| < {:g}): "
+      "trials that pass it, and the medians of the most negative and most positive z\n",
+      UncertaintyBudget::kNoiseIndependenceZ);
+  for (auto& [cell, t] : cells) {
+    s += fmt::format("  cell {:>3} ({}): {}/{} pass, z {:+.1f} .. {:+.1f}\n", cell, t.what, t.independent, t.tested,
+                     Median(t.z_min), Median(t.z_max));
+  }
+  return s;
+}
+
 // The detector's errors against the truth per realism level (medians over the trials with a radius), beside the
 // smooth detector bias b of the budget's row 2: the one value in the budget that no photo measures (by default
 // scaled by the detector's measured scatter, FitOptions::smooth_bias_px).
@@ -953,6 +1001,7 @@ bool WriteOutputs(const fs::path& out, SweepTable& trials, json meta, const std:
     }
   }
   summary += DetectionErrorLines(trials);
+  summary += NoiseIndependenceLines(trials);
   log << "\n" << summary;
   meta["rule"] = {{"coverage95", {rule.coverage95_lo, rule.coverage95_hi}},
                   {"max_abs_bias_sigma", rule.max_bias_sigma},

@@ -124,6 +124,16 @@ TEST_F(AnalyzeCli, ARadius8PercentOffFailsTheVerificationAndIsMeasured) {
         << f.dump();
   }
   EXPECT_TRUE(fs::exists(out / "overlay-photo-exact.png"));
+  // The detection-noise row's assumption is tested (23 x 6 corners: 22 x 6 pairs along the screen's rows, 23 x 5
+  // along its columns) and the test is stated under the report's budget table.
+  const nlohmann::json& ni = fit["uncertainty_budget"]["detection_noise_independence"];
+  ASSERT_TRUE(ni["tested"].get<bool>()) << ni.dump(1);
+  EXPECT_EQ(ni["pairs"]["along_rows"].get<int>(), 22 * 6);
+  EXPECT_EQ(ni["pairs"]["along_columns"].get<int>(), 23 * 5);
+  const std::string report = Slurp(out / "report.html");
+  EXPECT_THAT(report, HasSubstr("id=\"noise-independence\""));
+  EXPECT_THAT(report, HasSubstr(ni["independent"].get<bool>() ? "independent errors:"
+                                                               : "independent errors, contradicted"));
 }
 
 // The detector's pixel-locking (issue 16): the verification estimates it on every photo (result.json), and

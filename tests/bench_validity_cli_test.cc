@@ -391,8 +391,11 @@ TEST_F(BenchValidityCli, DetectionRowsHoldTheDetectorsEffectAcrossDistance) {
         nlohmann::json::parse(Slurp(dir_ / "row2" / "results" / ("trial-" + t.at("index") + ".result.json")));
     const nlohmann::json& budget = result.at("fit").at("uncertainty_budget");
     double noise_row_mm = std::nan("");
+    std::string noise_assumption;
     for (const auto& c : budget.at("components")) {
-      if (c.at("name") == "detection noise") noise_row_mm = c.at("standard_uncertainty_mm").get<double>();
+      if (c.at("name") != "detection noise") continue;
+      noise_row_mm = c.at("standard_uncertainty_mm").get<double>();
+      noise_assumption = c.at("assumption").get<std::string>();
     }
     ASSERT_TRUE(std::isfinite(noise_row_mm));
     EXPECT_NEAR(Num(t, "noise_share_mm"), noise_row_mm, 1e-4 * noise_row_mm);
@@ -409,6 +412,27 @@ TEST_F(BenchValidityCli, DetectionRowsHoldTheDetectorsEffectAcrossDistance) {
     double expected = s;
     const nlohmann::json& random = result.at("inputs").at("photos")[0].at("detection").at("refinement_noise");
     ASSERT_GT(systematic.at("white_scatter_triples").get<int>(), 400);  // a checkerboard of 248 corners
+    // The detection-noise row's independence test, in the trial's row as in its result.json (8 x 31 corners: 30 x 8
+    // pairs along the screen's rows, 31 x 7 along its columns, when every corner was fitted).
+    const nlohmann::json& independence = budget.at("detection_noise_independence");
+    ASSERT_TRUE(independence.at("tested").get<bool>());
+    EXPECT_LE(independence.at("pairs").at("along_rows").get<int>(), 240);
+    EXPECT_GT(independence.at("pairs").at("along_rows").get<int>(), 200);
+    EXPECT_LE(independence.at("pairs").at("along_columns").get<int>(), 217);
+    EXPECT_GT(independence.at("pairs").at("along_columns").get<int>(), 180);
+    EXPECT_EQ(t.at("noise_independent"), independence.at("independent").get<bool>() ? "1" : "0");
+    double z_min = 1e300, z_max = -1e300;
+    for (const char* c : {"x", "y"}) {
+      for (const nlohmann::json& z : independence.at("z").at(c)) {
+        z_min = std::min(z_min, z.get<double>());
+        z_max = std::max(z_max, z.get<double>());
+      }
+    }
+    EXPECT_NEAR(Num(t, "noise_z_min"), z_min, 1e-6 * (1 + std::abs(z_min)));
+    EXPECT_NEAR(Num(t, "noise_z_max"), z_max, 1e-6 * (1 + std::abs(z_max)));
+    EXPECT_EQ(t.at("noise_independent") == "1",
+              std::max(-z_min, z_max) < independence.at("z_threshold").get<double>());
+    EXPECT_NE(noise_assumption.find(independence.at("summary").get<std::string>()), std::string::npos);
     if (systematic.at("white_scatter_triples").get<int>() > 0) {
       const double w = systematic.at("white_scatter_px").get<double>();
       EXPECT_GT(w, 0.3 * s);
